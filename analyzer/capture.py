@@ -1,0 +1,143 @@
+"""From a source to paired events: deframe each line, put the lines in wire order,
+pair. This is what ``analyzer.open`` returns and what every CLI command reads.
+
+- timed two-line input (socat logs): events of both lines merged by wire time;
+- untimed two-line input (two raw dumps): the lines aligned by ``align``;
+- a single-line tap: one stream, frames classified by pairing.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, field
+from typing import Callable, Iterator
+
+from dissectors import Deframer
+from dissectors.event import Event
+from dissectors.wire import byte_time
+
+from .align import align
+from .pairing import Pairer, Timeouts
+from .sources import LINE_AB, Source, detect
+
+
+@dataclass
+class Options:
+    """Decoding options shared by the API and every CLI command."""
+    baud: int = 9600
+    data_bits: int = 8
+    parity: str = "N"
+    stop_bits: float = 1
+    frame_gap: float | None = None        # seconds; default max(50 ms, 20 characters)
+    timeouts: Timeouts = field(default_factory=Timeouts)
+
+    @property
+    def byte_time(self) -> float:
+        return byte_time(self.baud, self.data_bits, self.parity, self.stop_bits)
+
+
+class Capture:
+    """Iterable over the paired events of one capture, in wire order.
+
+    >>> for ev in analyzer.open("ctl.bin", "dev.bin"):
+    ...     print(ev.number, ev.kind, ev.command, ev.status)
+    """
+
+    def __init__(self, source: Source, options: Options | None = None,
+                 on_warning: Callable[[str], None] | None = None) -> None:
+        self.source = source
+        self.options = options or Options()
+        self.warnings: list[str] = []
+        self._on_warning = on_warning
+        source.warn = self._warn
+
+    def _warn(self, msg: str) -> None:
+        self.warnings.append(msg)
+        if self._on_warning is not None:
+            self._on_warning(msg)
+
+    @property
+    def lines(self) -> tuple[str, ...]:
+        return self.source.lines
+
+    @property
+    def timed(self) -> bool:
+        return self.source.timed
+
+    def _deframer(self, line: str) -> Deframer:
+        o = self.options
+        return Deframer(line, byte_time=o.byte_time, frame_gap=o.frame_gap)
+
+    def __iter__(self) -> Iterator[Event]:
+        pairer = Pairer(self.options.timeouts)
+        push = pairer.push
+        for ev in self._wire_order():
+            yield from push(ev)
+        yield from pairer.finish()
+
+    def events(self) -> Iterator[Event]:
+        return iter(self)
+
+    # --------------------------------------------------------- wire order
+    def _wire_order(self) -> Iterator[Event]:
+        src = self.source
+        if src.lines == (LINE_AB,):
+            return self._single()
+        if src.timed:
+            return self._merged()
+        return align(self._line_events("A"), self._line_events("B"))
+
+    def _line_events(self, line: str) -> Iterator[Event]:
+        d = self._deframer(line)
+        feed = d.feed
+        for chunk in self.source.line_chunks(line):
+            yield from feed(chunk.data, chunk.t)
+        yield from d.finish()
+
+    def _single(self) -> Iterator[Event]:
+        d = self._deframer(LINE_AB)
+        for chunk in self.source.chunks():
+            yield from d.feed(chunk.data, chunk.t)
+        yield from d.finish()
+
+    def _merged(self) -> Iterator[Event]:
+        """Merge timed lines by the wire time of each event's first byte.
+
+        An event is released once no line can still produce an earlier one: not
+        before the oldest byte a deframer still holds, nor before the start of the
+        latest chunk minus a margin (chunks arrive in read order, and a later large
+        chunk on the other line can have started a little earlier).
+        """
+        deframers = {line: self._deframer(line) for line in self.source.lines}
+        margin = 512 * self.options.byte_time + 0.05
+        heap: list[tuple[float, int, int, Event]] = []
+        seq = 0
+        for chunk in self.source.chunks():
+            for ev in deframers[chunk.line].feed(chunk.data, chunk.t):
+                seq += 1
+                heapq.heappush(heap, (ev.t, seq, 0, ev))
+            mark = chunk.t - margin
+            for d in deframers.values():
+                p = d.pending_since
+                if p is not None and p < mark:
+                    mark = p
+            while heap and heap[0][0] < mark:
+                yield heapq.heappop(heap)[3]
+        for d in deframers.values():
+            for ev in d.finish():
+                seq += 1
+                heapq.heappush(heap, (ev.t, seq, 0, ev))
+        while heap:
+            yield heapq.heappop(heap)[3]
+
+
+def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,
+         **kw) -> Capture:
+    """Open a capture: one socat log, one raw single-line dump, or two raw dumps
+    (line A then line B). Keyword arguments set ``Options`` fields (``baud=19200``).
+    Raises ``CaptureError`` with a one-line message for anything unreadable."""
+    if options is None:
+        timeouts = kw.pop("timeouts", None) or Timeouts()
+        options = Options(timeouts=timeouts, **kw)
+    source = detect(list(paths), options.byte_time)
+    return Capture(source, options, on_warning)

@@ -1,0 +1,1 @@
+"""The ``gimbalscope`` command line: one small module per subcommand."""

@@ -1,0 +1,67 @@
+"""Options every subcommand shares (inputs, serial settings, timeouts), and the
+one-line error handling: bad input never shows a traceback."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..capture import Capture, Options, open as open_capture
+from ..pairing import Timeouts
+
+STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
+
+
+class UsageError(Exception):
+    """Bad command-line input; the message is shown as one line, exit 2."""
+
+
+def add_input_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="a socat -x -v log, a raw single-line dump, or two raw dumps (line A, line B)")
+    g = p.add_argument_group("serial settings (for byte timing)")
+    g.add_argument("--baud", type=int, default=9600, help="line rate in bit/s (default 9600, §1.5.1)")
+    g.add_argument("--data-bits", type=int, default=8, choices=(5, 6, 7, 8))
+    g.add_argument("--parity", default="N", choices=("N", "E", "O", "M", "S"))
+    g.add_argument("--stop-bits", type=float, default=1, choices=(1, 1.5, 2))
+    t = p.add_argument_group("pairing")
+    t.add_argument("--ack-timeout", type=float, default=0.5, metavar="S",
+                   help="seconds a command waits for its ACK/NAK (default 0.5)")
+    t.add_argument("--result-timeout", type=float, default=2.0, metavar="S",
+                   help="seconds an ACKed command waits for its result (default 2; IX 60)")
+    t.add_argument("--timeout", action="append", default=[], metavar="CMD=S",
+                   help="result timeout for one command id, e.g. --timeout IX=90 (repeatable)")
+    t.add_argument("--frame-gap", type=float, default=None, metavar="S",
+                   help="silence that cuts a frame short (default max(50 ms, 20 characters))")
+
+
+def options_from(args: argparse.Namespace) -> Options:
+    if args.baud <= 0:
+        raise UsageError(f"--baud {args.baud}: must be positive")
+    if args.baud not in STANDARD_BAUDS:
+        print(f"gimbalscope: warning: --baud {args.baud} is not a rate of §1.5.1 "
+              f"({', '.join(map(str, STANDARD_BAUDS))})", file=sys.stderr)
+    for name in ("ack_timeout", "result_timeout"):
+        if getattr(args, name) <= 0:
+            raise UsageError(f"--{name.replace('_', '-')} must be positive")
+    per_command = {}
+    for item in args.timeout:
+        cmd, sep, secs = item.partition("=")
+        try:
+            value = float(secs)
+        except ValueError:
+            value = -1
+        if not sep or not cmd or value <= 0:
+            raise UsageError(f"--timeout {item!r}: expected CMD=SECONDS, e.g. IX=90")
+        per_command[cmd] = value
+    timeouts = Timeouts(ack=args.ack_timeout, result=args.result_timeout, result_by_command=per_command)
+    return Options(baud=args.baud, data_bits=args.data_bits, parity=args.parity, stop_bits=args.stop_bits,
+                   frame_gap=args.frame_gap, timeouts=timeouts)
+
+
+def warn(msg: str) -> None:
+    print(f"gimbalscope: warning: {msg}", file=sys.stderr, flush=True)
+
+
+def open_inputs(args: argparse.Namespace) -> Capture:
+    return open_capture(*args.inputs, options=options_from(args), on_warning=warn)

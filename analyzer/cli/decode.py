@@ -1,0 +1,52 @@
+"""``gimbalscope decode``: one line per event, like tshark, or JSON Lines.
+
+Follows the event contract of the README (frames per Table 1, fields per
+Tables 4-18 via the command table in dissectors/commands.py).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from ..filter import FilterError, compile_filter
+from ..output import JsonLinesSink, TextSink
+from .common import UsageError, add_input_args, open_inputs
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("decode", help="print every event of a capture",
+                       description="Decode a capture: one line per event, or JSON Lines.")
+    add_input_args(p)
+    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    p.add_argument("--filter", "-Y", metavar="EXPR", help='show only matching events, e.g. \'status == "nak" or problems\'')
+    p.add_argument("--color", choices=("auto", "always", "never"), default="auto")
+    p.set_defaults(run=run)
+
+
+def build_filter(expr: str | None):
+    if expr is None:
+        return None
+    try:
+        return compile_filter(expr)
+    except FilterError as e:
+        raise UsageError(f"--filter {e} in: {e.pointer()}") from None
+
+
+def run(args: argparse.Namespace) -> int:
+    keep = build_filter(args.filter)
+    capture = open_inputs(args)
+    if args.format == "jsonl":
+        sink = JsonLinesSink()
+    else:
+        sink = TextSink(color={"auto": None, "always": True, "never": False}[args.color])
+    try:
+        if keep is None:
+            for ev in capture:
+                sink(ev)
+        else:
+            for ev in capture:
+                if keep(ev):
+                    sink(ev)
+    finally:
+        sink.close()
+    return 0

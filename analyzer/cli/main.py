@@ -1,0 +1,50 @@
+"""Entry point of the ``gimbalscope`` console command: dispatches subcommands and
+turns every expected failure into one line on stderr and a non-zero exit."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+
+from .. import __version__
+from ..sources import CaptureError
+from . import decode, stats
+from .common import UsageError
+
+EXIT_INPUT = 2
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="gimbalscope",
+                                description="Protocol analyzer for servo pan-tilt gimbals (serial command set rev 1.9).")
+    p.add_argument("--version", action="version", version=f"gimbalscope {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    decode.register(sub)
+    stats.register(sub)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "run", None):
+        parser.print_help()
+        return EXIT_INPUT
+    try:
+        return args.run(args)
+    except (CaptureError, UsageError) as e:
+        print(f"gimbalscope: error: {e}", file=sys.stderr)
+        return EXIT_INPUT
+    except BrokenPipeError:
+        # the reader went away (| head): not an error; silence the flush at exit
+        try:
+            sys.stdout = None  # type: ignore[assignment]
+        finally:
+            return 0
+    except KeyboardInterrupt:
+        return 128 + signal.SIGINT
+
+
+if __name__ == "__main__":
+    sys.exit(main())

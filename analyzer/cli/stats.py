@@ -1,0 +1,74 @@
+"""``gimbalscope stats``: counts, errors and latency per command and per device
+(statuses per the pairing rules of spec §1.4.2-1.4.3 and spec/READING.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..output import dumps, fmt_seconds
+from ..stats import Stats
+from .common import add_input_args, open_inputs
+from .decode import build_filter
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("stats", help="summarise a capture: counts, errors, latency",
+                       description="Counts, errors and latency per command and per device.")
+    add_input_args(p)
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--filter", "-Y", metavar="EXPR", help="count only matching events")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    keep = build_filter(args.filter)
+    capture = open_inputs(args)
+    stats = Stats()
+    for ev in capture:
+        if keep is None or keep(ev):
+            stats.add(ev)
+    data = stats.to_dict()
+    if args.format == "json":
+        sys.stdout.buffer.write(dumps(data) + b"\n")
+    else:
+        render(data)
+    return 0
+
+
+def _lat(d: dict) -> list[str]:
+    if not d["count"]:
+        return ["", "", "", ""]
+    return [fmt_seconds(d[k]) for k in ("min", "median", "p95", "max")]
+
+
+def render(data: dict) -> None:
+    from rich.console import Console
+    from rich.table import Table
+
+    console = Console(highlight=False, width=None if sys.stdout.isatty() else 150)
+    dur = data["duration"]
+    s = data["status"]
+    console.print(f"[bold]{data['events']}[/] events, {data['commands']} commands"
+                  + (f" over {dur:.3f} s" if dur is not None else " (no time in this capture)")
+                  + "  bytes: " + ", ".join(f"line {k} {v}" for k, v in data["bytes"].items()))
+    console.print(f"ok {s['ok']}  nak {s['nak']}  nic {s['nic']}  no_ack {s['no_ack']}  "
+                  f"no_result {s['no_result']}  pending {s['pending']}  "
+                  f"retransmissions {data['retransmissions']}  checksum errors {data['checksum_errors']}  "
+                  f"noise {data['noise']['events']} runs / {data['noise']['bytes']} bytes  "
+                  f"orphans {data['orphans']}")
+    if data["problems"]:
+        console.print("problems: " + ", ".join(f"{k} {v}" for k, v in data["problems"].items()))
+    for title, key in (("per command", "by_command"), ("per device (group.port.device)", "by_device")):
+        table = Table(title=title, title_justify="left")
+        for col in ("", "count", "ok", "nak", "nic", "no_ack", "no_res", "pend", "retx", "cksum",
+                    "ACK min", "median", "p95", "max", "result med", "max"):
+            table.add_column(col, justify="left" if not col else "right")
+        for name, c in data[key].items():
+            res = c["result_latency"]
+            table.add_row(name, *(str(c[k]) for k in ("commands", "ok", "nak", "nic", "no_ack", "no_result",
+                                                      "pending", "retransmissions", "checksum_errors")),
+                          *_lat(c["ack_latency"]),
+                          fmt_seconds(res["median"]) if res["count"] else "",
+                          fmt_seconds(res["max"]) if res["count"] else "")
+        console.print(table)

@@ -1,0 +1,57 @@
+"""The source interface: where bytes come from (python-can's ``BusABC``, for taps).
+
+A source yields ``Chunk``s: bytes seen on one line, with the wire time of their
+first byte when the source knows time. Raw dumps and socat logs are sources now;
+MCAP recordings and live serial ports plug in behind the same interface.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Callable, Iterator
+
+LINE_A = "A"    # controller → device
+LINE_B = "B"    # device → controller
+LINE_AB = "AB"  # single-line tap: both directions on one wire
+
+
+class CaptureError(Exception):
+    """An input that cannot be read as a capture; the message names what and where."""
+
+
+@dataclass(frozen=True)
+class Chunk:
+    line: str
+    data: bytes
+    t: float | None = None   # seconds since capture start of the first byte's start bit
+
+
+class Source(ABC):
+    """A capture input with one line (``("AB",)``) or two (``("A", "B")``)."""
+
+    lines: tuple[str, ...] = (LINE_A, LINE_B)
+    timed: bool = False
+    start_time: float | None = None    # epoch seconds of t = 0, when known
+    description: str = ""
+
+    def __init__(self) -> None:
+        self.warn: Callable[[str], None] = lambda msg: None
+
+    @abstractmethod
+    def chunks(self) -> Iterator[Chunk]:
+        """Every chunk in capture order (time order for timed sources)."""
+
+    def line_chunks(self, line: str) -> Iterator[Chunk]:
+        """One line's chunks on their own; untimed multi-line sources override it
+        so each line can be read at its own pace."""
+        return (c for c in self.chunks() if c.line == line)
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> "Source":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -1,0 +1,186 @@
+"""Capture statistics for ``gimbalscope stats``: counts, errors and latency per
+command and per device. Memory is flat: latencies go into log-spaced buckets
+(1% wide), so medians and 95th percentiles are accurate to about 1%; minimum and
+maximum are exact.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from typing import Any
+
+from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+
+_LOG_STEP = math.log(1.01)
+
+
+class Latency:
+    __slots__ = ("n", "min", "max", "buckets", "zero")
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.min = math.inf
+        self.max = -math.inf
+        self.buckets: Counter[int] = Counter()
+        self.zero = 0  # samples <= 0 (clock skew or back-to-back bytes)
+
+    def add(self, x: float) -> None:
+        self.n += 1
+        if x < self.min:
+            self.min = x
+        if x > self.max:
+            self.max = x
+        if x <= 1e-9:
+            self.zero += 1
+        else:
+            self.buckets[int(math.floor(math.log(x) / _LOG_STEP))] += 1
+
+    def quantile(self, q: float) -> float | None:
+        """Nearest-rank quantile: the ceil(q·n)-th smallest sample (to bucket precision)."""
+        if not self.n:
+            return None
+        rank = max(1, math.ceil(q * self.n))
+        if rank <= self.zero:
+            return min(self.min, 0.0)
+        seen = self.zero
+        for b in sorted(self.buckets):
+            seen += self.buckets[b]
+            if seen >= rank:
+                mid = math.exp((b + 0.5) * _LOG_STEP)
+                return min(max(mid, self.min), self.max)
+        return self.max
+
+    def to_dict(self) -> dict[str, Any]:
+        if not self.n:
+            return {"count": 0, "min": None, "median": None, "p95": None, "max": None}
+        return {"count": self.n, "min": self.min, "median": self.quantile(0.5),
+                "p95": self.quantile(0.95), "max": self.max}
+
+
+class Counts:
+    """What is counted per command id and per device."""
+    __slots__ = ("commands", "status", "retransmissions", "checksum_errors", "ack_latency",
+                 "result_latency")
+
+    def __init__(self) -> None:
+        self.commands = 0
+        self.status: Counter[str] = Counter()
+        self.retransmissions = 0
+        self.checksum_errors = 0
+        self.ack_latency = Latency()
+        self.result_latency = Latency()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "commands": self.commands,
+            **{s: self.status.get(s, 0) for s in ("ok", "nak", "nic", "no_ack", "no_result", "pending")},
+            "retransmissions": self.retransmissions,
+            "checksum_errors": self.checksum_errors,
+            "ack_latency": self.ack_latency.to_dict(),
+            "result_latency": self.result_latency.to_dict(),
+        }
+
+
+def device_of(ev: Event) -> str | None:
+    """The device a frame concerns, as group.port.device: a command's destination,
+    or a result's source group with the port and device it keeps (Table 3)."""
+    if ev.dst is None:
+        return None
+    g, p, d = ev.dst
+    if ev.kind == RESULT:
+        g = ev.src
+    return f"{g}.{p}.{d}"
+
+
+class Stats:
+    def __init__(self) -> None:
+        self.events = 0
+        self.kinds: Counter[str] = Counter()
+        self.problems: Counter[str] = Counter()
+        self.bytes: Counter[str] = Counter()
+        self.noise_bytes = 0
+        self.checksum_errors = 0
+        self.orphans = 0
+        self.first_t: float | None = None
+        self.last_t: float | None = None
+        self.by_command: dict[str, Counts] = {}
+        self.by_device: dict[str, Counts] = {}
+        self._cmd_of_txn: dict[int, tuple[str, str]] = {}  # txn -> (command, device), recent only
+
+    def add(self, ev: Event) -> None:
+        self.events += 1
+        kind = ev.kind
+        self.kinds[kind] += 1
+        self.bytes[ev.line] += len(ev.raw)
+        if ev.t is not None:
+            if self.first_t is None:
+                self.first_t = ev.t
+            self.last_t = ev.t_end if ev.t_end is not None else ev.t
+        for p in ev.problems:
+            self.problems[p.split(":", 1)[0]] += 1
+        if ev.checksum_ok is False:
+            self.checksum_errors += 1
+        if kind == NOISE:
+            self.noise_bytes += len(ev.raw)
+            return
+        if ev.txn is None:
+            if kind != COMMAND:
+                self.orphans += 1
+            return
+        if kind == COMMAND:
+            key = (ev.command or "?", device_of(ev) or "?")
+            if len(self._cmd_of_txn) > 4096:
+                self._cmd_of_txn.clear()
+            self._cmd_of_txn[ev.txn] = key
+            for counts in self._counts(key):
+                counts.commands += 1
+                counts.status[ev.status or "pending"] += 1
+                counts.retransmissions += ev.retransmission
+                counts.checksum_errors += ev.checksum_ok is False
+            return
+        key = self._cmd_of_txn.get(ev.txn)
+        if key is None:
+            return
+        for counts in self._counts(key):
+            if ev.checksum_ok is False:
+                counts.checksum_errors += 1
+            if ev.latency is None:
+                continue
+            if kind in (ACK, NAK):
+                counts.ack_latency.add(ev.latency)
+            elif kind == RESULT:
+                counts.result_latency.add(ev.latency)
+
+    def _counts(self, key: tuple[str, str]) -> tuple[Counts, Counts]:
+        cmd, dev = key
+        c = self.by_command.get(cmd)
+        if c is None:
+            c = self.by_command[cmd] = Counts()
+        d = self.by_device.get(dev)
+        if d is None:
+            d = self.by_device[dev] = Counts()
+        return c, d
+
+    def to_dict(self) -> dict[str, Any]:
+        total = Counts()
+        for c in self.by_command.values():
+            total.commands += c.commands
+            total.status.update(c.status)
+            total.retransmissions += c.retransmissions
+        return {
+            "events": self.events,
+            "duration": (self.last_t - self.first_t) if self.first_t is not None else None,
+            "bytes": dict(sorted(self.bytes.items())),
+            "kinds": {k: self.kinds.get(k, 0) for k in ("command", "ack", "nak", "nic", "result", "noise")},
+            "commands": total.commands,
+            "status": {s: total.status.get(s, 0) for s in ("ok", "nak", "nic", "no_ack", "no_result", "pending")},
+            "timeouts": total.status.get("no_ack", 0) + total.status.get("no_result", 0),
+            "retransmissions": total.retransmissions,
+            "checksum_errors": self.checksum_errors,
+            "noise": {"events": self.kinds.get(NOISE, 0), "bytes": self.noise_bytes},
+            "orphans": self.orphans,
+            "problems": dict(self.problems.most_common()),
+            "by_command": {k: v.to_dict() for k, v in sorted(self.by_command.items())},
+            "by_device": {k: v.to_dict() for k, v in sorted(self.by_device.items())},
+        }

@@ -1,0 +1,328 @@
+"""The command table: every command of protocol rev 1.9 (Tables 4, 11, 16 and the
+list of §1.2), with its parameters, its result layouts and its spec reference.
+
+This one table drives decoding (``dissectors.dissect``), pairing (which commands
+are due a result, and which result layouts fit), the text summaries and the
+generated field reference in docs/fields.md. Result layouts follow
+../shared/spec/READING.md where the tables leave them open.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from .event import P_RANGE, P_RESERVED
+from .fields import Field, Layout, choice, decimal, hexnum, text
+
+NONE = "none"          # ACK only
+DUE = "due"            # ACK + result
+OPTIONAL = "optional"  # a result may come (rev 1.9 commands whose format is not given)
+
+# Table 4, C0…C7; C8…CF are reserved for future rates.
+BAUD_CODES = {0: 1200, 1: 2400, 2: 4800, 3: 9600, 4: 19200, 5: 38400, 6: 57600, 7: 115200}
+
+
+@dataclass(frozen=True)
+class Command:
+    id: str                      # the spec's code without parameters; may use {aux_port}
+    name: str
+    layout: Layout
+    ref: str                     # spec table / section
+    result: tuple[Layout, ...] = ()
+    result_due: str = NONE
+    summary: str = ""            # text summary of the command, str.format over its fields
+    result_summary: str = ""     # text summary of its result
+    result_timeout: float | None = None  # seconds; None = the pairing default
+    reserved: bool = False       # the spec marks this code "Reserved"
+    notes: str = ""
+
+    def command_id(self, values: dict) -> str:
+        return self.id.format(**values) if "{" in self.id else self.id
+
+
+COMMANDS: list[Command] = []
+
+
+def cmd(id: str, name: str, parts: tuple, ref: str, *, result: list = (), due: str | None = None,
+        derive=None, result_derive=None, **kw) -> Command:
+    layouts = tuple(Layout(tuple(r), result_derive) for r in result)
+    c = Command(id, name, Layout(tuple(parts), derive), ref, layouts,
+                due if due is not None else (DUE if layouts else NONE), **kw)
+    COMMANDS.append(c)
+    return c
+
+
+# ---------------------------------------------------------------- fields
+def az() -> Field:
+    return hexnum("azimuth_deg", 4, scale=0.01, signed=True, unit="deg",
+                  desc="azimuth (pan), hundredths of a degree, signed 16-bit; + is ccw (Table 15)")
+
+
+def el() -> Field:
+    return hexnum("elevation_deg", 4, scale=0.01, signed=True, unit="deg",
+                  desc="elevation (tilt), hundredths of a degree, signed 16-bit; + is ccw (Table 15)")
+
+
+def preset() -> Field:
+    return hexnum("preset", 2, desc="preset number 00..FF (Table 11)")
+
+
+def rate(name: str = "rate_deg_s") -> Field:
+    return hexnum(name, 4, scale=0.01, unit="deg/s", desc="hundredths of deg/s (Tables 12, 13)")
+
+
+def accel(name: str = "accel_deg_s2") -> Field:
+    return hexnum(name, 4, scale=0.01, unit="deg/s^2", desc="hundredths of deg/s² (Tables 12, 13)")
+
+
+def gain(name: str = "gain") -> Field:
+    return hexnum(name, 2, scale=0.1, valid=(0.3, 3.0), desc="rate gain in tenths, 0.3..3.0 (Table 7)")
+
+
+def limit(name: str) -> Field:
+    return hexnum(name, 3, desc="12-bit software limit (Table 10)")
+
+
+def aux_port() -> Field:
+    return decimal("aux_port", 1, valid=(0, 1), desc="auxiliary serial port, 0 or 1 (Table 16)")
+
+
+def free_text(name: str) -> Field:
+    return text(name, desc="shown as text: the document gives no format")
+
+
+# ---------------------------------------------------------------- derived values
+def _baud(values: dict) -> list[str] | None:
+    code = values["rate_code"]
+    values["baud"] = BAUD_CODES.get(code)
+    if code not in BAUD_CODES:
+        return [f"{P_RESERVED}: rate code C{code:X} is reserved for future data rates (Table 4)"]
+    return None
+
+
+def _max_baud(values: dict) -> list[str] | None:
+    code = values["max_rate_code"]
+    values["max_baud"] = BAUD_CODES.get(code)
+    if code not in BAUD_CODES:
+        return [f"{P_RESERVED}: rate code C{code:X} is reserved for future data rates (Table 4)"]
+    return None
+
+
+def _awake(values: dict) -> list[str] | None:
+    s = values["status"]
+    values["azimuth_not_initialized"] = bool(s & 1)
+    values["elevation_not_initialized"] = bool(s & 2)
+    values["motors_off"] = bool(s & 4)
+    values["error"] = bool(s & 8)
+    if s & ~0xF:
+        return [f"{P_RESERVED}: status bits 4..7 are reserved (Table 5)"]
+    return None
+
+
+ERROR_BITS = {0: "center reference", 4: "initialization", 5: "motor time-out", 6: "temperature"}
+STATUS_BITS = {0: "not initialized", 1: "positive limit found", 2: "negative limit found",
+               3: "positive center found", 4: "negative center found", 5: "positive hard stop",
+               6: "negative hard stop", 7: "error code present"}
+
+
+def _names(bits: int, table: dict[int, str]) -> list[str]:
+    return [name for bit, name in table.items() if bits >> bit & 1]
+
+
+def _errors(values: dict) -> None:
+    values["azimuth_errors"] = _names(values["azimuth_error_bits"], ERROR_BITS)
+    values["elevation_errors"] = _names(values["elevation_error_bits"], ERROR_BITS)
+
+
+def _status(values: dict) -> None:
+    values["azimuth_status"] = _names(values["azimuth_status_bits"], STATUS_BITS)
+    values["elevation_status"] = _names(values["elevation_status_bits"], STATUS_BITS)
+
+
+def _relays(values: dict) -> None:
+    values["relays_on"] = [k for k in range(4) if values["relays"] >> k & 1]
+
+
+def _init_results(values: dict) -> None:
+    # Table 9, low byte: bit 0 center switch detected (good), bit 2 hard limit
+    # (0 = good), bit 3 physical limit switch hit (good).
+    for key in ("azimuth_ccw_result", "azimuth_cw_result", "elevation_ccw_result", "elevation_cw_result"):
+        v = values[key]
+        values[key.replace("_result", "_ok")] = bool(v & 0x1) and not v & 0x4 and bool(v & 0x8)
+
+
+def _home(values: dict) -> None:
+    values["azimuth_initialized"] = bool(values["count_correct_bits"] & 1)
+    values["elevation_initialized"] = bool(values["count_correct_bits"] & 2)
+
+
+def _aux_data(values: dict) -> list[str] | None:
+    values["data_length"] = n = len(values["data"])
+    if n > 200:
+        return [f"{P_RANGE}: data_length {n} outside 0..200 (Table 16)"]
+    return None
+
+
+POSITION = [(az(), el()), (b"P", az(), el())]
+
+# ---------------------------------------------------------------- Table 4
+cmd("#NN", "Set device address", (b"#", hexnum("new_address", 2, valid=(1, 254), desc="new device ID 01..FE")),
+    "Table 4, §1.5.4", summary="set device address to {new_address}")
+cmd("AW", "Request awake status", (b"AW",), "Table 4, Table 5",
+    result=[(hexnum("status", (1, 2), desc="status bits (Table 5)"),)], result_derive=_awake,
+    summary="awake status?", result_summary="status {status:X}")
+cmd("B?", "Request maximum data rate", (b"B?",), "Table 4, §1.5.6",
+    result=[(b"C", hexnum("max_rate_code", 1)),], result_derive=_max_baud,
+    summary="max data rate?", result_summary="max {max_baud} bps")
+cmd("C", "Set communication data rate", (b"C", hexnum("rate_code", 1, desc="C0..C7, Table 4")),
+    "Table 4", derive=_baud, summary="set data rate {baud} bps")
+cmd("D?", "Request ID information", (b"D?",), "Table 4, Table 6",
+    result=[(text("device_id", 2), text("revision", 2, strip=True), text("name", 20, strip=True),
+             text("serial", 20, strip=True))],
+    summary="identify?", result_summary="{name} rev {revision} s/n {serial}")
+cmd("E?", "Request error codes", (b"E?",), "Table 4, Table 6A",
+    result=[(hexnum("azimuth_error_bits", 2), hexnum("elevation_error_bits", 2))], result_derive=_errors,
+    summary="error codes?", result_summary="az errors {azimuth_errors} el errors {elevation_errors}")
+cmd("I?", "Request status bits", (b"I?",), "Table 4, Table 6B",
+    result=[(hexnum("azimuth_status_bits", 2), hexnum("elevation_status_bits", 2)),
+            (hexnum("azimuth_status_bits", 4), hexnum("elevation_status_bits", 4))], result_derive=_status,
+    summary="status bits?", result_summary="az {azimuth_status} el {elevation_status}")
+cmd("GRP", "Set pan rate gain", (b"GRP", gain()), "Table 4, Table 7", summary="pan rate gain {gain}")
+cmd("GRT", "Set tilt rate gain", (b"GRT", gain()), "Table 4, Table 7", summary="tilt rate gain {gain}")
+cmd("G?", "Rate gains request", (b"G?",), "Table 4, Table 8",
+    result=[(b"G?", gain("pan_gain"), gain("tilt_gain"), text("unused", 4))],
+    summary="rate gains?", result_summary="pan gain {pan_gain} tilt gain {tilt_gain}")
+cmd("IX", "Initialization", (b"IX",), "Table 4, Table 9",
+    result=[tuple(hexnum(n, 2) for n in ("azimuth_ccw_result", "azimuth_cw_result",
+                                         "elevation_ccw_result", "elevation_cw_result")),
+            tuple(hexnum(n, 4) for n in ("azimuth_ccw_result", "azimuth_cw_result",
+                                         "elevation_ccw_result", "elevation_cw_result"))],
+    result_derive=_init_results, result_timeout=60.0,
+    summary="initialize", result_summary="az ccw ok {azimuth_ccw_ok} cw ok {azimuth_cw_ok}, "
+                                         "el ccw ok {elevation_ccw_ok} cw ok {elevation_cw_ok}")
+for _code, _relay, _action in (("L0", 0, "open"), ("L1", 1, "open"), ("L2", 2, "open"), ("L3", 3, "open"),
+                               ("L8", 0, "close"), ("L9", 1, "close"), ("LA", 2, "close"), ("LB", 3, "close")):
+    cmd(_code, f"{_action.capitalize()} relay {_relay}", (_code.encode(),), "Table 4",
+        reserved=_relay in (0, 1), summary=f"{_action} relay {_relay}")
+cmd("LR", "Auxiliary relay status request", (b"LR",), "Table 4, Table 4A",
+    result=[(b"L", hexnum("relays", 1, desc="relay bits, 1 = on (Table 4A)"))], result_derive=_relays,
+    summary="relay status?", result_summary="relays on {relays_on}")
+cmd("LC", "Clear software limits", (b"LC",), "Table 4", summary="clear software limits")
+_LIMITS = (limit("pan_ccw"), limit("pan_cw"), limit("tilt_ccw"), limit("tilt_cw"))
+cmd("LS", "Set software limits", (b"LS",) + _LIMITS, "Table 4, Table 10",
+    summary="limits pan {pan_ccw}..{pan_cw} tilt {tilt_ccw}..{tilt_cw}")
+cmd("L?", "Software limits request", (b"L?",), "Table 4, Table 10", result=[_LIMITS],
+    summary="software limits?", result_summary="pan {pan_ccw}..{pan_cw} tilt {tilt_ccw}..{tilt_cw}")
+
+# ---------------------------------------------------------------- Table 11 (and 12-15)
+cmd("AP", "Set pan acceleration", (b"AP", accel()), "Table 11, Table 12", summary="pan accel {accel_deg_s2} deg/s²")
+cmd("AT", "Set tilt acceleration", (b"AT", accel()), "Table 11, Table 12", summary="tilt accel {accel_deg_s2} deg/s²")
+cmd("AP?", "Request pan acceleration", (b"AP?",), "Table 12, Table 13", result=[(accel(),)],
+    summary="pan accel?", result_summary="{accel_deg_s2} deg/s²")
+cmd("AT?", "Request tilt acceleration", (b"AT?",), "Table 12, Table 13", result=[(accel(),)],
+    summary="tilt accel?", result_summary="{accel_deg_s2} deg/s²")
+cmd("A?", "Request current acceleration settings", (b"A?",), "Table 11, Tables 12-13",
+    result=[(accel(),), (accel("pan_accel_deg_s2"), accel("tilt_accel_deg_s2"))],
+    summary="accelerations?", result_summary="{_values}")
+cmd("HA", "Halt", (b"HA",), "Table 11", summary="halt (store position, motors off)")
+cmd("HV", "Verify home", (b"HV",), "Table 11, Table 14",
+    result=[(hexnum("limit_switch_bits", 1), hexnum("center_switch_bits", 1), hexnum("count_correct_bits", 1))],
+    result_derive=_home, summary="verify home?",
+    result_summary="limit {limit_switch_bits} center {center_switch_bits} count {count_correct_bits}")
+cmd("HO", "Go to home position", (b"HO",), "Table 11", summary="go home")
+cmd("HS", "Stop", (b"HS",), "Table 11", summary="stop (motors off)")
+cmd("P?", "Current position query", (b"P?",), "Table 11, Table 15", result=POSITION,
+    summary="position?", result_summary="at az {azimuth_deg:+.2f}° el {elevation_deg:+.2f}°")
+cmd("P", "Go to pan-tilt position", (b"P", az(), el()), "Table 11, Table 15",
+    summary="go to az {azimuth_deg:+.2f}° el {elevation_deg:+.2f}°")
+cmd("PL", "Pan left (cw)", (b"PL",), "Table 11", summary="pan left")
+cmd("PR", "Pan right (ccw)", (b"PR",), "Table 11", summary="pan right")
+cmd("PS", "Pan stop", (b"PS",), "Table 11", summary="pan stop")
+cmd("PT", "Stop motion", (b"PT",), "Table 11", summary="stop motion")
+cmd("Pnn", "Go to preset", (b"P", preset()), "Table 11", summary="go to preset {preset}")
+cmd("P?nn", "Get preset", (b"P?", preset()), "Table 11, Table 15", result=POSITION,
+    summary="preset {preset}?", result_summary="preset at az {azimuth_deg:+.2f}° el {elevation_deg:+.2f}°")
+cmd("RP", "Set pan rate", (b"RP", rate()), "Table 11, Table 12", summary="pan rate {rate_deg_s} deg/s")
+cmd("RT", "Set tilt rate", (b"RT", rate()), "Table 11, Table 12", summary="tilt rate {rate_deg_s} deg/s")
+cmd("RP?", "Request pan rate", (b"RP?",), "Table 12, Table 13", result=[(rate(),)],
+    summary="pan rate?", result_summary="{rate_deg_s} deg/s")
+cmd("RT?", "Request tilt rate", (b"RT?",), "Table 12, Table 13", result=[(rate(),)],
+    summary="tilt rate?", result_summary="{rate_deg_s} deg/s")
+cmd("R?", "Request current rate settings", (b"R?",), "Table 11, Tables 12-13",
+    result=[(rate(),), (rate("pan_rate_deg_s"), rate("tilt_rate_deg_s"))],
+    summary="rates?", result_summary="{_values}")
+cmd("Snn", "Store position as preset", (b"S", preset()), "Table 11", summary="store preset {preset}")
+cmd("SP", "Set proportional pan speed", (b"SP", hexnum("speed", 1, desc="0 slow/proportional .. F max")),
+    "Table 11", summary="pan speed {speed}")
+cmd("ST", "Set proportional tilt speed", (b"ST", hexnum("speed", 1, desc="0 slow/proportional .. F max")),
+    "Table 11", summary="tilt speed {speed}")
+cmd("S?nn", "Request position stored at preset", (b"S?", preset()), "Table 11, Table 15", result=POSITION,
+    summary="preset {preset} stored?", result_summary="stored az {azimuth_deg:+.2f}° el {elevation_deg:+.2f}°")
+cmd("TD", "Tilt down (cw)", (b"TD",), "Table 11", summary="tilt down")
+cmd("TS", "Tilt stop", (b"TS",), "Table 11", summary="tilt stop")
+cmd("TU", "Tilt up (ccw)", (b"TU",), "Table 11", summary="tilt up")
+cmd("VM", "Set vector motion", (b"VM", choice("vector", {b"1": True, b"0": False}, desc="1 on, 0 off")),
+    "Table 11", summary="vector motion {vector}")
+
+# ---------------------------------------------------------------- Table 16 (and 17-18)
+cmd("CN", "Camera power on", (b"CN",), "Table 16", summary="camera power on")
+cmd("CX", "Camera power off", (b"CX",), "Table 16", summary="camera power off")
+cmd("F", "Focus speed", (b"F", decimal("focus_speed", 1, desc="F0 slowest .. F9 fastest")), "Table 16",
+    summary="focus speed {focus_speed}")
+cmd("FA", "Auto-focus on", (b"FA",), "Table 16", summary="auto-focus on", notes="not implemented per the spec")
+cmd("FF", "Focus far", (b"FF",), "Table 16", summary="focus far")
+cmd("FN", "Focus near", (b"FN",), "Table 16", summary="focus near")
+cmd("FS", "Focus stop", (b"FS",), "Table 16", summary="focus stop")
+cmd("FX", "Auto-focus off", (b"FX",), "Table 16", summary="auto-focus off", notes="not implemented per the spec")
+_lens = (hexnum("zoom", 3, desc="12-bit zoom position (Table 17)"), hexnum("focus", 3, desc="12-bit focus position"))
+cmd("V", "Lens go-to", (b"V",) + _lens, "Table 16, Table 17", summary="lens zoom {zoom} focus {focus}")
+cmd("V?", "Lens position request", (b"V?",), "Table 16, Table 17", result=[_lens, (b"V",) + _lens],
+    summary="lens position?", result_summary="zoom {zoom} focus {focus}")
+cmd("Z", "Zoom speed", (b"Z", decimal("zoom_speed", 1, desc="Z0 slowest .. Z9 fastest")), "Table 16",
+    summary="zoom speed {zoom_speed}")
+cmd("ZA-ZF", "Digital zoom", (b"Z", Field("digital_zoom", rb"[A-Fa-f]", lambda r: int(r, 16), hexdigits=True,
+                                          lead=rb"[A-Fa-f]", desc="ZA..ZF")), "Table 16",
+    summary="digital zoom {digital_zoom:X}", notes="ZA..ZF; not implemented per the spec")
+cmd("ZI", "Zoom in", (b"ZI",), "Table 16", summary="zoom in")
+cmd("ZO", "Zoom out", (b"ZO",), "Table 16", summary="zoom out")
+cmd("ZS", "Zoom stop", (b"ZS",), "Table 16", summary="zoom stop")
+cmd("*x{aux_port}c", "Configure auxiliary serial port",
+    (b"*x", aux_port(), b"c,", decimal("baud", 6, valid=(50, 115200), unit="bps"), b",",
+     decimal("data_bits", 1, valid=(5, 8)), b",", decimal("stop_bits", 1, valid=(1, 2)), b",",
+     choice("parity", {b"0": "none", b"1": "odd", b"2": "even"}, desc="Table 18: 0 none, 1 odd, 2 even")),
+    "Table 16, Table 18", summary="aux {aux_port}: {baud} bps {data_bits} data {stop_bits} stop parity {parity}")
+cmd("*x{aux_port}t", "Transmit to auxiliary serial port", (b"*x", aux_port(), b"t", text("data")),
+    "Table 16", derive=_aux_data, summary="aux {aux_port} send {data!r}")
+cmd("*x{aux_port}r", "Receive from auxiliary serial port",
+    (b"*x", aux_port(), b"r", decimal("max_bytes", 3, desc="decimal, like *xpc and *xpn")),
+    "Table 16", result=[(text("data"),)], summary="aux {aux_port} read up to {max_bytes}",
+    result_summary="{data!r}")
+cmd("*x{aux_port}n", "Characters in auxiliary port buffer", (b"*x", aux_port(), b"n"), "Table 16",
+    result=[(decimal("count", 3, desc="decimal ASCII count"),)], summary="aux {aux_port} count?",
+    result_summary="{count} characters")
+cmd("*x{aux_port}f", "Flush auxiliary port buffer", (b"*x", aux_port(), b"f"), "Table 16",
+    summary="aux {aux_port} flush")
+
+# ---------------------------------------------------------------- §1.2: new in rev 1.9, format not given
+for _code, _name, _due in (
+        ("VS", "Camera and relay status", DUE), ("F?", "Current focus speed number", DUE),
+        ("Z?", "Current zoom speed number", DUE), ("C?", "Lens software limits or preset values", DUE),
+        ("*dA", "Analog channel values", DUE), ("*di", "Digital input values", DUE),
+        ("*do", "Digital output values", DUE), ("*dl", "Status messages", DUE),
+        ("*dm", "Set loop mode", OPTIONAL), ("*mr", "Send rate commands", OPTIONAL),
+        ("*me", "Position in encoder counts", OPTIONAL), ("*mp", "Position in floating point", OPTIONAL),
+        ("*mu", "User parameters (integer)", OPTIONAL), ("*sa", "Inertial gain (floating point)", OPTIONAL),
+        ("*sgr", "Rate gain (floating point)", OPTIONAL), ("*sgp", "Position gain (floating point)", OPTIONAL),
+        ("*sl", "Rate/acceleration limits (floating point)", OPTIONAL),
+        ("HP", "Go to last saved gimbal position", NONE), ("VP", "Go to last saved lens position", NONE)):
+    cmd(_code, _name, (_code.encode(), free_text("arguments")), "§1.2 (rev 1.9, format not given)",
+        result=[(free_text("text"),)] if _due != NONE else [], due=_due,
+        summary=_name.lower() + " {arguments}", result_summary="{text}")
+
+BY_ID = {c.id: c for c in COMMANDS}
+
+# Names the derive functions above add to decoded fields (for filters and docs).
+DERIVED_FIELDS = ("baud", "max_baud", "azimuth_not_initialized", "elevation_not_initialized", "motors_off",
+                  "error", "azimuth_errors", "elevation_errors", "azimuth_status", "elevation_status",
+                  "relays_on", "azimuth_ccw_ok", "azimuth_cw_ok", "elevation_ccw_ok", "elevation_cw_ok",
+                  "azimuth_initialized", "elevation_initialized", "data_length")

@@ -1,0 +1,394 @@
+"""Incremental, pure deframer for one serial line (spec §1.4, Table 1).
+
+``Deframer.feed(data, t)`` takes the next bytes of a line and returns the events
+completed by them: frames, simple responses (ACK/NAK/NIC) and coalesced noise
+runs, each with the absolute offset of its first byte in the line's stream.
+It does no I/O and never raises on wire bytes: anything malformed becomes an
+event with problems attached.
+
+Decisions only ever depend on bytes already seen plus "no more bytes are coming
+before a silence" (``finish``/``idle`` or a timed gap), so feeding a stream in any
+split gives the same events.
+
+How broken input is handled (spec/READING.md; docs/decoding.md):
+- A frame whose checksum fails is re-examined before it is reported: if a valid
+  frame starts inside it, that frame wins (a corrupted length byte must not
+  swallow the next good frame); if the bytes up to the next frame start check out
+  with another length, the length byte was corrupted and the frame is repaired.
+- With time known, a silence longer than ``frame_gap`` inside a frame means the
+  frame was cut short.
+- A failed candidate whose payload is mostly printable is reported as a frame with
+  a bad checksum; otherwise its start byte is treated as noise and scanning goes on.
+"""
+
+from __future__ import annotations
+
+from bisect import bisect_right
+
+from .event import (
+    ACK as K_ACK, COMMAND, Event, FRAME, NAK as K_NAK, NIC as K_NIC, NOISE, RESULT,
+    P_CHECKSUM, P_LENGTH, P_NOISE, P_TRUNCATED,
+)
+from .wire import ACK, NAK, NIC, START
+
+_SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}
+_FRAME_KIND = {"A": COMMAND, "B": RESULT}
+_MAX_FRAME = 256 + 7
+
+
+def _printable_share(data: bytes | bytearray) -> float:
+    if not data:
+        return 0.0
+    return sum(1 for b in data if 0x20 <= b < 0x7F) / len(data)
+
+
+class Deframer:
+    """Turns one line's byte stream into events.
+
+    line: "A" (controller→device), "B" (device→controller) or "AB" (a single-line
+    tap carrying both). Frames come out as ``command`` on A, ``result`` on B and
+    ``frame`` on AB (pairing decides). Simple response bytes are recognised on B
+    and AB only; on A they are noise.
+
+    byte_time: seconds per character on the wire, to give every byte a time.
+    frame_gap: a silence longer than this inside a frame cuts it (timed input only).
+    """
+
+    def __init__(self, line: str = "B", byte_time: float = 0.0,
+                 frame_gap: float | None = None, simple_responses: bool | None = None) -> None:
+        self.line = line
+        self.frame_kind = _FRAME_KIND.get(line, FRAME)
+        self.simple = (line != "A") if simple_responses is None else simple_responses
+        self.byte_time = byte_time
+        self.frame_gap = frame_gap if frame_gap is not None else max(0.05, 20 * byte_time)
+        self._buf = b""
+        self._base = 0              # absolute offset of _buf[0]
+        self._seg_off: list[int] = []   # absolute offset where each timed chunk starts
+        self._seg_t: list[float] = []   # wire time of that chunk's first byte
+        self._gaps: list[int] = []      # absolute offsets preceded by a silence > frame_gap
+        self._last_end: float | None = None  # wire time the last fed byte ended
+        self._noise_start: int | None = None  # absolute offset of a pending noise run
+        self._timed = False
+        self._resume = 0             # absolute offset where scanning resumes
+
+    # ----------------------------------------------------------------- input
+    @property
+    def offset(self) -> int:
+        """Absolute offset of the next byte to be fed."""
+        return self._base + len(self._buf)
+
+    @property
+    def pending_since(self) -> float | None:
+        """Wire time of the oldest byte not yet turned into an event (None: none or untimed)."""
+        if not self._buf or not self._timed:
+            return None
+        return self._time_at(self._base)
+
+    def feed(self, data: bytes, t: float | None = None) -> list[Event]:
+        """Add bytes; ``t`` is the wire time the first of them started (None: untimed)."""
+        if not data:
+            return []
+        if t is not None:
+            self._timed = True
+            bt = self.byte_time
+            last = self._last_end
+            if last is not None:
+                if t < last:  # bytes on one line cannot overlap: the estimate was early
+                    t = last
+                elif t - last > self.frame_gap and self._buf:
+                    self._gaps.append(self.offset)
+            off = self.offset
+            self._seg_off.append(off)
+            self._seg_t.append(t)
+            self._last_end = t + len(data) * bt
+        self._buf = self._buf + data if self._buf else bytes(data)
+        return self._parse(final=False)
+
+    def idle(self, now: float) -> list[Event]:
+        """Live input: nothing arrived until ``now``; close what a silence closes."""
+        if self._buf and self._last_end is not None and now - self._last_end > self.frame_gap:
+            return self._parse(final=True)
+        return []
+
+    def finish(self) -> list[Event]:
+        """End of stream: everything pending becomes events."""
+        return self._parse(final=True)
+
+    # ------------------------------------------------------------------ time
+    def _time_at(self, off: int) -> float | None:
+        if not self._timed:
+            return None
+        k = bisect_right(self._seg_off, off) - 1
+        if k < 0:
+            k = 0
+        return self._seg_t[k] + (off - self._seg_off[k]) * self.byte_time
+
+    def _gap_in(self, start: int, end: int) -> int | None:
+        """First gap boundary g with start < g < end (absolute offsets), if any."""
+        gaps = self._gaps
+        if not gaps:
+            return None
+        k = bisect_right(gaps, start)
+        if k < len(gaps) and gaps[k] < end:
+            return gaps[k]
+        return None
+
+    # ---------------------------------------------------------------- events
+    def _event(self, kind: str, start: int, end: int) -> Event:
+        """Make an event for absolute offsets [start, end)."""
+        base = self._base
+        raw = self._buf[start - base:end - base]
+        if self._timed:
+            t0 = self._time_at(start)
+            t1 = self._time_at(end - 1) + self.byte_time
+            ev = Event(self.line, start, kind, raw, t0, t1)
+        else:
+            ev = Event(self.line, start, kind, raw)
+        return ev
+
+    def _frame_event(self, start: int, end: int, ok: bool) -> Event:
+        ev = self._event(self.frame_kind, start, end)
+        raw = ev.raw
+        ev.dst = (raw[1], raw[2], raw[3])
+        ev.src = raw[4]
+        ev.payload = raw[6:-1]
+        ev.checksum_ok = ok
+        return ev
+
+    def _flush_noise(self, out: list[Event], upto: int) -> None:
+        ns = self._noise_start
+        if ns is not None and ns < upto:
+            ev = self._event(NOISE, ns, upto)
+            ev.add_problem(P_NOISE, f"{upto - ns} byte{'s' if upto - ns != 1 else ''} outside any frame")
+            out.append(ev)
+        self._noise_start = None
+
+    def _valid_at(self, q: int, final: bool) -> int | None:
+        """End offset of a checksum-valid frame starting at absolute q, -1 if none
+        can start there, None if more bytes are needed to tell."""
+        buf, base = self._buf, self._base
+        rq = q - base
+        end_abs = base + len(buf)
+        need = q + 6 if len(buf) - rq < 6 else q + (buf[rq + 5] or 256) + 7
+        if self._gap_in(q, min(need, end_abs)) is not None:
+            return -1  # it would straddle a silence
+        if need > end_abs:
+            return -1 if final else None
+        if sum(buf[rq + 1:need - base - 1]) & 0xFF == buf[need - base - 1]:
+            return need
+        return -1
+
+    # ----------------------------------------------------------------- parse
+    def _parse(self, final: bool) -> list[Event]:
+        out: list[Event] = []
+        append = out.append
+        buf = self._buf
+        base = self._base
+        n = len(buf)
+        simple = _SIMPLE if self.simple else {}
+        line = self.line
+        frame_kind = self.frame_kind
+        timed = self._timed
+        fast = not self._gaps   # no silence inside the buffer: frames cannot be cut
+        i = self._resume - base
+        while i < n:
+            b = buf[i]
+            if b == START:
+                # fast path: a complete frame whose checksum holds
+                if fast and n - i >= 6:
+                    end = i + (buf[i + 5] or 256) + 7
+                    if end <= n and sum(buf[i + 1:end - 1]) & 0xFF == buf[end - 1]:
+                        if self._noise_start is not None:
+                            self._flush_noise(out, base + i)
+                        raw = buf[i:end]
+                        if timed:
+                            ev = Event(line, base + i, frame_kind, raw, self._time_at(base + i),
+                                       self._time_at(base + end - 1) + self.byte_time)
+                        else:
+                            ev = Event(line, base + i, frame_kind, raw)
+                        ev.dst = (raw[1], raw[2], raw[3])
+                        ev.src = raw[4]
+                        ev.payload = raw[6:-1]
+                        ev.checksum_ok = True
+                        append(ev)
+                        i = end
+                        continue
+                nxt = self._try_frame(out, base + i, final)
+                if nxt is None:   # need more bytes
+                    break
+                i = nxt - base
+                continue
+            kind = simple.get(b)
+            if kind is not None:
+                abs_i = base + i
+                if self._noise_start is not None:
+                    self._flush_noise(out, abs_i)
+                if timed:
+                    t = self._time_at(abs_i)
+                    append(Event(line, abs_i, kind, buf[i:i + 1], t, t + self.byte_time))
+                else:
+                    append(Event(line, abs_i, kind, buf[i:i + 1]))
+                i += 1
+                continue
+            # noise: extend the pending run (or start one); a silence splits runs
+            self._as_noise(out, base + i)
+            i += 1
+        if final and i >= n:
+            self._flush_noise(out, base + n)
+        self._resume = base + i
+        # drop consumed bytes, keeping a pending noise run's bytes
+        keep_from = i if self._noise_start is None else self._noise_start - base
+        if keep_from > 0:
+            self._buf = buf[keep_from:]
+            self._base = base + keep_from
+            self._prune()
+        return out
+
+    def _prune(self) -> None:
+        base = self._base
+        if self._seg_off and len(self._seg_off) > 1:
+            k = bisect_right(self._seg_off, base) - 1
+            if k > 0:
+                del self._seg_off[:k]
+                del self._seg_t[:k]
+        if self._gaps:
+            k = bisect_right(self._gaps, base)
+            if k:
+                del self._gaps[:k]
+
+    def _try_frame(self, out: list[Event], p: int, final: bool) -> int | None:
+        """Decide what starts at absolute offset p (a start byte). Returns the
+        absolute offset to continue from, or None when more bytes are needed."""
+        buf, base = self._buf, self._base
+        rp = p - base
+        avail = len(buf) - rp
+        end_abs = base + len(buf)
+        horizon = end_abs if final else None   # no byte will join after this
+        if avail < 6:
+            cut = self._gap_in(p, end_abs + 1)
+            if cut is None and horizon is None:
+                return None
+            stop = cut if cut is not None else end_abs
+            return self._broken(out, p, stop, f"{P_TRUNCATED}: header cut after {stop - p} bytes")
+        length = buf[rp + 5] or 256
+        total = length + 7
+        cut = self._gap_in(p, p + total)
+        if cut is None and avail >= total:
+            if sum(buf[rp + 1:rp + total - 1]) & 0xFF == buf[rp + total - 1]:
+                self._flush_noise(out, p)
+                out.append(self._frame_event(p, p + total, True))
+                return p + total
+        elif cut is None and horizon is None:
+            return None  # the frame is still arriving
+        # The stated frame is bad: checksum failed, or cut by silence / end of data.
+        limit = cut if cut is not None else min(p + total, end_abs)
+        # 1. a valid frame starting inside it wins
+        q = buf.find(START, rp + 1, limit - base)
+        while q != -1:
+            v = self._valid_at(base + q, final)
+            if v is None:
+                return None
+            if v > 0:
+                return self._before_resync(out, p, base + q, length)
+            q = buf.find(START, q + 1, limit - base)
+        # 2. the length byte was corrupted: an end before the next start byte checks out
+        repaired = self._length_repair(p, length, limit if cut is not None else None, final)
+        if repaired is None:
+            return None
+        if repaired > 0:
+            self._flush_noise(out, p)
+            m = repaired - p - 7
+            ev = self._frame_event(p, repaired, False)
+            ev.add_problem(P_LENGTH, f"says {length}, frame carries {m} payload bytes (the checksum holds with {m})")
+            out.append(ev)
+            return repaired
+        # 3. no better reading: a complete frame with a bad checksum, or a cut one
+        if cut is None and avail >= total:
+            payload = buf[rp + 6:rp + total - 1]
+            if _printable_share(payload) >= 0.75:
+                self._flush_noise(out, p)
+                got = buf[rp + total - 1]
+                want = sum(buf[rp + 1:rp + total - 1]) & 0xFF
+                ev = self._frame_event(p, p + total, False)
+                ev.add_problem(P_CHECKSUM, f"expected 0x{want:02x}, got 0x{got:02x}")
+                out.append(ev)
+                return p + total
+            return self._as_noise(out, p)
+        stop = cut if cut is not None else end_abs
+        # a frame cut short: report it only when what arrived looks like a frame
+        header_ok = _printable_share(buf[rp + 6:stop - base]) >= 0.75
+        if header_ok:
+            return self._broken(out, p, stop,
+                                f"{P_TRUNCATED}: {stop - p} of {total} bytes"
+                                + (", then silence" if cut is not None else ", then end of capture"))
+        return self._as_noise(out, p)
+
+    def _as_noise(self, out: list[Event], p: int) -> int:
+        """Treat the byte at p as noise and go on scanning after it."""
+        ns = self._noise_start
+        if ns is None:
+            self._noise_start = p
+        elif self._gaps and self._gap_in(ns, p + 1) is not None:
+            self._flush_noise(out, p)
+            self._noise_start = p
+        return p + 1
+
+    def _broken(self, out: list[Event], p: int, stop: int, problem: str) -> int:
+        """Bytes [p, stop) are a frame that cannot be read: one noise event."""
+        self._flush_noise(out, p)
+        ev = self._event(NOISE, p, stop)
+        ev.problems.append(problem)
+        out.append(ev)
+        return stop
+
+    def _before_resync(self, out: list[Event], p: int, q: int, length: int) -> int:
+        """A valid frame starts at q inside the bad one at p: report [p, q)."""
+        buf, base = self._buf, self._base
+        rp, rq = p - base, q - base
+        m = q - p - 7
+        if 1 <= m <= 256 and _printable_share(buf[rp + 6:rq - 1]) == 1.0:
+            implied = (sum(buf[rp + 1:rp + 5]) + (m & 0xFF) + sum(buf[rp + 6:rq - 1])) & 0xFF
+            if implied == buf[rq - 1]:
+                self._flush_noise(out, p)
+                ev = self._frame_event(p, q, False)
+                ev.add_problem(P_LENGTH, f"says {length}, frame carries {m} payload bytes "
+                                         f"(the checksum holds with {m})")
+                out.append(ev)
+                return q
+        return self._broken(out, p, q, f"{P_CHECKSUM}: broken frame, resynchronised on the frame at offset {q}")
+
+    def _length_repair(self, p: int, length: int, cut: int | None, final: bool) -> int:
+        """End offset of a repaired frame at p, 0 if none, None if more bytes are needed.
+
+        A candidate end e must be followed by a start byte (or a silence, or the end
+        of the capture), the payload before it must be printable, and the checksum
+        must hold with length e-p-7 in place of the received length byte.
+        """
+        buf, base = self._buf, self._base
+        rp = p - base
+        n = len(buf)
+        hard = cut - base if cut is not None else (n if final else None)
+        stop_r = rp + _MAX_FRAME
+        if hard is not None:
+            stop_r = min(stop_r, hard)
+        elif n < stop_r:
+            # Not enough bytes yet to rule out every candidate end.
+            return None
+        head = sum(buf[rp + 1:rp + 5])
+        ends = []
+        e = buf.find(START, rp + 8, stop_r)
+        while e != -1:
+            ends.append(e)
+            e = buf.find(START, e + 1, stop_r)
+        if hard is not None and hard <= rp + _MAX_FRAME:
+            ends.append(hard)
+        for e in ends:
+            m = e - rp - 7
+            if not 1 <= m <= 256 or m == length:
+                continue
+            payload = buf[rp + 6:e - 1]
+            if (head + (m & 0xFF) + sum(payload)) & 0xFF != buf[e - 1]:
+                continue
+            if _printable_share(payload) == 1.0:
+                return base + e
+        return 0

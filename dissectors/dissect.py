@@ -1,0 +1,160 @@
+"""Dissection: payload bytes to command ids, named fields and problems, driven by
+the command table in ``dissectors.commands`` (Tables 4-18, spec/READING.md).
+
+Commands are dissected on their own; a result is dissected against the command
+it answers, because its layout depends on that command (Table 15, Table 8 …).
+Payloads repeat a lot on a real bus (polling), so decodes are memoised.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any, NamedTuple
+
+from .commands import COMMANDS, Command, NONE
+from .event import P_MALFORMED, P_UNKNOWN
+from .fields import Layout
+
+
+class Decoded(NamedTuple):
+    entry: Command | None
+    command: str
+    fields: dict[str, Any]
+    problems: tuple[str, ...]
+
+
+def _build_index() -> dict[int, list[Command]]:
+    index: dict[int, list[Command]] = {}
+    for c in COMMANDS:
+        first = c.layout.parts[0]
+        assert isinstance(first, bytes) and first, c.id
+        index.setdefault(first[0], []).append(c)
+    return index
+
+
+_INDEX = _build_index()
+_CACHE: dict[bytes, Decoded] = {}
+_RESULT_CACHE: dict[tuple[str, bytes], tuple[dict, tuple[str, ...]]] = {}
+_CACHE_MAX = 50_000
+_UNKNOWN_CODE = re.compile(rb"\*[A-Za-z]{1,3}|[\s\S]{1,2}")
+
+
+def _code_of(payload: bytes) -> str:
+    m = _UNKNOWN_CODE.match(payload)
+    return m.group(0).decode("latin-1") if m else ""
+
+
+def dissect_command(payload: bytes) -> Decoded:
+    """Decode a command payload (never raises)."""
+    hit = _CACHE.get(payload)
+    if hit is not None:
+        return hit
+    result = _dissect_command(payload)
+    if len(_CACHE) >= _CACHE_MAX:
+        _CACHE.clear()
+    _CACHE[payload] = result
+    return result
+
+
+def _dissect_command(payload: bytes) -> Decoded:
+    candidates = _INDEX.get(payload[0], ()) if payload else ()
+    for c in candidates:
+        m = c.layout.match(payload)
+        if m is not None:
+            values, problems = m
+            if c.reserved:
+                problems.insert(0, f"reserved code: {c.id} is marked reserved ({c.ref})")
+            return Decoded(c, c.command_id(values), values, tuple(problems))
+    # A known code whose parameters do not fit: malformed, not unknown.
+    best: Command | None = None
+    for c in candidates:
+        lit = c.layout.prefix
+        if not payload.startswith(lit):
+            continue
+        if len(lit) < 2 and not c.layout.lead_ok(payload[len(lit):]):
+            continue
+        if best is None or len(lit) > len(best.layout.prefix) or (
+                len(lit) == len(best.layout.prefix) and _closer(c.layout, best.layout, len(payload))):
+            best = c
+    if best is not None:
+        cid = best.id if "{" not in best.id else best.id.replace("{aux_port}", payload[2:3].decode("latin-1"))
+        return Decoded(best, cid, {}, (f"{P_MALFORMED}: expected {best.layout.describe()} ({best.ref})",))
+    return Decoded(None, _code_of(payload), {}, (f"{P_UNKNOWN}: {_code_of(payload)!r} is not in protocol rev 1.9",))
+
+
+def _closer(a: Layout, b: Layout, n: int) -> bool:
+    wa, wb = a.width, b.width
+    da = abs(wa - n) if wa is not None else 1000
+    db = abs(wb - n) if wb is not None else 1000
+    return da < db
+
+
+def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[str, ...]]:
+    """Decode a result payload as an answer to ``entry`` (never raises)."""
+    if entry is None:
+        return {}, ()
+    key = (entry.id, payload)
+    hit = _RESULT_CACHE.get(key)
+    if hit is not None:
+        return hit
+    out: tuple[dict, tuple[str, ...]] | None = None
+    for layout in entry.result:
+        m = layout.match(payload)
+        if m is not None:
+            out = (m[0], tuple(m[1]))
+            break
+    if out is None:
+        if not entry.result or entry.result_due == NONE:
+            why = f"{P_MALFORMED}: {entry.id} has no result ({entry.ref})"
+        else:
+            expected = " or ".join(l.describe() for l in entry.result)
+            why = f"{P_MALFORMED}: expected {expected} ({entry.ref})"
+        out = ({}, (why,))
+    if len(_RESULT_CACHE) >= _CACHE_MAX:
+        _RESULT_CACHE.clear()
+    _RESULT_CACHE[key] = out
+    return out
+
+
+def field_spans(ev) -> list[tuple[str, int, int]]:
+    """Byte ranges of an event's decoded fields, as absolute offsets into ``ev.raw``
+    (for highlighting the selected field's bytes)."""
+    entry = ev.entry
+    if entry is None or ev.payload is None:
+        return []
+    layouts = (entry.layout,) if ev.kind == "command" else entry.result
+    for layout in layouts:
+        spans = layout.spans(ev.payload)
+        if spans:
+            return [(name, 6 + a, 6 + b) for name, a, b in spans]
+    return []
+
+
+def result_fits(entry: Command | None, payload: bytes) -> bool:
+    """Does ``payload`` have one of the result layouts of ``entry``?"""
+    if entry is None:
+        return False
+    for layout in entry.result:
+        if layout.regex.fullmatch(payload) is not None:
+            return True
+    return False
+
+
+def summarize(template: str, fields: dict) -> str:
+    """Fill a table summary template; falls back to name=value pairs."""
+    if not template or "{_values}" in template:
+        return " ".join(f"{k}={v}" for k, v in fields.items())
+    try:
+        return template.format_map(fields)
+    except (KeyError, ValueError, TypeError, IndexError):
+        return " ".join(f"{k}={v}" for k, v in fields.items())
+
+
+def apply_command(ev) -> None:
+    """Fill a command event's id, fields, problems and table entry."""
+    decoded = dissect_command(ev.payload)
+    ev.entry = decoded.entry
+    ev.command = decoded.command
+    ev.fields = decoded.fields
+    if decoded.problems:
+        ev.problems.extend(decoded.problems)

@@ -1,0 +1,133 @@
+"""The one event type every layer shares: deframer output, pairing input and output,
+JSON Lines objects, filter subjects.
+
+Field names here are the JSON Lines contract (README, "Event contract"); the filter
+language, the statistics and (later) MCAP and the TUI use the same names.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+# Event kinds. A single-line tap first yields "frame" for every frame; pairing then
+# decides between command and result (spec/READING.md, "Pairing").
+COMMAND = "command"
+RESULT = "result"
+ACK = "ack"
+NAK = "nak"
+NIC = "nic"
+NOISE = "noise"
+FRAME = "frame"
+
+# Command statuses (set by pairing).
+OK = "ok"
+ST_NAK = "nak"
+ST_NIC = "nic"
+NO_ACK = "no_ack"
+NO_RESULT = "no_result"
+PENDING = "pending"
+
+# Problem categories: every problem string starts with one of these, optionally
+# followed by ": detail". Filters match on the category (`"bad checksum" in problems`).
+P_CHECKSUM = "bad checksum"
+P_LENGTH = "bad length byte"
+P_TRUNCATED = "truncated frame"
+P_NOISE = "noise"
+P_MALFORMED = "malformed payload"
+P_RANGE = "value out of range"
+P_RESERVED = "reserved code"
+P_LOWERCASE = "lower-case hex"
+P_UNKNOWN = "unknown command"
+P_UNANSWERED = "unanswered"
+P_NO_RESULT = "missing result"
+P_RETRANSMISSION = "retransmission"
+P_ORPHAN = "orphan"
+P_LATE = "late answer"
+P_WRONG_LINE = "wrong line"
+
+
+class Event:
+    """One thing seen on a line: a frame, a simple response byte, or a run of noise.
+
+    Events are plain mutable records: the deframer fills the wire facts, dissection
+    fills ``command``/``fields``, pairing fills ``txn``/``status``/``latency``.
+    ``fields`` may be shared between events with identical payloads; treat it as
+    read-only.
+    """
+
+    __slots__ = (
+        "number", "line", "offset", "t", "t_end", "kind", "raw",
+        "dst", "src", "payload", "checksum_ok",
+        "command", "fields", "problems",
+        "txn", "status", "latency", "retransmission", "request",
+        "entry",
+    )
+
+    def __init__(self, line: str, offset: int, kind: str, raw: bytes,
+                 t: float | None = None, t_end: float | None = None) -> None:
+        self.number = 0
+        self.line = line
+        self.offset = offset
+        self.t = t
+        self.t_end = t_end
+        self.kind = kind
+        self.raw = raw
+        self.dst = None
+        self.src = None
+        self.payload = None
+        self.checksum_ok = None
+        self.command = None
+        self.fields = {}
+        self.problems = []
+        self.txn = None
+        self.status = None
+        self.latency = None
+        self.retransmission = False
+        self.request = None
+        self.entry = None  # the command-table entry, for summaries (not serialised)
+
+    @property
+    def end(self) -> int:
+        """Offset one past the event's last byte on its line."""
+        return self.offset + len(self.raw)
+
+    @property
+    def is_frame(self) -> bool:
+        return self.dst is not None
+
+    def add_problem(self, category: str, detail: str = "") -> None:
+        self.problems.append(f"{category}: {detail}" if detail else category)
+
+    def has_problem(self, category: str) -> bool:
+        return any(p == category or p.startswith(category + ":") for p in self.problems)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON Lines object (README, "Event contract")."""
+        from .wire import payload_text
+
+        payload = self.payload
+        return {
+            "number": self.number,
+            "t": round(self.t, 9) if self.t is not None else None,
+            "t_end": round(self.t_end, 9) if self.t_end is not None else None,
+            "line": self.line,
+            "offset": self.offset,
+            "kind": self.kind,
+            "command": self.command,
+            "dst": list(self.dst) if self.dst is not None else None,
+            "src": self.src,
+            "payload": payload_text(payload) if payload is not None else None,
+            "checksum_ok": self.checksum_ok,
+            "fields": self.fields,
+            "problems": self.problems,
+            "txn": self.txn,
+            "status": self.status,
+            "latency": self.latency,
+            "retransmission": self.retransmission,
+            "request": self.request,
+            "raw": self.raw.hex(),
+        }
+
+    def __repr__(self) -> str:
+        return (f"Event(#{self.number} {self.line}@{self.offset} {self.kind} "
+                f"{self.command or ''} raw={self.raw.hex()} problems={self.problems})")

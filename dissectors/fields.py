@@ -1,0 +1,185 @@
+"""Field descriptors for the command table: how a run of payload characters is
+matched, decoded, named and checked (spec §1.4.1.2: numbers are upper-case ASCII
+hex unless a table says otherwise).
+
+A ``Field`` is one named value; a layout is a tuple of literal ``bytes`` and
+``Field`` objects, compiled into one regular expression. Each field name is the
+one used in JSON Lines, filters, statistics and (later) MCAP and the TUI.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field as dc_field
+from typing import Any, Callable
+
+from .event import P_LOWERCASE, P_RANGE
+
+HEX = rb"[0-9A-Fa-f]"
+
+
+@dataclass(frozen=True)
+class Field:
+    name: str
+    regex: bytes
+    decode: Callable[[bytes], Any]
+    unit: str = ""
+    desc: str = ""
+    hexdigits: bool = False   # lower-case letters earn a warning
+    valid: tuple[float, float] | None = None  # warn when the decoded value is outside
+    lead: bytes = rb"[\s\S]"  # what the field's first character can be
+
+    def check(self, value: Any) -> str | None:
+        if self.valid is not None and isinstance(value, (int, float)):
+            lo, hi = self.valid
+            if not lo <= value <= hi:
+                return f"{P_RANGE}: {self.name} {value} outside {lo}..{hi}"
+        return None
+
+
+def _s16(raw: bytes) -> int:
+    v = int(raw, 16)
+    return v - 0x10000 if v & 0x8000 else v
+
+
+def hexnum(name: str, digits: int | tuple[int, int], *, scale: float | None = None,
+           signed: bool = False, unit: str = "", desc: str = "",
+           valid: tuple[float, float] | None = None) -> Field:
+    """An ASCII-hex number of ``digits`` characters (or a (min, max) range)."""
+    rx = HEX + (b"{%d}" % digits if isinstance(digits, int) else b"{%d,%d}" % digits)
+    if signed:
+        base = _s16
+    else:
+        def base(raw: bytes) -> int:
+            return int(raw, 16)
+    if scale is None:
+        dec = base
+    else:
+        def dec(raw: bytes, _b=base, _s=scale) -> float:
+            return round(_b(raw) * _s, 6)
+    return Field(name, rx, dec, unit, desc, hexdigits=True, valid=valid, lead=HEX)
+
+
+def decimal(name: str, max_digits: int = 6, *, unit: str = "", desc: str = "",
+            valid: tuple[float, float] | None = None) -> Field:
+    return Field(name, rb"[0-9]{1,%d}" % max_digits, int, unit, desc, valid=valid, lead=rb"[0-9]")
+
+
+def text(name: str, width: int | None = None, *, strip: bool = False, desc: str = "",
+         min_width: int = 0) -> Field:
+    """Characters kept as text: ``width`` exactly, or the rest of the payload."""
+    rx = rb"[\s\S]{%d}" % width if width is not None else rb"[\s\S]{%d,}" % min_width
+    if strip:
+        def dec(raw: bytes) -> str:
+            return raw.decode("latin-1").strip()
+    else:
+        def dec(raw: bytes) -> str:
+            return raw.decode("latin-1")
+    return Field(name, rx, dec, "", desc)
+
+
+def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes = rb".") -> Field:
+    """One character mapped to a value; characters outside the map are out of range."""
+    def dec(raw: bytes) -> Any:
+        return mapping.get(raw, raw.decode("latin-1"))
+    f = Field(name, regex, dec, "", desc)
+    allowed = set(mapping.values())
+
+    def check(value: Any, _f=f) -> str | None:
+        if value not in allowed:
+            return f"{P_RANGE}: {name} {value!r} is none of {sorted(map(str, allowed))}"
+        return None
+    object.__setattr__(f, "check", check)
+    return f
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A payload layout: literals and fields in order, plus derived fields."""
+    parts: tuple
+    derive: Callable[[dict], list[str] | None] | None = None
+    regex: re.Pattern = dc_field(init=False, repr=False, compare=False)
+    fields: tuple[Field, ...] = dc_field(init=False, repr=False, compare=False)
+    _checked: tuple = dc_field(init=False, repr=False, compare=False)
+    _hex_groups: tuple = dc_field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        rx = b""
+        fields = []
+        for part in self.parts:
+            if isinstance(part, bytes):
+                rx += re.escape(part)
+            else:
+                rx += b"(" + part.regex + b")"
+                fields.append(part)
+        object.__setattr__(self, "regex", re.compile(rx, re.DOTALL))
+        object.__setattr__(self, "fields", tuple(fields))
+        # only fields that can complain are checked on the hot path
+        object.__setattr__(self, "_checked", tuple(
+            (k, f) for k, f in enumerate(fields) if f.valid is not None or "check" in f.__dict__))
+        object.__setattr__(self, "_hex_groups", tuple(k for k, f in enumerate(fields) if f.hexdigits))
+
+    @property
+    def prefix(self) -> bytes:
+        """The literal characters the layout starts with."""
+        return self.parts[0] if self.parts and isinstance(self.parts[0], bytes) else b""
+
+    @property
+    def width(self) -> int | None:
+        """Characters a matching payload has, when fixed."""
+        total = 0
+        for part in self.parts:
+            if isinstance(part, bytes):
+                total += len(part)
+                continue
+            m = re.fullmatch(rb".*\{(\d+)\}", part.regex)
+            if m is None:
+                return None
+            total += int(m.group(1))
+        return total
+
+    def lead_ok(self, rest: bytes) -> bool:
+        """Does ``rest`` (the payload after the leading literal) start like this layout's first field?"""
+        for part in self.parts[1:] if self.prefix else self.parts:
+            if isinstance(part, bytes):
+                return rest.startswith(part[:1])
+            return bool(rest) and re.match(part.lead, rest[:1]) is not None
+        return False
+
+    def describe(self) -> str:
+        out = []
+        for part in self.parts:
+            if isinstance(part, bytes):
+                out.append(part.decode("latin-1"))
+            else:
+                out.append("<" + part.name + ">")
+        return "".join(out)
+
+    def match(self, payload: bytes) -> tuple[dict, list[str]] | None:
+        """Decode ``payload`` if it fits: (fields, problems), or None."""
+        m = self.regex.fullmatch(payload)
+        if m is None:
+            return None
+        groups = m.groups()
+        values = {f.name: f.decode(raw) for f, raw in zip(self.fields, groups)}
+        problems: list[str] = []
+        for k, f in self._checked:
+            problem = f.check(values[f.name])
+            if problem:
+                problems.append(problem)
+        hexes = self._hex_groups
+        if hexes and any(groups[k] != groups[k].upper() for k in hexes):
+            problems.append(f"{P_LOWERCASE}: numbers must be upper-case ASCII hex (§1.4.1.2)")
+        if self.derive is not None:
+            extra = self.derive(values)
+            if extra:
+                problems.extend(extra)
+        return values, problems
+
+    def spans(self, payload: bytes) -> list[tuple[str, int, int]]:
+        """(field name, start, end) character ranges of each field in ``payload``
+        (for highlighting); empty when the payload does not fit."""
+        m = self.regex.fullmatch(payload)
+        if m is None:
+            return []
+        return [(f.name, m.start(k), m.end(k)) for k, f in enumerate(self.fields, 1)]

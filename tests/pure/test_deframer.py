@@ -1,0 +1,192 @@
+"""The deframer: framing per Table 1, simple responses per §1.4.2, and the
+behaviour on broken input (resync, repair, silence, noise)."""
+
+from hypothesis import given, settings, strategies as st
+
+from dissectors import Deframer
+from dissectors.wire import build_frame
+
+
+def frame(dst, src, payload: bytes) -> bytes:
+    """Built by hand here so the tests do not trust wire.build_frame."""
+    body = bytes([*dst, src, len(payload) & 0xFF]) + payload
+    return b"\xf8" + body + bytes([sum(body) & 0xFF])
+
+
+def decode(data: bytes, line="B", splits=None, times=None, bt=0.0, gap=None):
+    d = Deframer(line, byte_time=bt, frame_gap=gap)
+    out = []
+    if splits is None:
+        splits = [len(data)]
+    pos = 0
+    for k, cut in enumerate(splits):
+        chunk = data[pos:cut]
+        if chunk:
+            out += d.feed(chunk, None if times is None else times[k])
+        pos = cut
+    if pos < len(data):
+        out += d.feed(data[pos:])
+    out += d.finish()
+    return out
+
+
+def summary(events):
+    return [(e.kind, e.offset, e.raw.hex(), e.checksum_ok, [p.split(":")[0] for p in e.problems])
+            for e in events]
+
+
+def test_checksum_is_sum_of_g_through_payload():
+    # §1.4.1.3: 01+01+01+00+02+'P'(50)+'?'(3F) = 0x94
+    assert frame((1, 1, 1), 0, b"P?") == bytes.fromhex("f80101010002503f94")
+    assert build_frame((1, 1, 1), 0, "P?") == bytes.fromhex("f80101010002503f94")
+
+
+def test_frames_and_simple_responses_with_absolute_offsets():
+    f1 = bytes.fromhex("f80101010002503f94")
+    res = frame((0, 1, 1), 1, b"0FA0FC18")
+    data = b"\x06" + res + b"\x06\x3f" + b"\x15"
+    evs = decode(f1, line="A") + decode(data, line="B")
+    assert [(e.line, e.kind, e.offset) for e in evs] == [
+        ("A", "command", 0), ("B", "ack", 0), ("B", "result", 1), ("B", "ack", 1 + len(res)),
+        ("B", "nic", 2 + len(res)), ("B", "nak", 3 + len(res))]
+    cmd = evs[0]
+    assert cmd.dst == (1, 1, 1) and cmd.src == 0 and cmd.payload == b"P?" and cmd.checksum_ok
+    assert evs[2].dst == (0, 1, 1) and evs[2].src == 1 and evs[2].payload == b"0FA0FC18"
+
+
+def test_length_zero_means_256():
+    payload = b"*x0t" + b"A" * 252
+    f = frame((1, 1, 1), 0, payload)
+    assert f[5] == 0
+    (ev,) = decode(f, line="A")
+    assert ev.kind == "command" and ev.checksum_ok and ev.payload == payload
+
+
+def test_simple_bytes_on_line_a_are_noise():
+    evs = decode(b"\x06\x15", line="A")
+    assert summary(evs) == [("noise", 0, "0615", None, ["noise"])]
+
+
+def test_noise_is_coalesced_per_run():
+    f = frame((1, 1, 1), 0, b"HO")
+    evs = decode(b"\x00\x01\x02" + f + b"\xff\xfe", line="A")
+    assert [(e.kind, e.offset, len(e.raw)) for e in evs] == [
+        ("noise", 0, 3), ("command", 3, len(f)), ("noise", 3 + len(f), 2)]
+
+
+def test_bad_checksum_reports_expected_and_actual():
+    f = bytearray(frame((1, 1, 1), 0, b"P?"))
+    f[-1] = 0x92   # expected 0x94
+    (ev,) = decode(bytes(f), line="A")
+    assert ev.kind == "command" and ev.checksum_ok is False
+    assert ev.problems == ["bad checksum: expected 0x94, got 0x92"]
+
+
+def test_corrupted_length_does_not_swallow_the_next_frame():
+    good = frame((1, 1, 2), 0, b"P?")
+    bad = bytearray(frame((1, 1, 1), 0, b"HO"))
+    bad[5] = 0x40   # says 64 payload bytes: it would swallow `good`
+    evs = decode(bytes(bad) + good, line="A")
+    assert evs[-1].raw == good and evs[-1].checksum_ok
+    # the checksum holds with 2 payload bytes: the length byte was hit, not the frame
+    assert evs[0].raw == bytes(bad) and evs[0].kind == "command"
+    assert [p.split(":")[0] for p in evs[0].problems] == ["bad length byte"]
+
+
+def test_length_too_short_is_repaired_when_the_checksum_confirms():
+    f = bytearray(frame((1, 1, 1), 0, b"P0FA0FC18"))
+    f[5] = 3
+    nxt = frame((1, 1, 1), 0, b"HO")
+    evs = decode(bytes(f) + nxt, line="A")
+    assert [e.raw for e in evs] == [bytes(f), nxt]
+    assert evs[0].payload == b"P0FA0FC18"
+    assert evs[0].problems[0].startswith("bad length byte")
+
+
+def test_silence_inside_a_frame_cuts_it_short():
+    bt = 10 / 9600
+    f = frame((1, 1, 1), 0, b"P0FA0FC18")
+    nxt = frame((1, 1, 1), 0, b"HO")
+    part = f[:8]
+    # 8 bytes, then 0.5 s of silence, then a new frame
+    evs = decode(part + nxt, line="A", splits=[8, 8 + len(nxt)], times=[0.0, 0.5], bt=bt)
+    assert [e.kind for e in evs] == ["noise", "command"]
+    assert evs[0].problems[0].startswith("truncated frame: 8 of 16 bytes")
+    assert evs[1].raw == nxt and evs[1].t == 0.5
+
+
+def test_event_times_from_byte_time():
+    bt = 10 / 9600
+    f = frame((1, 1, 1), 0, b"P?")   # 9 bytes
+    (ev,) = decode(f, line="A", times=[2.0], bt=bt)
+    assert ev.t == 2.0
+    assert abs(ev.t_end - (2.0 + 9 * bt)) < 1e-12
+
+
+def test_truncated_capture_end():
+    f = frame((1, 1, 1), 0, b"P0FA0FC18")
+    evs = decode(f[:10], line="A")
+    assert len(evs) == 1 and evs[0].kind == "noise"
+    assert evs[0].problems[0].startswith("truncated frame")
+
+
+# ------------------------------------------------------------------ properties
+PAYLOADS = [b"P?", b"HO", b"P0FA0FC18", b"RP0401", b"G?0F0F0000", b"0FA0FC18", b"*x0c,9600,8,1,0"]
+
+
+@st.composite
+def streams(draw):
+    parts = []
+    for _ in range(draw(st.integers(1, 12))):
+        choice = draw(st.integers(0, 3))
+        if choice == 0:
+            dst = (draw(st.integers(0, 255)), draw(st.integers(0, 255)), draw(st.integers(0, 255)))
+            parts.append(frame(dst, draw(st.integers(0, 255)), draw(st.sampled_from(PAYLOADS))))
+        elif choice == 1:
+            parts.append(bytes([draw(st.sampled_from([6, 0x15, 0x3F]))]))
+        elif choice == 2:
+            parts.append(draw(st.binary(min_size=1, max_size=8)))
+        else:
+            parts.append(frame((1, 1, 1), 0, draw(st.sampled_from(PAYLOADS)))[:draw(st.integers(1, 8))])
+    return b"".join(parts)
+
+
+@settings(max_examples=300, deadline=None)
+@given(data=streams(), cuts=st.lists(st.integers(0, 400), max_size=10), line=st.sampled_from(["A", "B", "AB"]))
+def test_any_split_gives_identical_events(data, cuts, line):
+    whole = summary(decode(data, line=line))
+    splits = sorted(c for c in cuts if c <= len(data))
+    assert summary(decode(data, line=line, splits=splits)) == whole
+
+
+@settings(max_examples=300, deadline=None)
+@given(data=st.binary(max_size=600), line=st.sampled_from(["A", "B", "AB"]))
+def test_random_bytes_never_raise_and_every_byte_is_in_one_event(data, line):
+    evs = decode(data, line=line)
+    # events tile the stream: nothing lost, nothing counted twice
+    assert b"".join(e.raw for e in evs) == data
+    pos = 0
+    for e in evs:
+        assert e.offset == pos
+        pos += len(e.raw)
+
+
+@settings(max_examples=300, deadline=None)
+@given(data=streams(), keep=st.integers(0, 600))
+def test_truncated_streams_never_raise(data, keep):
+    evs = decode(data[:keep], line="B")
+    assert b"".join(e.raw for e in evs) == data[:keep]
+
+
+@settings(max_examples=300, deadline=None)
+@given(payload=st.sampled_from(PAYLOADS), flip=st.integers(0, 7), before=streams(), after=streams(),
+       line=st.sampled_from(["A", "B"]))
+def test_checksum_corruption_is_always_flagged(payload, flip, before, after, line):
+    f = bytearray(frame((1, 2, 3), 0, payload))
+    f[-1] ^= 1 << flip
+    data = before + bytes(f) + after
+    idx = len(before) + len(f) - 1          # the corrupted checksum byte
+    evs = decode(data, line=line)
+    (covering,) = [e for e in evs if e.offset <= idx < e.offset + len(e.raw)]
+    assert covering.checksum_ok is not True
+    assert covering.problems

@@ -1,0 +1,37 @@
+"""Statistics: counts and latency summaries, checked against hand-made events."""
+
+import pytest
+
+from analyzer.stats import Latency, Stats
+from tests.pure.test_pairing import cmd, res, run, simple
+
+
+def test_latency_quantiles_within_one_percent():
+    lat = Latency()
+    for ms in (10, 20, 30, 40, 1000):
+        lat.add(ms / 1000)
+    d = lat.to_dict()
+    assert d["count"] == 5 and d["min"] == 0.010 and d["max"] == 1.0
+    assert d["median"] == pytest.approx(0.030, rel=0.01)
+    # nearest rank: p95 of five samples is sample ceil(0.95 * 5) = 5
+    assert d["p95"] == pytest.approx(1.0, rel=0.01)
+
+
+def test_counts_per_command_and_device():
+    evs = run([cmd(b"P?", 0.0), simple("ack", 0.012), res(b"0FA0FC18", 0.015),   # ok, ACK after 3 ms
+               cmd(b"HO", 1.0, dst=(1, 1, 2)), simple("nak", 1.019),              # nak after 10 ms
+               cmd(b"HO", 2.0, dst=(1, 1, 2)), simple("ack", 2.014),              # retransmission, 5 ms
+               cmd(b"PL", 3.0, dst=(1, 1, 2))], ack=0.2)                          # pending
+    st = Stats()
+    for e in evs:
+        st.add(e)
+    d = st.to_dict()
+    assert d["commands"] == 4 and d["events"] == 8
+    assert d["status"] == {"ok": 2, "nak": 1, "nic": 0, "no_ack": 0, "no_result": 0, "pending": 1}
+    assert d["retransmissions"] == 1
+    ho = d["by_command"]["HO"]
+    assert (ho["commands"], ho["ok"], ho["nak"], ho["retransmissions"]) == (2, 1, 1, 1)
+    assert ho["ack_latency"]["min"] == pytest.approx(0.005) and ho["ack_latency"]["max"] == pytest.approx(0.010)
+    assert d["by_device"]["1.1.1"]["commands"] == 1
+    assert d["by_device"]["1.1.2"]["commands"] == 3
+    assert d["by_command"]["P?"]["result_latency"]["max"] == pytest.approx(0.006)
