@@ -117,20 +117,25 @@ def _fit(cmd: Event, group: list[Event], late: deque) -> float:
     return 1 if stray else 0
 
 
-def _plan(cmds: list[Event], groups: list[list[Event]], late: deque, prefer_skip: bool = False) -> str:
+def _plan(cmds: list[Event], groups: list[list[Event]], late: deque, prefer_skip: bool = False,
+          cmds_end: bool = False, groups_end: bool = False) -> str:
     """First move of the cheapest alignment of a window of commands and groups.
 
     Edit distance with a free end: D[a][b] is the cost of aligning cmds[a:] with
     groups[b:], where a command may take a group (its fit), go unanswered (SKIP)
     or leave a group unclaimed (SKIP). A wrong early choice shifts every later
-    pairing, and the shift shows as mismatched results further on.
+    pairing, and the shift shows as mismatched results further on. What lies past
+    the window is free, unless that stream has ended: then every leftover item
+    is certainly unanswered (or unclaimed) and costs SKIP.
     """
     n, m = len(cmds), len(groups)
     fits = [[_fit(c, g, late) for g in groups] for c in cmds]
-    nxt = [0.0] * (m + 1)                # row a+1
+    # row a = n: leftover groups
+    nxt = [(m - b) * SKIP if cmds_end else 0.0 for b in range(m + 1)]
     first_moves = None
     for a in range(n - 1, -1, -1):
         row = [0.0] * (m + 1)
+        row[m] = (n - a) * SKIP if groups_end else 0.0   # leftover commands
         for b in range(m - 1, -1, -1):
             take = fits[a][b] + nxt[b + 1]
             skip_cmd = SKIP + nxt[b]
@@ -184,7 +189,8 @@ def align(a_events: Iterator[Event], b_events: Iterator[Event]) -> Iterator[Even
         if repeated or cost:
             window = [c for c in map(_command_of, cmds.units) if c is not None]
             # a controller repeats a command's bytes only after a failure
-            move = _plan(window, list(groups.units), late, prefer_skip=repeated)
+            move = _plan(window, list(groups.units), late, prefer_skip=repeated,
+                         cmds_end=cmds.done, groups_end=groups.done)
         if move == "skip_cmd":
             yield from cmds.units.popleft()
             continue

@@ -182,11 +182,11 @@ cmd("D?", "Request ID information", (b"D?",), "Table 4, Table 6",
     summary="identify?", result_summary="{name} rev {revision} s/n {serial}")
 cmd("E?", "Request error codes", (b"E?",), "Table 4, Table 6A",
     result=[(hexnum("azimuth_error_bits", 2), hexnum("elevation_error_bits", 2))], result_derive=_errors,
-    summary="error codes?", result_summary="az errors {azimuth_errors} el errors {elevation_errors}")
+    summary="error codes?", result_summary="az errors: {azimuth_errors}; el errors: {elevation_errors}")
 cmd("I?", "Request status bits", (b"I?",), "Table 4, Table 6B",
     result=[(hexnum("azimuth_status_bits", 2), hexnum("elevation_status_bits", 2)),
             (hexnum("azimuth_status_bits", 4), hexnum("elevation_status_bits", 4))], result_derive=_status,
-    summary="status bits?", result_summary="az {azimuth_status} el {elevation_status}")
+    summary="status bits?", result_summary="az status: {azimuth_status}; el status: {elevation_status}")
 cmd("GRP", "Set pan rate gain", (b"GRP", gain()), "Table 4, Table 7", summary="pan rate gain {gain}")
 cmd("GRT", "Set tilt rate gain", (b"GRT", gain()), "Table 4, Table 7", summary="tilt rate gain {gain}")
 cmd("G?", "Rate gains request", (b"G?",), "Table 4, Table 8",

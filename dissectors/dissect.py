@@ -140,10 +140,18 @@ def result_fits(entry: Command | None, payload: bytes) -> bool:
     return False
 
 
+def _show(v):
+    if isinstance(v, list):
+        return ", ".join(map(str, v)) if v else "none"
+    return v
+
+
 def summarize(template: str, fields: dict) -> str:
     """Fill a table summary template; falls back to name=value pairs."""
     if not template or "{_values}" in template:
-        return " ".join(f"{k}={v}" for k, v in fields.items())
+        return " ".join(f"{k}={_show(v)}" for k, v in fields.items())
+    if any(isinstance(v, list) for v in fields.values()):
+        fields = {k: _show(v) for k, v in fields.items()}
     try:
         return template.format_map(fields)
     except (KeyError, ValueError, TypeError, IndexError):

@@ -1,0 +1,44 @@
+"""Render the command table as Markdown (docs/fields.md), so the documentation
+of every command, field and unit comes from the same table that decodes them.
+
+    python -m dissectors.reference > docs/fields.md
+"""
+
+from __future__ import annotations
+
+from .commands import COMMANDS, DERIVED_FIELDS, DUE, OPTIONAL
+from .fields import Layout
+
+
+def _fields(layout: Layout) -> str:
+    out = []
+    for f in layout.fields:
+        unit = f" [{f.unit}]" if f.unit else ""
+        out.append(f"`{f.name}`{unit}")
+    return ", ".join(out) or "—"
+
+
+def render() -> str:
+    lines = [
+        "# Command and field reference",
+        "",
+        "Generated from `dissectors/commands.py` by `python -m dissectors.reference`; do not edit by hand.",
+        "Every field name here is the one used in JSON Lines, `--filter`, statistics and (later) MCAP and the TUI.",
+        "",
+        "| id | name | payload | fields | result | result fields | spec |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for c in COMMANDS:
+        due = {DUE: "due", OPTIONAL: "optional"}.get(c.result_due, "—")
+        res_layouts = " or ".join(f"`{r.describe()}`" for r in c.result) or "—"
+        res_fields = "; ".join(_fields(r) for r in c.result) or "—"
+        name = c.name + (" (reserved)" if c.reserved else "") + (f"; {c.notes}" if c.notes else "")
+        lines.append(f"| `{c.id}` | {name} | `{c.layout.describe()}` | {_fields(c.layout)} | {due}: {res_layouts} "
+                     f"| {res_fields} | {c.ref} |")
+    lines += ["", "Derived fields (computed from the decoded ones): "
+              + ", ".join(f"`{n}`" for n in DERIVED_FIELDS) + ".", ""]
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(render(), end="")

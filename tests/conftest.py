@@ -1,0 +1,32 @@
+import os
+import shutil
+import subprocess
+import sys
+
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def frame(dst, src, payload) -> bytes:
+    """A frame built by hand (Table 1), independent of the code under test."""
+    if isinstance(payload, str):
+        payload = payload.encode("latin-1")
+    body = bytes([*dst, src, len(payload) & 0xFF]) + payload
+    return b"\xf8" + body + bytes([sum(body) & 0xFF])
+
+
+def run_cli(*args, input=None, timeout=60):
+    """Run the installed console command (fall back to ``python -m analyzer``)."""
+    exe = shutil.which("gimbalscope")
+    cmd = [exe] if exe else [sys.executable, "-m", "analyzer"]
+    return subprocess.run(cmd + [str(a) for a in args], capture_output=True, text=True, input=input,
+                          timeout=timeout, cwd=ROOT)
+
+
+@pytest.fixture
+def socat_bin():
+    path = shutil.which("socat")
+    if path is None:
+        pytest.skip("socat is not installed (.ci/run installs it)")
+    return path
