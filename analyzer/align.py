@@ -14,6 +14,7 @@ The output is one event sequence in plausible wire order, fed to pairing.
 from __future__ import annotations
 
 from collections import deque
+from itertools import islice
 from typing import Iterator
 
 from dissectors import apply_command, result_fits
@@ -27,58 +28,77 @@ SKIP = 2  # cost of leaving a command unanswered, or a group unclaimed
 
 
 class _Stream:
-    """Pull-based buffer over an event iterator, grouped into units."""
+    """Pull-based buffer over batches of events (one list per deframer feed),
+    grouped into units; batches keep the per-event cost of this layer low."""
 
-    def __init__(self, it: Iterator[Event], is_head) -> None:
-        self._it = it
-        self._is_head = is_head
+    def __init__(self, batches: Iterator[list[Event]]) -> None:
+        self._batches = batches
         self._pending: list[Event] = []
         self.units: deque[list[Event]] = deque()
         self.done = False
 
     def fill(self, n: int) -> None:
         while len(self.units) < n and not self.done:
-            ev = next(self._it, None)
-            if ev is None:
+            batch = next(self._batches, None)
+            if batch is None:
                 self.done = True
                 if self._pending:
-                    self.units.append(self._pending)
-                    self._pending = []
+                    self._flush_pending()
                 return
-            self._add(ev)
+            self._add(batch)
 
-    def _add(self, ev: Event) -> None:
+    def _flush_pending(self) -> None:
+        self.units.append(self._pending)
+        self._pending = []
+
+    def _add(self, batch: list[Event]) -> None:
         raise NotImplementedError
 
 
 class _Commands(_Stream):
     """Units of line A: any noise, then one command (noise at the end stands alone)."""
 
-    def _add(self, ev: Event) -> None:
-        self._pending.append(ev)
-        if ev.kind == COMMAND:
-            apply_command(ev)
-            self.units.append(self._pending)
-            self._pending = []
+    def _add(self, batch: list[Event]) -> None:
+        pending = self._pending
+        units = self.units
+        for ev in batch:
+            pending.append(ev)
+            if ev.kind == COMMAND:
+                apply_command(ev)
+                units.append(pending)
+                pending = []
+        self._pending = pending
 
 
 class _Groups(_Stream):
     """Units of line B: an ACK or NAK and what follows it until the next one."""
 
-    def __init__(self, it: Iterator[Event]) -> None:
-        super().__init__(it, None)
+    def __init__(self, batches: Iterator[list[Event]]) -> None:
+        super().__init__(batches)
         self.lead: list[Event] = []   # before the first ACK/NAK: nothing can claim it
 
-    def _add(self, ev: Event) -> None:
-        if ev.kind in (ACK, NAK):
-            if self._pending:
-                if self._pending[0].kind in (ACK, NAK):
-                    self.units.append(self._pending)
-                else:
-                    self.lead.extend(self._pending)
-            self._pending = [ev]
+    def _flush_pending(self) -> None:
+        if self._pending[0].kind in (ACK, NAK):
+            self.units.append(self._pending)
         else:
-            self._pending.append(ev)
+            self.lead.extend(self._pending)
+        self._pending = []
+
+    def _add(self, batch: list[Event]) -> None:
+        pending = self._pending
+        units = self.units
+        for ev in batch:
+            kind = ev.kind
+            if kind == ACK or kind == NAK:
+                if pending:
+                    if pending[0].kind in (ACK, NAK):
+                        units.append(pending)
+                    else:
+                        self.lead.extend(pending)
+                pending = [ev]
+            else:
+                pending.append(ev)
+        self._pending = pending
 
 
 def _command_of(unit: list[Event]) -> Event | None:
@@ -154,57 +174,74 @@ def _plan(cmds: list[Event], groups: list[list[Event]], late: deque, prefer_skip
     return "skip_cmd" if skip_cmd <= skip_group else "skip_group"
 
 
-def align(a_events: Iterator[Event], b_events: Iterator[Event]) -> Iterator[Event]:
-    cmds = _Commands(a_events, None)
-    groups = _Groups(b_events)
+def align(a_batches: Iterator[list[Event]], b_batches: Iterator[list[Event]]) -> Iterator[list[Event]]:
+    """Interleave line A's and line B's events (given as batches, in line order);
+    yields batches of events in plausible wire order."""
+    out: list[Event] = []
+    for chunk in _align(a_batches, b_batches):
+        out.extend(chunk)
+        if len(out) >= 4096:
+            yield out
+            out = []
+    if out:
+        yield out
+
+
+def _align(a_batches: Iterator[list[Event]], b_batches: Iterator[list[Event]]) -> Iterator[list[Event]]:
+    cmds = _Commands(a_batches)
+    groups = _Groups(b_batches)
     late: deque[Event] = deque(maxlen=8)   # commands whose due result has not come yet
 
+    cunits, gunits = cmds.units, groups.units
     while True:
-        cmds.fill(WINDOW)
-        groups.fill(WINDOW)
+        if len(cunits) < WINDOW:
+            cmds.fill(WINDOW)
+        if len(gunits) < WINDOW:
+            groups.fill(WINDOW)
         if groups.lead:
-            yield from groups.lead
+            yield list(groups.lead)
             groups.lead.clear()
-        if not cmds.units:
-            while groups.units:
-                yield from groups.units.popleft()
+        if not cunits:
+            while gunits:
+                yield gunits.popleft()
                 groups.fill(1)
-            yield from groups.lead
+            yield groups.lead
             return
-        unit = cmds.units[0]
-        cmd = _command_of(unit)
-        if cmd is None or not groups.units:
-            yield from cmds.units.popleft()
+        unit = cunits[0]
+        cmd = unit[-1]
+        if cmd.kind != COMMAND or not gunits:
+            yield cunits.popleft()
             continue
-        group = groups.units[0]
+        group = gunits[0]
         move = "take"
-        nxt = _command_of(cmds.units[1]) if len(cmds.units) > 1 else None
-        # A perfect fit is taken at once, unless the next command repeats this
-        # one's bytes: then the answer may belong to the retransmission.
         cost = _fit(cmd, group, late)
+        nxt = cunits[1][-1] if len(cunits) > 1 else None
         # The next command repeats this one's bytes and would be left without a
         # fitting answer: the answer may belong to that retransmission instead.
-        repeated = (nxt is not None and nxt.raw == cmd.raw and cost == 0 and (
-            len(groups.units) < 2 or _fit(nxt, groups.units[1], late) > 0))
+        repeated = (cost == 0 and nxt is not None and nxt.raw == cmd.raw and nxt.kind == COMMAND and (
+            len(gunits) < 2 or _fit(nxt, gunits[1], late) > 0))
         if repeated or cost:
-            window = [c for c in map(_command_of, cmds.units) if c is not None]
+            window = [c for c in map(_command_of, islice(cunits, WINDOW)) if c is not None]
             # a controller repeats a command's bytes only after a failure
-            move = _plan(window, list(groups.units), late, prefer_skip=repeated,
-                         cmds_end=cmds.done, groups_end=groups.done)
-        if move == "skip_cmd":
-            yield from cmds.units.popleft()
-            continue
-        if move == "skip_group":
-            yield from groups.units.popleft()
-            continue
-        yield from cmds.units.popleft()
-        yield from groups.units.popleft()
-        for r in group:
-            if r.kind == RESULT:
-                for c in late:
-                    if address_fits(c, r) and result_fits(c.entry, r.payload):
-                        late.remove(c)
-                        break
-        if cmd.entry is not None and cmd.entry.result_due == DUE and group[0].kind == ACK and not any(
-                e.kind in (RESULT, NIC) for e in group):
+            move = _plan(window, list(islice(gunits, WINDOW)), late, prefer_skip=repeated,
+                         cmds_end=cmds.done and len(cunits) <= WINDOW,
+                         groups_end=groups.done and len(gunits) <= WINDOW)
+            if move == "skip_cmd":
+                yield cunits.popleft()
+                continue
+            if move == "skip_group":
+                yield gunits.popleft()
+                continue
+        yield cunits.popleft()
+        yield gunits.popleft()
+        if late and len(group) > 1:
+            for r in group:
+                if r.kind == RESULT:
+                    for c in late:
+                        if address_fits(c, r) and result_fits(c.entry, r.payload):
+                            late.remove(c)
+                            break
+        entry = cmd.entry
+        if entry is not None and entry.result_due == DUE and group[0].kind == ACK and (
+                len(group) == 1 or not any(e.kind in (RESULT, NIC) for e in group)):
             late.append(cmd)

@@ -8,6 +8,7 @@ pair. This is what ``analyzer.open`` returns and what every CLI command reads.
 
 from __future__ import annotations
 
+import gc
 import heapq
 from dataclasses import dataclass, field
 from typing import Callable, Iterator
@@ -30,6 +31,7 @@ class Options:
     stop_bits: float = 1
     frame_gap: float | None = None        # seconds; default max(50 ms, 20 characters)
     timeouts: Timeouts = field(default_factory=Timeouts)
+    tune_gc: bool = True                  # raise the GC's young threshold while iterating
 
     @property
     def byte_time(self) -> float:
@@ -69,38 +71,46 @@ class Capture:
         return Deframer(line, byte_time=o.byte_time, frame_gap=o.frame_gap)
 
     def __iter__(self) -> Iterator[Event]:
-        pairer = Pairer(self.options.timeouts)
-        push = pairer.push
-        for ev in self._wire_order():
-            yield from push(ev)
-        yield from pairer.finish()
+        if self.options.tune_gc:
+            _gc_busy(+1)
+        try:
+            pairer = Pairer(self.options.timeouts)
+            push_many = pairer.push_many
+            for batch in self._wire_order():
+                yield from push_many(batch)
+            yield from pairer.finish()
+        finally:
+            if self.options.tune_gc:
+                _gc_busy(-1)
 
     def events(self) -> Iterator[Event]:
         return iter(self)
 
     # --------------------------------------------------------- wire order
-    def _wire_order(self) -> Iterator[Event]:
+    def _wire_order(self) -> Iterator[list[Event]]:
+        """Batches of events in wire order."""
         src = self.source
         if src.lines == (LINE_AB,):
             return self._single()
         if src.timed:
             return self._merged()
-        return align(self._line_events("A"), self._line_events("B"))
+        return align(self._line_batches("A"), self._line_batches("B"))
 
-    def _line_events(self, line: str) -> Iterator[Event]:
+    def _line_batches(self, line: str) -> Iterator[list[Event]]:
+        """One line's events, a list per chunk read."""
         d = self._deframer(line)
         feed = d.feed
         for chunk in self.source.line_chunks(line):
-            yield from feed(chunk.data, chunk.t)
-        yield from d.finish()
+            yield feed(chunk.data, chunk.t)
+        yield d.finish()
 
-    def _single(self) -> Iterator[Event]:
+    def _single(self) -> Iterator[list[Event]]:
         d = self._deframer(LINE_AB)
         for chunk in self.source.chunks():
-            yield from d.feed(chunk.data, chunk.t)
-        yield from d.finish()
+            yield d.feed(chunk.data, chunk.t)
+        yield d.finish()
 
-    def _merged(self) -> Iterator[Event]:
+    def _merged(self) -> Iterator[list[Event]]:
         """Merge timed lines by the wire time of each event's first byte.
 
         An event is released once no line can still produce an earlier one: not
@@ -121,14 +131,38 @@ class Capture:
                 p = d.pending_since
                 if p is not None and p < mark:
                     mark = p
-            while heap and heap[0][0] < mark:
-                yield heapq.heappop(heap)[3]
+            if heap and heap[0][0] < mark:
+                ready = []
+                while heap and heap[0][0] < mark:
+                    ready.append(heapq.heappop(heap)[3])
+                yield ready
         for d in deframers.values():
             for ev in d.finish():
                 seq += 1
                 heapq.heappush(heap, (ev.t, seq, 0, ev))
-        while heap:
-            yield heapq.heappop(heap)[3]
+        yield [heapq.heappop(heap)[3] for _ in range(len(heap))]
+
+
+_gc_depth = 0
+_gc_saved: tuple[int, ...] | None = None
+
+
+def _gc_busy(step: int) -> None:
+    """Decoding allocates millions of short-lived, cycle-free events; with the
+    default young threshold (700) the collector scans each of them once or
+    more before reference counting frees it, which costs as much as decoding.
+    While any capture is being iterated, collect the young generation every
+    100 000 allocations instead; the old thresholds come back afterwards."""
+    global _gc_depth, _gc_saved
+    if step > 0:
+        if _gc_depth == 0:
+            _gc_saved = gc.get_threshold()
+            gc.set_threshold(100_000, *_gc_saved[1:])
+        _gc_depth += 1
+    else:
+        _gc_depth -= 1
+        if _gc_depth == 0 and _gc_saved is not None:
+            gc.set_threshold(*_gc_saved)
 
 
 def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,

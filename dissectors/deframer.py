@@ -337,7 +337,7 @@ class Deframer:
         """Bytes [p, stop) are a frame that cannot be read: one noise event."""
         self._flush_noise(out, p)
         ev = self._event(NOISE, p, stop)
-        ev.problems.append(problem)
+        ev.note(problem)
         out.append(ev)
         return stop
 

@@ -165,4 +165,4 @@ def apply_command(ev) -> None:
     ev.command = decoded.command
     ev.fields = decoded.fields
     if decoded.problems:
-        ev.problems.extend(decoded.problems)
+        ev.note(*decoded.problems)

@@ -46,13 +46,19 @@ P_LATE = "late answer"
 P_WRONG_LINE = "wrong line"
 
 
+# Shared, never mutated: most events have no fields and no problems.
+NO_FIELDS: dict = {}
+NO_PROBLEMS: tuple = ()
+
+
 class Event:
     """One thing seen on a line: a frame, a simple response byte, or a run of noise.
 
     Events are plain mutable records: the deframer fills the wire facts, dissection
     fills ``command``/``fields``, pairing fills ``txn``/``status``/``latency``.
-    ``fields`` may be shared between events with identical payloads; treat it as
-    read-only.
+    ``fields`` may be shared between events with identical payloads, and
+    ``problems`` starts as a shared empty tuple: treat both as read-only and add
+    problems with ``note``.
     """
 
     __slots__ = (
@@ -77,8 +83,8 @@ class Event:
         self.payload = None
         self.checksum_ok = None
         self.command = None
-        self.fields = {}
-        self.problems = []
+        self.fields = NO_FIELDS
+        self.problems = NO_PROBLEMS
         self.txn = None
         self.status = None
         self.latency = None
@@ -96,7 +102,13 @@ class Event:
         return self.dst is not None
 
     def add_problem(self, category: str, detail: str = "") -> None:
-        self.problems.append(f"{category}: {detail}" if detail else category)
+        self.note(f"{category}: {detail}" if detail else category)
+
+    def note(self, *problems: str) -> None:
+        """Attach problem strings. ``problems`` starts as a shared empty tuple (one
+        allocation fewer per event on the hot path) and becomes a list when used."""
+        if problems:
+            self.problems = [*self.problems, *problems]
 
     def has_problem(self, category: str) -> bool:
         return any(p == category or p.startswith(category + ":") for p in self.problems)
@@ -119,7 +131,7 @@ class Event:
             "payload": payload_text(payload) if payload is not None else None,
             "checksum_ok": self.checksum_ok,
             "fields": self.fields,
-            "problems": self.problems,
+            "problems": list(self.problems),
             "txn": self.txn,
             "status": self.status,
             "latency": self.latency,

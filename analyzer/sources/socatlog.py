@@ -29,9 +29,8 @@ from .base import LINE_A, LINE_B, CaptureError, Chunk, Source
 from .files import open_input
 
 HEADER = re.compile(
-    rb"^([<>]) (\d{4})/(\d\d)/(\d\d) (\d\d):(\d\d):(\d\d)\.(\d+)\s+length=(\d+) from=(\d+) to=(\d+)\s*$")
+    rb"^([<>]) (\d{4}/\d\d/\d\d \d\d:\d\d:\d\d)\.(\d+)\s+length=(\d+) from=(\d+) to=(\d+)\s*$")
 DIAGNOSTIC = re.compile(rb"^\d{4}/\d\d/\d\d \d\d:\d\d:\d\d socat\[\d+\] ")
-HEXBYTE = re.compile(rb"^[0-9a-fA-F]{2}$")
 HEX_COLUMNS = 49
 
 
@@ -64,7 +63,7 @@ class SocatLogSource(Source):
                 m = HEADER.match(line)
                 if m is None:
                     continue
-                frac = m.group(8)
+                frac = m.group(3)
                 if len(frac) == 9 and int(frac) >= 1_000_000:
                     return True
                 seen += 1
@@ -74,15 +73,14 @@ class SocatLogSource(Source):
 
     def _epoch(self, m: re.Match) -> tuple[int, float]:
         """(whole epoch seconds, fraction) kept apart so relative times stay exact."""
-        key = m.group(2, 3, 4, 5, 6, 7)
+        key = m.group(2)
         base = self._epoch_cache.get(key)
         if base is None:
-            y, mo, d, h, mi, s = (int(x) for x in key)
-            base = int(time.mktime((y, mo, d, h, mi, s, 0, 0, -1)))
+            base = int(time.mktime(time.strptime(key.decode("ascii"), "%Y/%m/%d %H:%M:%S")))
             if len(self._epoch_cache) > 4096:
                 self._epoch_cache.clear()
             self._epoch_cache[key] = base
-        frac = m.group(8)
+        frac = m.group(3)
         if len(frac) == 9 and not self._nanoseconds:
             return base, int(frac) / 1e6
         return base, int(frac) / 10 ** len(frac)
@@ -110,29 +108,28 @@ class SocatLogSource(Source):
 
             for raw_line in f:
                 line_no += 1
-                m = HEADER.match(raw_line)
+                first = raw_line[:1]
+                if first == b" " and current is not None:
+                    # hex sits in the first 49 columns; fromhex skips the spaces
+                    try:
+                        data += bytes.fromhex(raw_line[:HEX_COLUMNS].decode("ascii"))
+                    except (ValueError, UnicodeDecodeError):
+                        bad_lines += 1
+                        self.warn(f"{self.path}:{line_no}: not a socat hex line, skipped")
+                    continue
+                m = HEADER.match(raw_line) if first in (b">", b"<") else None
                 if m is not None:
                     if current is not None:
                         yield finish_chunk()
-                    data.clear()
-                    length = int(m.group(9))
-                    line = LINE_A if m.group(1) == b">" else LINE_B
-                    frm = int(m.group(10))
+                    data = bytearray()
+                    length = int(m.group(4))
+                    line = LINE_A if first == b">" else LINE_B
+                    frm = int(m.group(5))
                     if frm != expected_from[line]:
                         self.warn(f"{self.path}:{line_no}: line {line} jumps from byte "
                                   f"{expected_from[line]} to {frm}: bytes missing from the log")
-                    expected_from[line] = int(m.group(11)) + 1
+                    expected_from[line] = int(m.group(6)) + 1
                     current = (line, self._epoch(m), length, line_no)
-                    continue
-                if raw_line.startswith(b" ") and current is not None:
-                    tokens = raw_line[:HEX_COLUMNS].split()
-                    try:
-                        data.extend(bytes.fromhex(b"".join(tokens).decode("ascii")))
-                        if any(len(tk) != 2 for tk in tokens):
-                            raise ValueError
-                    except ValueError:
-                        bad_lines += 1
-                        self.warn(f"{self.path}:{line_no}: not a socat hex line, skipped")
                     continue
                 stripped = raw_line.strip()
                 if not stripped or stripped == b"--" or DIAGNOSTIC.match(raw_line):
@@ -140,7 +137,7 @@ class SocatLogSource(Source):
                 if current is None and line_no <= 50:
                     raise CaptureError(f"{self.path}:{line_no}: not a socat -x -v log "
                                        f"(expected a '> YYYY/MM/DD hh:mm:ss.ffffff  length=…' header)")
-                if current is not None and len(data) == 0 and not raw_line.startswith(b" "):
+                if current is not None and len(data) == 0:
                     raise CaptureError(f"{self.path}:{line_no}: socat log without hex dump; "
                                        f"record it with socat -x -v")
                 bad_lines += 1

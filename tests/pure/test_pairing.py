@@ -212,3 +212,16 @@ def test_single_line_frames_are_classified():
     assert (c.kind, r.kind, u.kind) == ("command", "result", "command")
     assert r.command == "P?" and r.fields["elevation_deg"] == -10.0
     assert u.status == "nic"
+
+
+def test_nic_must_follow_the_ack_directly():
+    # a '?' byte after a result or after noise is not the device's NIC (§1.4.2)
+    c, a, r = cmd(b"V?", 0.0), simple("ack", 0.010), res(b"4BF123", 0.012)
+    late_q = simple("nic", 0.05)
+    c2, a2 = cmd(b"PS", 1.0), simple("ack", 1.01)
+    noise = Event("B", 0, "noise", b"\xf8\x01", 1.02, 1.022)
+    q2 = simple("nic", 1.03)
+    run([c, a, r, late_q, c2, a2, noise, q2])
+    assert c.status == "ok" and c2.status == "ok"
+    assert late_q.txn is None and q2.txn is None
+    assert late_q.problems[0].startswith("orphan") and q2.problems[0].startswith("orphan")
