@@ -168,21 +168,21 @@ class _Parser:
             raise self.error("expected 'and', 'or' or the end of the filter")
         return fn
 
-    def parse_or(self):
-        left = self.parse_and()
-        while self.peek()[:2] == ("kw", "or"):
+    def _chain(self, word: str, operand, combine):
+        """operand (word operand)*, folded left with ``combine``."""
+        left = operand()
+        while self.peek()[:2] == ("kw", word):
             self.take()
-            right = self.parse_and()
-            left = (lambda l, r: lambda ev: _truthy(l(ev)) or _truthy(r(ev)))(left, right)
+            left = combine(left, operand())
         return left
 
+    def parse_or(self):
+        return self._chain("or", self.parse_and,
+                           lambda l, r: lambda ev: _truthy(l(ev)) or _truthy(r(ev)))
+
     def parse_and(self):
-        left = self.parse_not()
-        while self.peek()[:2] == ("kw", "and"):
-            self.take()
-            right = self.parse_not()
-            left = (lambda l, r: lambda ev: _truthy(l(ev)) and _truthy(r(ev)))(left, right)
-        return left
+        return self._chain("and", self.parse_not,
+                           lambda l, r: lambda ev: _truthy(l(ev)) and _truthy(r(ev)))
 
     def parse_not(self):
         if self.peek()[:2] == ("kw", "not") and self.toks[self.i + 1][:2] != ("kw", "in"):

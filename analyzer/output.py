@@ -12,28 +12,47 @@ from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
 try:
     import orjson
 
+    _NL = orjson.OPT_APPEND_NEWLINE
+
     def dumps(obj) -> bytes:
         return orjson.dumps(obj)
+
+    def dumps_line(obj) -> bytes:
+        return orjson.dumps(obj, option=_NL)
 except ImportError:  # pragma: no cover - orjson is a dependency; keep working without it
     import json
 
     def dumps(obj) -> bytes:
         return json.dumps(obj, ensure_ascii=False, separators=(",", ":")).encode()
 
+    def dumps_line(obj) -> bytes:
+        return dumps(obj) + b"\n"
+
 
 class JsonLinesSink:
-    """One JSON object per event (README, "Event contract")."""
+    """One JSON object per event (README, "Event contract"). Lines are written
+    in blocks; ``flush_each`` (live taps) writes and flushes every event."""
+
+    BLOCK = 512
 
     def __init__(self, out: IO[bytes] | None = None, flush_each: bool = False) -> None:
         self.out = out or sys.stdout.buffer
         self.flush_each = flush_each
+        self._lines: list[bytes] = []
 
     def __call__(self, ev: Event) -> None:
-        self.out.write(dumps(ev.to_dict()) + b"\n")
-        if self.flush_each:
-            self.out.flush()
+        lines = self._lines
+        lines.append(dumps_line(ev.to_dict()))
+        if self.flush_each or len(lines) >= self.BLOCK:
+            self.out.write(b"".join(lines))
+            lines.clear()
+            if self.flush_each:
+                self.out.flush()
 
     def close(self) -> None:
+        if self._lines:
+            self.out.write(b"".join(self._lines))
+            self._lines.clear()
         self.out.flush()
 
 

@@ -35,7 +35,7 @@ def _build_index() -> dict[int, list[Command]]:
 _INDEX = _build_index()
 _CACHE: dict[bytes, Decoded] = {}
 _RESULT_CACHE: dict[tuple[str, bytes], tuple[dict, tuple[str, ...]]] = {}
-_CACHE_MAX = 50_000
+_CACHE_MAX = 8192   # per cache; polls repeat, positions vary: bounded memory
 _UNKNOWN_CODE = re.compile(rb"\*[A-Za-z]{1,3}|[\s\S]{1,2}")
 
 
@@ -131,13 +131,11 @@ def field_spans(ev) -> list[tuple[str, int, int]]:
 
 
 def result_fits(entry: Command | None, payload: bytes) -> bool:
-    """Does ``payload`` have one of the result layouts of ``entry``?"""
-    if entry is None:
+    """Does ``payload`` have one of the result layouts of ``entry``? (Decodes it
+    through the memo, so decoding it afterwards costs nothing.)"""
+    if entry is None or not entry.result:
         return False
-    for layout in entry.result:
-        if layout.regex.fullmatch(payload) is not None:
-            return True
-    return False
+    return bool(dissect_result(entry, payload)[0])
 
 
 def _show(v):

@@ -118,20 +118,23 @@ class Event:
         from .wire import payload_text
 
         payload = self.payload
+        t = self.t
+        t_end = self.t_end
+        # tuples stay tuples: JSON encoders write them as arrays
         return {
             "number": self.number,
-            "t": round(self.t, 9) if self.t is not None else None,
-            "t_end": round(self.t_end, 9) if self.t_end is not None else None,
+            "t": round(t, 9) if t is not None else None,
+            "t_end": round(t_end, 9) if t_end is not None else None,
             "line": self.line,
             "offset": self.offset,
             "kind": self.kind,
             "command": self.command,
-            "dst": list(self.dst) if self.dst is not None else None,
+            "dst": self.dst,
             "src": self.src,
             "payload": payload_text(payload) if payload is not None else None,
             "checksum_ok": self.checksum_ok,
             "fields": self.fields,
-            "problems": list(self.problems),
+            "problems": self.problems,
             "txn": self.txn,
             "status": self.status,
             "latency": self.latency,

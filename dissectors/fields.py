@@ -55,8 +55,12 @@ def hexnum(name: str, digits: int | tuple[int, int], *, scale: float | None = No
     if scale is None:
         dec = base
     else:
-        def dec(raw: bytes, _b=base, _s=scale) -> float:
-            return round(_b(raw) * _s, 6)
+        # dividing by 10 or 100 is correctly rounded (1025 / 100 is the float
+        # nearest 10.25); multiplying by 0.01 is not (3 * 0.1 = 0.30000000000000004)
+        divisor = round(1 / scale)
+
+        def dec(raw: bytes, _b=base, _d=divisor) -> float:
+            return _b(raw) / _d
     return Field(name, rx, dec, unit, desc, hexdigits=True, valid=valid, lead=HEX)
 
 
@@ -102,6 +106,7 @@ class Layout:
     fields: tuple[Field, ...] = dc_field(init=False, repr=False, compare=False)
     _checked: tuple = dc_field(init=False, repr=False, compare=False)
     _hex_groups: tuple = dc_field(init=False, repr=False, compare=False)
+    _whole_payload_case: bool = dc_field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         rx = b""
@@ -118,6 +123,11 @@ class Layout:
         object.__setattr__(self, "_checked", tuple(
             (k, f) for k, f in enumerate(fields) if f.valid is not None or "check" in f.__dict__))
         object.__setattr__(self, "_hex_groups", tuple(k for k, f in enumerate(fields) if f.hexdigits))
+        # all-hex layouts with upper-case literals: one test of the whole payload
+        # tells whether any hex digit is lower case
+        literals = b"".join(p for p in self.parts if isinstance(p, bytes))
+        object.__setattr__(self, "_whole_payload_case", bool(fields) and all(f.hexdigits for f in fields)
+                           and literals == literals.upper())
 
     @property
     def prefix(self) -> bytes:
@@ -167,8 +177,12 @@ class Layout:
             problem = f.check(values[f.name])
             if problem:
                 problems.append(problem)
-        hexes = self._hex_groups
-        if hexes and any(groups[k] != groups[k].upper() for k in hexes):
+        if self._whole_payload_case:
+            lower = payload != payload.upper()
+        else:
+            hexes = self._hex_groups
+            lower = bool(hexes) and any(groups[k] != groups[k].upper() for k in hexes)
+        if lower:
             problems.append(f"{P_LOWERCASE}: numbers must be upper-case ASCII hex (§1.4.1.2)")
         if self.derive is not None:
             extra = self.derive(values)

@@ -7,6 +7,7 @@ import argparse
 import sys
 
 from ..capture import Capture, Options, open as open_capture
+from ..filter import FilterError, Predicate, compile_filter
 from ..pairing import Timeouts
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
@@ -33,6 +34,20 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
                    help="result timeout for one command id, e.g. --timeout IX=90 (repeatable)")
     t.add_argument("--frame-gap", type=float, default=None, metavar="S",
                    help="silence that cuts a frame short (default max(50 ms, 20 characters))")
+
+
+def add_filter_arg(p: argparse.ArgumentParser, help: str) -> None:
+    p.add_argument("--filter", "-Y", metavar="EXPR", help=help)
+
+
+def build_filter(expr: str | None) -> Predicate | None:
+    """Compile --filter; a bad expression is one line naming the column."""
+    if expr is None:
+        return None
+    try:
+        return compile_filter(expr)
+    except FilterError as e:
+        raise UsageError(f"--filter {e} in: {e.pointer()}") from None
 
 
 def options_from(args: argparse.Namespace) -> Options:

@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import argparse
 
-from ..filter import FilterError, compile_filter
 from ..output import JsonLinesSink, TextSink
-from .common import UsageError, add_input_args, open_inputs
+from .common import add_filter_arg, add_input_args, build_filter, open_inputs
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -18,18 +17,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Decode a capture: one line per event, or JSON Lines.")
     add_input_args(p)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
-    p.add_argument("--filter", "-Y", metavar="EXPR", help='show only matching events, e.g. \'status == "nak" or problems\'')
+    add_filter_arg(p, 'show only matching events, e.g. \'status == "nak" or problems\'')
     p.add_argument("--color", choices=("auto", "always", "never"), default="auto")
     p.set_defaults(run=run)
-
-
-def build_filter(expr: str | None):
-    if expr is None:
-        return None
-    try:
-        return compile_filter(expr)
-    except FilterError as e:
-        raise UsageError(f"--filter {e} in: {e.pointer()}") from None
 
 
 def run(args: argparse.Namespace) -> int:

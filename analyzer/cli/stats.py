@@ -8,8 +8,7 @@ import sys
 
 from ..output import dumps, fmt_seconds
 from ..stats import Stats
-from .common import add_input_args, open_inputs
-from .decode import build_filter
+from .common import add_filter_arg, add_input_args, build_filter, open_inputs
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -17,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Counts, errors and latency per command and per device.")
     add_input_args(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
-    p.add_argument("--filter", "-Y", metavar="EXPR", help="count only matching events")
+    add_filter_arg(p, "count only matching events")
     p.set_defaults(run=run)
 
 
