@@ -7,6 +7,7 @@ import sys
 from typing import IO
 
 from dissectors import summarize
+from dissectors.wire import payload_text
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
 
 try:
@@ -83,15 +84,13 @@ def summary(ev: Event) -> str:
         text = summarize(entry.summary, ev.fields) if entry is not None and ev.fields else (
             entry.name.lower() if entry is not None else "")
         if entry is None or not ev.fields and ev.problems and "malformed" in ev.problems[0]:
-            from dissectors.wire import payload_text
-            text = repr(payload_text(ev.payload))
+            text = f"'{payload_text(ev.payload)}'"
         return text
     if kind == RESULT:
         entry = ev.entry
         if entry is not None and ev.fields:
             return summarize(entry.result_summary, ev.fields)
-        from dissectors.wire import payload_text
-        return repr(payload_text(ev.payload))
+        return f"'{payload_text(ev.payload)}'"
     if kind in (ACK, NAK, NIC):
         return kind.upper()
     preview = ev.raw[:12].hex(" ")

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from dissectors import apply_command, dissect_command, dissect_result, result_fits
 from dissectors.commands import DUE, OPTIONAL
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, NOISE, RESULT, Event,
+    ACK, COMMAND, FRAME, NAK, NIC, RESULT, Event,
     NO_ACK, NO_RESULT, OK, PENDING, ST_NAK, ST_NIC,
     P_LATE, P_NO_RESULT, P_ORPHAN, P_RETRANSMISSION, P_UNANSWERED,
 )
@@ -102,33 +102,12 @@ class Pairer:
 
     # ----------------------------------------------------------------- API
     def push(self, ev: Event) -> list[Event]:
-        self._number += 1
-        ev.number = self._number
-        if self._provisional is not None and ev.kind != NIC:
-            self._settle()
-        if ev.t is not None:
-            self._expire(ev.t)
-        kind = ev.kind
-        if kind == FRAME:
-            kind = ev.kind = self._classify(ev)
-        if kind == COMMAND:
-            self._command(ev)
-        elif kind == ACK or kind == NAK:
-            self._handshake(ev)
-        elif kind == RESULT:
-            self._result(ev)
-        elif kind == NIC:
-            self._nic(ev)
-        self._prev = ev
-        held = self._held
-        if not held and (kind != COMMAND or ev.status is not None):
-            return [ev]   # nothing waits: no need to queue
-        held.append(ev)
-        return self._release()
+        """Take the next event in wire order; return the events now settled."""
+        return self.push_many([ev])
 
     def push_many(self, events: list[Event]) -> list[Event]:
-        """``push`` for a batch: the same result, with the per-event overhead of
-        the common cases taken out of the loop."""
+        """Take a batch of events in wire order; return the events now settled.
+        (The loop is written for speed: it runs once per event of a capture.)"""
         out: list[Event] = []
         append = out.append
         held = self._held

@@ -17,8 +17,9 @@ How broken input is handled (spec/READING.md; docs/decoding.md):
   with another length, the length byte was corrupted and the frame is repaired.
 - With time known, a silence longer than ``frame_gap`` inside a frame means the
   frame was cut short.
-- A failed candidate whose payload is mostly printable is reported as a frame with
-  a bad checksum; otherwise its start byte is treated as noise and scanning goes on.
+- A failed candidate that ends exactly where something else begins, or whose payload
+  is mostly printable, is reported as a frame with a bad checksum; otherwise its
+  start byte is treated as noise and scanning goes on.
 """
 
 from __future__ import annotations
@@ -302,10 +303,22 @@ class Deframer:
             ev.add_problem(P_LENGTH, f"says {length}, frame carries {m} payload bytes (the checksum holds with {m})")
             out.append(ev)
             return repaired
-        # 3. no better reading: a complete frame with a bad checksum, or a cut one
+        # 3. no better reading: a complete frame with a bad checksum, or a cut one.
+        # It is reported as a frame when its payload looks like one (mostly
+        # printable) or when it ends exactly where something else begins (a start
+        # byte, a simple response on B, a silence, the end): the length held.
         if cut is None and avail >= total:
             payload = buf[rp + 6:rp + total - 1]
-            if _printable_share(payload) >= 0.75:
+            end_r = rp + total
+            if end_r < len(buf):
+                nxt = buf[end_r]
+                bounded = nxt == START or (self.simple and nxt in _SIMPLE) or \
+                    self._gap_in(p + total - 1, p + total + 1) == p + total
+            elif final:
+                bounded = True
+            else:
+                return None   # the next byte decides
+            if bounded or _printable_share(payload) >= 0.75:
                 self._flush_noise(out, p)
                 got = buf[rp + total - 1]
                 want = sum(buf[rp + 1:rp + total - 1]) & 0xFF

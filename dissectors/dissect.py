@@ -14,6 +14,7 @@ from typing import Any, NamedTuple
 from .commands import COMMANDS, Command, NONE
 from .event import P_MALFORMED, P_UNKNOWN
 from .fields import Layout
+from .wire import payload_text
 
 
 class Decoded(NamedTuple):
@@ -41,7 +42,7 @@ _UNKNOWN_CODE = re.compile(rb"\*[A-Za-z]{1,3}|[\s\S]{1,2}")
 
 def _code_of(payload: bytes) -> str:
     m = _UNKNOWN_CODE.match(payload)
-    return m.group(0).decode("latin-1") if m else ""
+    return payload_text(m.group(0)) if m else ""
 
 
 def dissect_command(payload: bytes) -> Decoded:
@@ -79,7 +80,8 @@ def _dissect_command(payload: bytes) -> Decoded:
     if best is not None:
         cid = best.id if "{" not in best.id else best.id.replace("{aux_port}", payload[2:3].decode("latin-1"))
         return Decoded(best, cid, {}, (f"{P_MALFORMED}: expected {best.layout.describe()} ({best.ref})",))
-    return Decoded(None, _code_of(payload), {}, (f"{P_UNKNOWN}: {_code_of(payload)!r} is not in protocol rev 1.9",))
+    code = _code_of(payload)
+    return Decoded(None, code, {}, (f"{P_UNKNOWN}: '{code}' is not in protocol rev 1.9",))
 
 
 def _closer(a: Layout, b: Layout, n: int) -> bool:

@@ -80,3 +80,8 @@ def warn(msg: str) -> None:
 
 def open_inputs(args: argparse.Namespace) -> Capture:
     return open_capture(*args.inputs, options=options_from(args), on_warning=warn)
+
+
+def warn_if_empty(capture: Capture, seen: int) -> None:
+    if seen == 0:
+        warn(f"{capture.source.description}: no bytes in this capture")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 
 from ..output import JsonLinesSink, TextSink
-from .common import add_filter_arg, add_input_args, build_filter, open_inputs
+from .common import add_filter_arg, add_input_args, build_filter, open_inputs, warn_if_empty
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,14 +29,13 @@ def run(args: argparse.Namespace) -> int:
         sink = JsonLinesSink()
     else:
         sink = TextSink(color={"auto": None, "always": True, "never": False}[args.color])
+    seen = 0
     try:
-        if keep is None:
-            for ev in capture:
+        for ev in capture:
+            seen += 1
+            if keep is None or keep(ev):
                 sink(ev)
-        else:
-            for ev in capture:
-                if keep(ev):
-                    sink(ev)
     finally:
         sink.close()
+    warn_if_empty(capture, seen)
     return 0

@@ -15,11 +15,18 @@ from .common import UsageError
 EXIT_INPUT = 2
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage mistake is one line (and exit 2), like every other error."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(EXIT_INPUT, f"gimbalscope: error: {message} (see: {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="gimbalscope",
-                                description="Protocol analyzer for servo pan-tilt gimbals (serial command set rev 1.9).")
+    p = OneLineParser(prog="gimbalscope",
+                      description="Protocol analyzer for servo pan-tilt gimbals (serial command set rev 1.9).")
     p.add_argument("--version", action="version", version=f"gimbalscope {__version__}")
-    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     decode.register(sub)
     stats.register(sub)
     return p

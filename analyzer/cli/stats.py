@@ -8,7 +8,7 @@ import sys
 
 from ..output import dumps, fmt_seconds
 from ..stats import Stats
-from .common import add_filter_arg, add_input_args, build_filter, open_inputs
+from .common import add_filter_arg, add_input_args, build_filter, open_inputs, warn_if_empty
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,9 +24,12 @@ def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
     stats = Stats()
+    seen = 0
     for ev in capture:
+        seen += 1
         if keep is None or keep(ev):
             stats.add(ev)
+    warn_if_empty(capture, seen)
     data = stats.to_dict()
     if args.format == "json":
         sys.stdout.buffer.write(dumps(data) + b"\n")

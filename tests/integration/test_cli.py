@@ -158,3 +158,19 @@ def test_console_script_is_installed():
 def test_file_that_fails_to_read():
     # opens, then fails with EIO on read even for root
     one_line_error(run_cli("decode", "/proc/self/mem"), "/proc/self/mem", "cannot read")
+
+
+@pytest.mark.parametrize("args,fragment", [(["decode", "x.bin", "--baud", "abc"], "invalid int value: 'abc'"),
+                                           (["decode"], "the following arguments are required"),
+                                           (["frobnicate"], "invalid choice: 'frobnicate'"),
+                                           (["decode", "x.bin", "--format", "xml"], "invalid choice: 'xml'")])
+def test_usage_mistakes_are_one_line(args, fragment):
+    one_line_error(run_cli(*args), fragment)
+
+
+def test_empty_capture_warns(tmp_path):
+    p = tmp_path / "empty.bin"
+    p.write_bytes(b"")
+    out = run_cli("decode", p)
+    assert out.returncode == 0 and out.stdout == ""
+    assert out.stderr.strip() == f"gimbalscope: warning: {p}: no bytes in this capture"

@@ -190,3 +190,14 @@ def test_checksum_corruption_is_always_flagged(payload, flip, before, after, lin
     (covering,) = [e for e in evs if e.offset <= idx < e.offset + len(e.raw)]
     assert covering.checksum_ok is not True
     assert covering.problems
+
+
+def test_bit_error_in_a_short_payload_still_a_frame():
+    # 'P?' with P (0x50) hit by a bit error (0x10): half the payload is binary,
+    # but the frame ends exactly where the next one starts
+    f = bytearray(frame((1, 1, 2), 0, b"P?"))
+    f[6] = 0x10
+    nxt = frame((1, 1, 2), 0, b"P?")
+    evs = decode(bytes(f) + nxt, line="A")
+    assert [(e.kind, e.checksum_ok) for e in evs] == [("command", False), ("command", True)]
+    assert evs[0].problems[0].startswith("bad checksum")
