@@ -37,6 +37,13 @@ _FRAME_KIND = {"A": COMMAND, "B": RESULT}
 _MAX_FRAME = 256 + 7
 
 
+def _suspect(buf: bytes, start: int, end: int) -> bool:
+    """A payload that carries a start byte: payloads are ASCII (§1.4.1.2), so the
+    frame may be a broken header whose checksum matched by chance (1 in 256),
+    swallowing the frames after it."""
+    return buf.find(START, start, end) != -1
+
+
 def _printable_share(data: bytes | bytearray) -> float:
     if not data:
         return 0.0
@@ -198,7 +205,8 @@ class Deframer:
                 # fast path: a complete frame whose checksum holds
                 if fast and n - i >= 6:
                     end = i + (buf[i + 5] or 256) + 7
-                    if end <= n and sum(buf[i + 1:end - 1]) & 0xFF == buf[end - 1]:
+                    if end <= n and sum(buf[i + 1:end - 1]) & 0xFF == buf[end - 1] \
+                            and not _suspect(buf, i + 6, end - 1):
                         if self._noise_start is not None:
                             self._flush_noise(out, base + i)
                         raw = buf[i:end]
@@ -276,6 +284,20 @@ class Deframer:
         cut = self._gap_in(p, p + total)
         if cut is None and avail >= total:
             if sum(buf[rp + 1:rp + total - 1]) & 0xFF == buf[rp + total - 1]:
+                if _suspect(buf, rp + 6, rp + total - 1):
+                    # checksums match by chance 1 time in 256: a payload carrying a
+                    # start byte yields to a valid frame inside it
+                    # - or to a whole printable frame inside it, even with a bad checksum
+                    q = buf.find(START, rp + 6, rp + total - 1)
+                    while q != -1:
+                        v = self._valid_at(base + q, final)
+                        if v is None:
+                            return None
+                        if v > 0 or self._plausible_inside(q, rp + total):
+                            return self._broken(out, p, base + q,
+                                                f"{P_CHECKSUM}: frame that only checks out by chance, "
+                                                f"resynchronised on the frame at offset {base + q}")
+                        q = buf.find(START, q + 1, rp + total - 1)
                 self._flush_noise(out, p)
                 out.append(self._frame_event(p, p + total, True))
                 return p + total
@@ -335,6 +357,15 @@ class Deframer:
                                 f"{P_TRUNCATED}: {stop - p} of {total} bytes"
                                 + (", then silence" if cut is not None else ", then end of capture"))
         return self._as_noise(out, p)
+
+    def _plausible_inside(self, rq: int, rend: int) -> bool:
+        """Does a whole frame with a mostly printable payload start at buffer index
+        rq and end by rend?"""
+        buf = self._buf
+        if rend - rq < 8:
+            return False
+        end = rq + (buf[rq + 5] or 256) + 7
+        return end <= rend and _printable_share(buf[rq + 6:end - 1]) >= 0.75
 
     def _as_noise(self, out: list[Event], p: int) -> int:
         """Treat the byte at p as noise and go on scanning after it."""

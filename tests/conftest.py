@@ -30,3 +30,11 @@ def socat_bin():
     if path is None:
         pytest.skip("socat is not installed (.ci/run installs it)")
     return path
+
+
+# Property tests: 300 examples each by default; HYPOTHESIS_PROFILE=deep for 5000.
+from hypothesis import settings  # noqa: E402
+
+settings.register_profile("default", max_examples=300, deadline=None)
+settings.register_profile("deep", max_examples=5000, deadline=None)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))

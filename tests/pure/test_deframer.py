@@ -1,7 +1,7 @@
 """The deframer: framing per Table 1, simple responses per §1.4.2, and the
 behaviour on broken input (resync, repair, silence, noise)."""
 
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 from dissectors import Deframer
 from dissectors.wire import build_frame
@@ -151,7 +151,7 @@ def streams(draw):
     return b"".join(parts)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(deadline=None)
 @given(data=streams(), cuts=st.lists(st.integers(0, 400), max_size=10), line=st.sampled_from(["A", "B", "AB"]))
 def test_any_split_gives_identical_events(data, cuts, line):
     whole = summary(decode(data, line=line))
@@ -159,7 +159,7 @@ def test_any_split_gives_identical_events(data, cuts, line):
     assert summary(decode(data, line=line, splits=splits)) == whole
 
 
-@settings(max_examples=300, deadline=None)
+@settings(deadline=None)
 @given(data=st.binary(max_size=600), line=st.sampled_from(["A", "B", "AB"]))
 def test_random_bytes_never_raise_and_every_byte_is_in_one_event(data, line):
     evs = decode(data, line=line)
@@ -171,16 +171,30 @@ def test_random_bytes_never_raise_and_every_byte_is_in_one_event(data, line):
         pos += len(e.raw)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(deadline=None)
 @given(data=streams(), keep=st.integers(0, 600))
 def test_truncated_streams_never_raise(data, keep):
     evs = decode(data[:keep], line="B")
     assert b"".join(e.raw for e in evs) == data[:keep]
 
 
-@settings(max_examples=300, deadline=None)
+@settings(deadline=None)
 @given(payload=st.sampled_from(PAYLOADS), flip=st.integers(0, 7), before=streams(), after=streams(),
        line=st.sampled_from(["A", "B"]))
+@example(
+    payload=b'HO',
+    flip=6,
+    before=b'\x06\x06\xf8\xf8\x00\x00\x00\x00\x02P?\x91\xf8\xf8\x01\x01\x01\x00\t',
+    after=b'\x82',
+    line='A',  # or any other generated value
+).via('discovered failure')
+@example(
+    payload=b'RP0401',
+    flip=3,
+    before=b'\x06\xf8\x01\x01\x01\xf85\x00\x00\x00\tP0FA0FC18g\xf8\x00\x00\x1b~\x06RP0401\x06',
+    after=b'\xf8\x01\x01\x01\xf8\x00\x00\x00\xe0\nG?0F0F0000\x1c',
+    line='A',
+).via('discovered failure')
 def test_checksum_corruption_is_always_flagged(payload, flip, before, after, line):
     f = bytearray(frame((1, 2, 3), 0, payload))
     f[-1] ^= 1 << flip
