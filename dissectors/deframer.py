@@ -157,10 +157,7 @@ class Deframer:
     def _frame_event(self, start: int, end: int, ok: bool) -> Event:
         ev = self._event(self.frame_kind, start, end)
         raw = ev.raw
-        ev.dst = (raw[1], raw[2], raw[3])
-        ev.src = raw[4]
-        ev.payload = raw[6:-1]
-        ev.checksum_ok = ok
+        ev.dst, ev.src, ev.payload, ev.checksum_ok = (raw[1], raw[2], raw[3]), raw[4], raw[6:-1], ok
         return ev
 
     def _flush_noise(self, out: list[Event], upto: int) -> None:
@@ -205,21 +202,19 @@ class Deframer:
                 # fast path: a complete frame whose checksum holds
                 if fast and n - i >= 6:
                     end = i + (buf[i + 5] or 256) + 7
+                    # (a start byte inside the payload is suspect: see _suspect)
                     if end <= n and sum(buf[i + 1:end - 1]) & 0xFF == buf[end - 1] \
-                            and not _suspect(buf, i + 6, end - 1):
+                            and buf.find(START, i + 6, end - 1) < 0:
                         if self._noise_start is not None:
                             self._flush_noise(out, base + i)
                         raw = buf[i:end]
                         if timed:
-                            ev = Event(line, base + i, frame_kind, raw, self._time_at(base + i),
-                                       self._time_at(base + end - 1) + self.byte_time)
+                            t0 = self._time_at(base + i)
+                            t1 = self._time_at(base + end - 1) + self.byte_time
                         else:
-                            ev = Event(line, base + i, frame_kind, raw)
-                        ev.dst = (raw[1], raw[2], raw[3])
-                        ev.src = raw[4]
-                        ev.payload = raw[6:-1]
-                        ev.checksum_ok = True
-                        append(ev)
+                            t0 = t1 = None
+                        append(Event(line, base + i, frame_kind, raw, t0, t1,
+                                     (raw[1], raw[2], raw[3]), raw[4], raw[6:-1], True))
                         i = end
                         continue
                 nxt = self._try_frame(out, base + i, final)

@@ -70,7 +70,9 @@ class Event:
     )
 
     def __init__(self, line: str, offset: int, kind: str, raw: bytes,
-                 t: float | None = None, t_end: float | None = None) -> None:
+                 t: float | None = None, t_end: float | None = None,
+                 dst: tuple[int, int, int] | None = None, src: int | None = None,
+                 payload: bytes | None = None, checksum_ok: bool | None = None) -> None:
         self.number = 0
         self.line = line
         self.offset = offset
@@ -78,10 +80,10 @@ class Event:
         self.t_end = t_end
         self.kind = kind
         self.raw = raw
-        self.dst = None
-        self.src = None
-        self.payload = None
-        self.checksum_ok = None
+        self.dst = dst
+        self.src = src
+        self.payload = payload
+        self.checksum_ok = checksum_ok
         self.command = None
         self.fields = NO_FIELDS
         self.problems = NO_PROBLEMS
