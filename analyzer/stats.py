@@ -10,7 +10,7 @@ import math
 from collections import Counter
 from typing import Any
 
-from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+from dissectors.event import ACK, COMMAND, NAK, NOISE, RESULT, Event
 
 _LOG_STEP = math.log(1.01)
 

@@ -9,7 +9,7 @@ generated field reference in docs/fields.md. Result layouts follow
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from .event import P_RANGE, P_RESERVED
 from .fields import Field, Layout, choice, decimal, hexnum, text

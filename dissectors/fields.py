@@ -121,7 +121,7 @@ class Layout:
         object.__setattr__(self, "fields", tuple(fields))
         # only fields that can complain are checked on the hot path
         object.__setattr__(self, "_checked", tuple(
-            (k, f) for k, f in enumerate(fields) if f.valid is not None or "check" in f.__dict__))
+            f for f in fields if f.valid is not None or "check" in f.__dict__))
         object.__setattr__(self, "_hex_groups", tuple(k for k, f in enumerate(fields) if f.hexdigits))
         # all-hex layouts with upper-case literals: one test of the whole payload
         # tells whether any hex digit is lower case
@@ -173,7 +173,7 @@ class Layout:
         groups = m.groups()
         values = {f.name: f.decode(raw) for f, raw in zip(self.fields, groups)}
         problems: list[str] = []
-        for k, f in self._checked:
+        for f in self._checked:
             problem = f.check(values[f.name])
             if problem:
                 problems.append(problem)

@@ -4,6 +4,7 @@ turns every expected failure into one line on stderr and a non-zero exit."""
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 
@@ -44,11 +45,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"gimbalscope: error: {e}", file=sys.stderr)
         return EXIT_INPUT
     except BrokenPipeError:
-        # the reader went away (| head): not an error; silence the flush at exit
-        try:
-            sys.stdout = None  # type: ignore[assignment]
-        finally:
-            return 0
+        # the reader went away (| head): not an error. Point stdout at /dev/null so
+        # the interpreter's final flush does not complain either.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
     except KeyboardInterrupt:
         return 128 + signal.SIGINT
 
