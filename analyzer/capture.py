@@ -19,7 +19,7 @@ from dissectors.wire import byte_time
 
 from .align import align
 from .pairing import Pairer, Timeouts
-from .sources import LINE_AB, Source, detect
+from .sources import LINE_AB, Chunk, Source, detect
 
 
 @dataclass
@@ -51,6 +51,8 @@ class Capture:
         self.options = options or Options()
         self.warnings: list[str] = []
         self._on_warning = on_warning
+        # called with (chunk, offset of its first byte) for every chunk read: recorders
+        self.on_chunk: Callable[[Chunk, int], None] | None = None
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
@@ -100,13 +102,19 @@ class Capture:
         """One line's events, a list per chunk read."""
         d = self._deframer(line)
         feed = d.feed
+        tap = self.on_chunk
         for chunk in self.source.line_chunks(line):
+            if tap is not None:
+                tap(chunk, d.offset)
             yield feed(chunk.data, chunk.t)
         yield d.finish()
 
     def _single(self) -> Iterator[list[Event]]:
         d = self._deframer(LINE_AB)
+        tap = self.on_chunk
         for chunk in self.source.chunks():
+            if tap is not None:
+                tap(chunk, d.offset)
             yield d.feed(chunk.data, chunk.t)
         yield d.finish()
 
@@ -122,7 +130,10 @@ class Capture:
         margin = 512 * self.options.byte_time + 0.05
         heap: list[tuple[float, int, int, Event]] = []
         seq = 0
+        tap = self.on_chunk
         for chunk in self.source.chunks():
+            if tap is not None:
+                tap(chunk, deframers[chunk.line].offset)
             for ev in deframers[chunk.line].feed(chunk.data, chunk.t):
                 seq += 1
                 heapq.heappush(heap, (ev.t, seq, 0, ev))

@@ -24,9 +24,12 @@ def detect(paths: list[str], byte_time: float) -> Source:
                 heads.append(f.read(65536))
             except OSError as e:
                 raise CaptureError(f"{p}: cannot read: {e.strerror or e}") from None
-    for p, head in zip(paths, heads):
-        if head.startswith(MCAP_MAGIC):
-            raise CaptureError(f"{p}: MCAP input is not supported yet (it arrives with live taps and recording)")
+    mcaps = [p for p, head in zip(paths, heads) if head.startswith(MCAP_MAGIC)]
+    if mcaps:
+        if len(paths) != 1:
+            raise CaptureError(f"{mcaps[0]}: an MCAP recording carries all its lines; give it on its own")
+        from .mcapfile import McapSource
+        return McapSource(paths[0])
     kinds = [looks_like_socat(h) for h in heads]
     if any(kinds):
         if len(paths) != 1:

@@ -113,10 +113,10 @@ def test_too_many_inputs(tmp_path, two_line):
     one_line_error(run_cli("decode", *two_line, two_line[0]), "3 inputs")
 
 
-def test_mcap_not_yet(tmp_path):
+def test_mcap_without_our_topics(tmp_path):
     p = tmp_path / "x.mcap"
     p.write_bytes(b"\x89MCAP0\r\n" + b"\0" * 32)
-    one_line_error(run_cli("decode", p), "x.mcap", "MCAP")
+    one_line_error(run_cli("decode", p), "x.mcap", "MCAP file without gimbalscope raw topics")
 
 
 @pytest.mark.parametrize("expr,fragment", [('status == "nack"', "column 11"), ("kind ==", "column 8"),
