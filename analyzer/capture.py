@@ -53,12 +53,19 @@ class Capture:
         self._on_warning = on_warning
         # called with (chunk, offset of its first byte) for every chunk read: recorders
         self.on_chunk: Callable[[Chunk, int], None] | None = None
+        self._now: float | None = None   # the latest wire time seen (ticks included)
+        self._tick = False               # an idle tick arrived: time passed with no bytes
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
         self.warnings.append(msg)
         if self._on_warning is not None:
             self._on_warning(msg)
+
+    @property
+    def now(self) -> float | None:
+        """The latest wire time seen, idle ticks included (None without time)."""
+        return self._now
 
     @property
     def lines(self) -> tuple[str, ...]:
@@ -79,7 +86,11 @@ class Capture:
             pairer = Pairer(self.options.timeouts)
             push_many = pairer.push_many
             for batch in self._wire_order():
-                yield from push_many(batch)
+                if batch:
+                    yield from push_many(batch)
+                if self._tick:   # timeouts expire while the line is quiet
+                    self._tick = False
+                    yield from pairer.advance(self._now)
             yield from pairer.finish()
         finally:
             if self.options.tune_gc:
@@ -104,6 +115,8 @@ class Capture:
         feed = d.feed
         tap = self.on_chunk
         for chunk in self.source.line_chunks(line):
+            if not chunk.data:
+                continue                  # untimed input: no ticks
             if tap is not None:
                 tap(chunk, d.offset)
             yield feed(chunk.data, chunk.t)
@@ -113,8 +126,15 @@ class Capture:
         d = self._deframer(LINE_AB)
         tap = self.on_chunk
         for chunk in self.source.chunks():
+            if not chunk.data:            # an idle tick: time passed
+                if chunk.t is not None:
+                    self._now, self._tick = chunk.t, True
+                    yield d.idle(chunk.t)
+                continue
             if tap is not None:
                 tap(chunk, d.offset)
+            if chunk.t is not None:
+                self._now = chunk.t + len(chunk.data) * self.options.byte_time
             yield d.feed(chunk.data, chunk.t)
         yield d.finish()
 
@@ -127,26 +147,37 @@ class Capture:
         chunk on the other line can have started a little earlier).
         """
         deframers = {line: self._deframer(line) for line in self.source.lines}
-        margin = 512 * self.options.byte_time + 0.05
+        # live ports deliver in arrival order within a few reads; logs can hold big chunks
+        chunks_ahead = 64 if getattr(self.source, "live", False) else 512
+        margin = chunks_ahead * self.options.byte_time + 0.05
         heap: list[tuple[float, int, int, Event]] = []
         seq = 0
         tap = self.on_chunk
         for chunk in self.source.chunks():
-            if tap is not None:
-                tap(chunk, deframers[chunk.line].offset)
-            for ev in deframers[chunk.line].feed(chunk.data, chunk.t):
-                seq += 1
-                heapq.heappush(heap, (ev.t, seq, 0, ev))
+            if not chunk.data:            # an idle tick: time passed
+                if chunk.t is None:
+                    continue
+                self._now, self._tick = chunk.t, True
+                for d in deframers.values():
+                    for ev in d.idle(chunk.t):
+                        seq += 1
+                        heapq.heappush(heap, (ev.t, seq, 0, ev))
+            else:
+                if tap is not None:
+                    tap(chunk, deframers[chunk.line].offset)
+                self._now = chunk.t + len(chunk.data) * self.options.byte_time
+                for ev in deframers[chunk.line].feed(chunk.data, chunk.t):
+                    seq += 1
+                    heapq.heappush(heap, (ev.t, seq, 0, ev))
             mark = chunk.t - margin
             for d in deframers.values():
                 p = d.pending_since
                 if p is not None and p < mark:
                     mark = p
-            if heap and heap[0][0] < mark:
-                ready = []
-                while heap and heap[0][0] < mark:
-                    ready.append(heapq.heappop(heap)[3])
-                yield ready
+            ready = []
+            while heap and heap[0][0] < mark:
+                ready.append(heapq.heappop(heap)[3])
+            yield ready
         for d in deframers.values():
             for ev in d.finish():
                 seq += 1
@@ -174,6 +205,18 @@ def _gc_busy(step: int) -> None:
         _gc_depth -= 1
         if _gc_depth == 0 and _gc_saved is not None:
             gc.set_threshold(*_gc_saved)
+
+
+def open_live(ports: list[str], options: Options | None = None,
+              on_warning: Callable[[str], None] | None = None) -> Capture:
+    """A live capture from one or two serial ports (device names or pyserial URLs)."""
+    from .sources.serialport import SerialTap
+
+    options = options or Options()
+    tap = SerialTap(ports, baud=options.baud, data_bits=options.data_bits, parity=options.parity,
+                    stop_bits=options.stop_bits)
+    tap.byte_time = options.byte_time
+    return Capture(tap, options, on_warning)
 
 
 def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,

@@ -101,8 +101,11 @@ class Deframer:
             bt = self.byte_time
             last = self._last_end
             if last is not None:
-                if t < last:  # bytes on one line cannot overlap: the estimate was early
-                    t = last
+                if t < last:
+                    # Bytes on one line cannot overlap, so the estimate was early; but
+                    # bytes cannot end after they were read either (t + n·bt is the read
+                    # time): move at most two byte times, then allow the overlap.
+                    t = min(last, t + 2 * bt)
                 elif t - last > self.frame_gap and self._buf:
                     self._gaps.append(self.offset)
             off = self.offset

@@ -19,8 +19,13 @@ class UsageError(Exception):
 
 def add_input_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT",
-                   help="a socat -x -v log, a raw single-line dump, or two raw dumps (line A, line B)")
-    g = p.add_argument_group("serial settings (for byte timing)")
+                   help="a socat -x -v log, an MCAP recording, a raw single-line dump, or two raw dumps "
+                        "(line A, line B)")
+    add_serial_args(p)
+
+
+def add_serial_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("serial settings (byte timing; the port settings of a live tap)")
     g.add_argument("--baud", type=int, default=9600, help="line rate in bit/s (default 9600, §1.5.1)")
     g.add_argument("--data-bits", type=int, default=8, choices=(5, 6, 7, 8))
     g.add_argument("--parity", default="N", choices=("N", "E", "O", "M", "S"))

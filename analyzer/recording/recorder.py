@@ -57,6 +57,7 @@ class McapRecorder:
         self._txns = self._writer.register_channel(S.TRANSACTIONS_TOPIC, "json", ids["txn"])
         self._log = self._writer.register_channel(S.LOG_TOPIC, "json", ids["log"])
         self._open_txn: dict[str, Any] | None = None
+        self._offsets: dict[str, int] = {}
         self.messages = 0
         self._closed = False
         if self._metadata:   # written first, so a killed recording still says what it is
@@ -65,6 +66,9 @@ class McapRecorder:
     # ---------------------------------------------------------------- input
     def raw(self, chunk: Chunk, offset: int) -> None:
         """Record bytes read from a line (``offset`` of their first byte)."""
+        if not chunk.data:
+            return
+        self._offsets[chunk.line] = offset + len(chunk.data)
         channel = self._raw_channels.get(chunk.line)
         if channel is None:
             channel = self._raw_channels[chunk.line] = self._writer.register_channel(
@@ -72,6 +76,15 @@ class McapRecorder:
         self._seq += 1
         ts = self._time_ns(chunk.t, self._seq)
         self._write(channel, ts, {"line": chunk.line, "offset": offset, "t": chunk.t, "data": chunk.data.hex()})
+
+    def end_marker(self, t: float | None) -> None:
+        """Record that time ran on to ``t`` with nothing more on the wire (an empty
+        raw chunk), so decoding the recording expires the same timeouts live did."""
+        if t is None:
+            return
+        line = next(iter(self._raw_channels))
+        self._write(self._raw_channels[line], self._time_ns(t, 0),
+                    {"line": line, "offset": self._offsets.get(line, 0), "t": t, "data": ""})
 
     def event(self, ev: Event) -> None:
         ts = self._time_ns(ev.t, ev.number)

@@ -1,0 +1,89 @@
+"""``gimbalscope live``: tap one or two serial lines and print events as they are
+decoded (text or JSON Lines, flushed per event), optionally recording to MCAP.
+
+Framing per Table 1, pairing per §1.4.2-1.4.3; the same decoding as ``decode``,
+so live output for the same bytes equals ``decode`` of the recording.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import socket
+
+from .. import __version__
+from ..capture import Capture, open_live
+from ..output import JsonLinesSink, TextSink
+from ..recording import McapRecorder, RecordingError
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, warn
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("live", help="tap serial lines live",
+                       description="Tap one serial port (single-line tap) or two (line A controller→device, "
+                                   "line B device→controller). Ports are device names or pyserial URLs "
+                                   "(socket://, rfc2217://, loop://). The tap never writes to the line.")
+    p.add_argument("ports", nargs="+", metavar="PORT", help="one or two ports")
+    add_serial_args(p)
+    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    add_filter_arg(p, "show only matching events (everything is still recorded)")
+    p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
+    p.add_argument("--no-tui", action="store_true", help="print events (the default until the TUI arrives)")
+    p.set_defaults(run=run)
+
+
+def live_metadata(capture: Capture, ports: list[str]) -> dict[str, str]:
+    o = capture.options
+    roles = ({"AB": "single-line tap (both directions)"} if len(ports) == 1 else
+             {"A": "controller→device", "B": "device→controller"})
+    return {
+        "tool": f"gimbalscope {__version__}", "host": socket.gethostname(), "mode": "live",
+        "ports": " ".join(ports), "lines": ",".join(capture.lines),
+        "line_roles": ", ".join(f"{line}={port} ({roles[line]})" for line, port in zip(capture.lines, ports)),
+        "baud": str(o.baud), "data_bits": str(o.data_bits), "parity": o.parity, "stop_bits": f"{o.stop_bits:g}",
+        "start_time": f"{capture.source.start_time:.6f}",
+    }
+
+
+def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None) -> int:
+    """Run a live capture to the end (SIGINT/SIGTERM stop it cleanly)."""
+    keep = build_filter(getattr(args, "filter", None))
+    sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
+    recorder = None
+    if record:
+        try:
+            recorder = McapRecorder(record, metadata=live_metadata(capture, capture.source.ports),
+                                    start_time=capture.source.start_time, flush_interval=1.0,
+                                    lines=capture.lines)
+        except RecordingError as e:
+            capture.source.close()
+            raise UsageError(str(e)) from None
+        capture.on_chunk = recorder.raw
+
+    def stop(_signum, _frame):
+        capture.source.stop()
+
+    old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        for ev in capture:
+            if recorder is not None:
+                recorder.event(ev)
+            if keep is None or keep(ev):
+                sink(ev)
+    finally:
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        capture.source.close()
+        if recorder is not None:
+            recorder.end_marker(capture.now)
+            recorder.close()
+            warn(f"recorded {recorder.messages} messages to {record}")
+        sink.close()
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    if len(args.ports) > 2:
+        raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
+    capture = open_live(args.ports, options_from(args), on_warning=warn)
+    return tap_and_print(capture, args, args.record)

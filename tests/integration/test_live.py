@@ -1,0 +1,168 @@
+"""The live tap over real pseudo-terminals opened with pyserial."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import tty
+
+import pytest
+import serial
+
+from tests.conftest import ROOT, frame, run_cli
+from tests.integration.test_mcap import doctor, go_read, jsonl
+
+BT = 10 / 9600
+
+
+def pty_pair():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    return master, slave, os.ttyname(slave)
+
+
+def start_live(*args):
+    exe = [sys.executable, "-m", "analyzer"]
+    return subprocess.Popen(exe + ["live", *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+
+
+def wait_open(proc, seconds=1.0):
+    time.sleep(seconds)
+    assert proc.poll() is None, proc.communicate()
+
+
+def conversation(ma, mb, rounds=3):
+    """The controller's bytes on line A, the gimbal's on line B, answers 20 ms late."""
+    a, b = b"", b""
+    for k in range(rounds):
+        cmd = frame((1, 1, 1), 0, "P?")
+        os.write(ma, cmd)
+        a += cmd
+        time.sleep(0.020 + BT)
+        os.write(mb, b"\x06")
+        time.sleep(0.005 + 15 * BT)
+        res = frame((0, 1, 1), 1, "0FA0FC18")
+        os.write(mb, res)
+        b += b"\x06" + res
+        time.sleep(0.1)
+        go = frame((1, 1, 2), 0, "P0FA0FC18")
+        os.write(ma, go)
+        a += go
+        time.sleep(0.010 + BT)
+        os.write(mb, b"\x06")
+        b += b"\x06"
+        time.sleep(0.1)
+    return a, b
+
+
+def stop(proc):
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=15)
+    return proc.returncode, out, err
+
+
+def test_live_equals_decode_of_recording_and_of_the_same_bytes(tmp_path):
+    ma, sa, pa = pty_pair()
+    mb, sb, pb = pty_pair()
+    rec = tmp_path / "live.mcap"
+    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
+    wait_open(proc)
+    a, b = conversation(ma, mb)
+    time.sleep(0.7)
+    code, out, err = stop(proc)
+    assert code == 0, err
+    live = [json.loads(x) for x in out.splitlines()]
+    assert [e["kind"] for e in live] == ["command", "ack", "result", "command", "ack"] * 3
+    assert all(e["status"] == "ok" for e in live if e["kind"] == "command")
+    # a 20 ms answer is a 20 ms answer
+    for e in live[1::5]:
+        assert e["latency"] == pytest.approx(0.020, abs=0.004)
+    # event for event what decode makes of the recording
+    assert jsonl(rec) == live
+    assert doctor(rec) == [] and go_read(rec)["metadata"]["gimbalscope"]["mode"] == "live"
+    # and the same as decoding the same bytes from raw dumps (which carry no time)
+    (tmp_path / "a.bin").write_bytes(a)
+    (tmp_path / "b.bin").write_bytes(b)
+    untimed = jsonl(tmp_path / "a.bin", tmp_path / "b.bin")
+    keys = ("line", "offset", "kind", "command", "fields", "checksum_ok", "txn", "status", "problems", "raw")
+    assert [{k: e[k] for k in keys} for e in untimed] == [{k: e[k] for k in keys} for e in live]
+
+
+def test_port_vanishing_mid_capture_keeps_everything(tmp_path):
+    ma, sa, pa = pty_pair()
+    mb, sb, pb = pty_pair()
+    rec = tmp_path / "live.mcap"
+    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
+    wait_open(proc)
+    conversation(ma, mb, rounds=1)
+    time.sleep(0.3)
+    os.close(mb)          # the device-side adapter is unplugged
+    os.close(sb)
+    time.sleep(0.5)
+    cmd = frame((1, 1, 1), 0, "HO")
+    os.write(ma, cmd)     # line A still works
+    time.sleep(0.8)
+    code, out, err = stop(proc)
+    assert code == 0 and "Traceback" not in err
+    assert f"{pb}: lost" in err
+    live = [json.loads(x) for x in out.splitlines()]
+    assert [e["kind"] for e in live] == ["command", "ack", "result", "command", "ack", "command"]
+    assert live[-1]["command"] == "HO" and live[-1]["status"] == "no_ack"
+    assert jsonl(rec) == live and doctor(rec) == []
+
+
+def test_sigkill_during_record_leaves_a_file_that_reads_and_recovers(tmp_path):
+    ma, sa, pa = pty_pair()
+    mb, sb, pb = pty_pair()
+    rec = tmp_path / "killed.mcap"
+    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
+    wait_open(proc)
+    conversation(ma, mb, rounds=3)
+    time.sleep(1.5)       # the recorder flushes about once a second
+    conversation(ma, mb, rounds=1)
+    proc.send_signal(signal.SIGKILL)
+    proc.communicate(timeout=10)
+    events = jsonl(rec)
+    assert len(events) >= 15                      # at least what was flushed
+    assert [e["kind"] for e in events[:5]] == ["command", "ack", "result", "command", "ack"]
+    r = run_cli("recover", rec, "-o", tmp_path / "fixed.mcap")
+    assert r.returncode == 0, r.stderr
+    assert doctor(tmp_path / "fixed.mcap") == []
+    fixed = go_read(tmp_path / "fixed.mcap")
+    assert fixed["metadata"]["gimbalscope"]["ports"] == f"{pa} {pb}"
+    assert jsonl(tmp_path / "fixed.mcap") == events
+
+
+def one_line(out, fragment):
+    assert out.returncode == 2 and out.stdout == "" and "Traceback" not in out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and fragment in out.stderr, out.stderr
+
+
+def test_missing_port():
+    one_line(run_cli("live", "/dev/ttyNOPE0"), "/dev/ttyNOPE0: no such serial port")
+
+
+def test_not_a_serial_port(tmp_path):
+    p = tmp_path / "plain.txt"
+    p.write_text("x")
+    one_line(run_cli("live", p), "not a serial port")
+
+
+def test_busy_port():
+    ma, sa, pa = pty_pair()
+    holder = serial.Serial(pa, 9600, exclusive=True)
+    try:
+        one_line(run_cli("live", pa), f"{pa}: busy")
+    finally:
+        holder.close()
+
+
+def test_loop_url_is_accepted_and_sigterm_ends_cleanly():
+    proc = start_live("loop://", "--format", "jsonl")
+    wait_open(proc, 0.7)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=10)
+    assert proc.returncode == 0 and out == "" and "Traceback" not in err
