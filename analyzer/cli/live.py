@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import signal
 import socket
+import sys
 
 from .. import __version__
 from ..capture import Capture, open_live
@@ -64,6 +65,10 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
         capture.source.stop()
 
     old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+    # Reader threads stamp each read with the host clock; the interpreter's default
+    # 5 ms thread switch interval would delay them by as much. Switch more often.
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(0.0002)
     try:
         for ev in capture:
             if recorder is not None:
@@ -71,6 +76,7 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
             if keep is None or keep(ev):
                 sink(ev)
     finally:
+        sys.setswitchinterval(switch)
         for sig, handler in old.items():
             signal.signal(sig, handler)
         capture.source.close()

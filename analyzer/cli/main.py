@@ -10,7 +10,7 @@ import sys
 
 from .. import __version__
 from ..sources import CaptureError
-from . import convert, decode, live, recover, stats
+from . import convert, decode, demo, live, recover, sim, stats
 from .common import UsageError
 
 EXIT_INPUT = 2
@@ -30,7 +30,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     decode.register(sub)
     stats.register(sub)
+    demo.register(sub)
     live.register(sub)
+    sim.register(sub)
     convert.register(sub)
     recover.register(sub)
     return p

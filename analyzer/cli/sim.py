@@ -1,0 +1,56 @@
+"""``gimbalscope sim``: simulated gimbals answering on a serial port per the
+protocol (ACK/NAK/NIC §1.4.2, results §1.4.3 with Table 3 addressing, values per
+Tables 4-18), with protocol faults to inject."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import threading
+
+from ..simulation.bus import GimbalBus
+from ..simulation.gimbal import Faults, GimbalModel
+from .common import UsageError
+
+
+def parse_address(text: str) -> tuple[int, int, int]:
+    try:
+        g, p, d = (int(x) for x in text.split("."))
+        if not all(0 <= v <= 254 for v in (g, p, d)):
+            raise ValueError
+        return g, p, d
+    except ValueError:
+        raise UsageError(f"address {text!r}: expected GROUP.PORT.DEVICE, each 0..254") from None
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("sim", help="simulated gimbals on a serial port",
+                       description="Answer as gimbals on PORT (a device name or pyserial URL).")
+    p.add_argument("port", metavar="PORT")
+    p.add_argument("--address", action="append", default=[], metavar="G.P.D",
+                   help="a gimbal's address (repeatable; default 1.1.1)")
+    p.add_argument("--baud", type=int, default=9600)
+    p.add_argument("--drop-acks", type=float, default=0.0, metavar="P", help="probability of not answering")
+    p.add_argument("--late", type=float, default=0.0, metavar="P", help="probability of answering 0.8 s late")
+    p.add_argument("--init-seconds", type=float, default=3.0, help="how long IX takes (default 3)")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    addresses = [parse_address(a) for a in args.address] or [(1, 1, 1)]
+    faults = Faults(drop_ack=args.drop_acks, late=args.late)
+    gimbals = [GimbalModel(a, serial=f"SN{k:04d}", init_seconds=args.init_seconds, faults=faults)
+               for k, a in enumerate(addresses, 1)]
+    from ..sources.serialport import _open
+    _open(args.port, args.baud, 8, "N", 1).close()   # one clear line if the port is bad
+    bus = GimbalBus(args.port, gimbals, args.baud)
+    done = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: done.set())
+    bus.start()
+    while not done.wait(0.2):
+        if not bus.is_alive():
+            break
+    bus.stop()
+    bus.join(timeout=1.0)
+    return 0

@@ -1,0 +1,132 @@
+"""A simulated controller that drives gimbals the way real ones do: it waits for
+the ACK or NAK before the next command, retransmits on a NAK or a timeout, waits
+for due results, polls positions, sweeps between go-to targets and queries
+status (spec §1.4.2-1.4.3)."""
+
+from __future__ import annotations
+
+import random
+import threading
+import time
+
+import serial
+
+from dissectors import Deframer, dissect_command
+from dissectors.commands import DUE
+from dissectors.event import ACK, NAK, NIC, RESULT
+from dissectors.wire import build_frame
+
+
+class SimController(threading.Thread):
+    def __init__(self, port: str, devices: list[tuple[int, int, int]], *, group: int = 0, seed: int = 3,
+                 ack_timeout: float = 0.25, retries: int = 2, baud: int = 9600, script: list | None = None) -> None:
+        super().__init__(daemon=True, name="sim-controller")
+        self.port = serial.serial_for_url(port, baudrate=baud, timeout=0.005)
+        self.devices = devices
+        self.group = group
+        self.rng = random.Random(seed)
+        self.ack_timeout = ack_timeout
+        self.retries = retries
+        self.script = script
+        self._halt = threading.Event()
+        # timed, so a silence settles a broken frame at once instead of holding
+        # back the answers after it
+        self._bt = 10 / baud
+        self._deframer = Deframer("B", byte_time=self._bt, frame_gap=0.02)
+        self._t0 = time.monotonic()
+        self._inbox: list = []
+        self.sent = 0
+
+    def stop(self) -> None:
+        self._halt.set()
+
+    # ------------------------------------------------------------------ I/O
+    def _read(self, until: float) -> None:
+        while time.monotonic() < until and not self._halt.is_set():
+            data = self.port.read(self.port.in_waiting or 1)
+            now = time.monotonic() - self._t0
+            if data:
+                self._inbox += self._deframer.feed(data, now - len(data) * self._bt)
+                return
+            self._inbox += self._deframer.idle(now)
+
+    def _next(self, until: float, kinds: tuple[str, ...]):
+        """The next answer of one of ``kinds``, or None by ``until``; events before
+        it are consumed, events after it are kept."""
+        scanned = 0
+        while not self._halt.is_set():
+            for k in range(scanned, len(self._inbox)):
+                if self._inbox[k].kind in kinds:
+                    ev = self._inbox[k]
+                    del self._inbox[: k + 1]
+                    return ev
+            scanned = len(self._inbox)
+            if time.monotonic() >= until:
+                return None
+            self._read(until)
+        return None
+
+    def _peek_nic(self, until: float) -> bool:
+        """Is the answer right after the ACK a NIC?"""
+        while not self._inbox and time.monotonic() < until and not self._halt.is_set():
+            self._read(until)
+        if self._inbox and self._inbox[0].kind == NIC:
+            del self._inbox[0]
+            return True
+        return False
+
+    def send(self, dst: tuple[int, int, int], payload: str, result_timeout: float = 1.0) -> str:
+        """Send one command like a controller does; returns what happened."""
+        frame = build_frame(dst, self.group, payload)
+        entry = dissect_command(payload.encode()).entry
+        for _attempt in range(self.retries + 1):
+            self._inbox.clear()
+            self.port.write(frame)
+            self.sent += 1
+            ans = self._next(time.monotonic() + self.ack_timeout + len(frame) / 960, (ACK, NAK))
+            if ans is None or ans.kind == NAK:
+                time.sleep(0.01)
+                continue   # retransmit after a timeout or a NAK
+            if self._peek_nic(time.monotonic() + 0.02):
+                return "nic"
+            if entry is not None and entry.result_due == DUE:
+                res = self._next(time.monotonic() + result_timeout, (RESULT,))
+                return "ok" if res is not None else "no_result"
+            return "ok"
+        return "gave up"
+
+    # --------------------------------------------------------------- script
+    def default_script(self):
+        """An endless mix: poll, sweep, set rates, query, and now and then a
+        command the gimbal does not implement; IX once at the start."""
+        yield (self.devices[-1], "IX", 3.0)
+        targets = [(40.0, -10.0), (-40.0, 10.0), (0.0, 0.0)]
+        k = 0
+        while True:
+            for dev in self.devices:
+                yield (dev, "P?", 1.0)
+                if k % 3 == 0:
+                    az, el = targets[(k // 3) % len(targets)]
+                    yield (dev, "P" + f"{int(az * 100) & 0xFFFF:04X}{int(el * 100) & 0xFFFF:04X}", 1.0)
+                if k % 5 == 1:
+                    yield (dev, self.rng.choice(["AW", "V?", "G?", "R?", "LR", "I?"]), 1.0)
+                if k % 7 == 2:
+                    yield (dev, f"RP{self.rng.randint(500, 2000):04X}", 1.0)
+                if k % 11 == 5:
+                    yield (dev, "FA", 1.0)   # auto-focus: not implemented -> NIC
+            if k % 13 == 3:
+                yield (self.devices[0], "D?", 1.0)
+            k += 1
+
+    def run(self) -> None:
+        steps = iter(self.script) if self.script is not None else self.default_script()
+        try:
+            for dev, payload, result_timeout in steps:
+                if self._halt.is_set():
+                    break
+                self.send(dev, payload, result_timeout)
+                time.sleep(self.rng.uniform(0.01, 0.03))   # think time
+        except (serial.SerialException, OSError):
+            pass
+        finally:
+            self.port.close()
