@@ -55,6 +55,7 @@ class Capture:
         self.on_chunk: Callable[[Chunk, int], None] | None = None
         self._now: float | None = None   # the latest wire time seen (ticks included)
         self._tick = False               # an idle tick arrived: time passed with no bytes
+        self._latest: float | None = None  # the latest time any chunk or tick showed
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
@@ -63,9 +64,20 @@ class Capture:
             self._on_warning(msg)
 
     @property
-    def now(self) -> float | None:
+    def latest(self) -> float | None:
         """The latest wire time seen, idle ticks included (None without time)."""
-        return self._now
+        return self._latest
+
+    def _seen(self, t: float | None) -> None:
+        if t is not None and (self._latest is None or t > self._latest):
+            self._latest = t
+
+    def _at_end(self) -> list[Event]:
+        """Everything is released: let pairing run on to the latest time seen, so a
+        recording decodes with the same timeouts its live tap applied."""
+        if self._latest is not None:
+            self._now, self._tick = self._latest, True
+        return []
 
     @property
     def lines(self) -> tuple[str, ...]:
@@ -128,15 +140,21 @@ class Capture:
         for chunk in self.source.chunks():
             if not chunk.data:            # an idle tick: time passed
                 if chunk.t is not None:
-                    self._now, self._tick = chunk.t, True
-                    yield d.idle(chunk.t)
+                    self._seen(chunk.t)
+                    out = d.idle(chunk.t)
+                    pending = d.pending_since   # bytes of an event not complete yet
+                    self._now = chunk.t if pending is None else min(chunk.t, pending)
+                    self._tick = True
+                    yield out
                 continue
             if tap is not None:
                 tap(chunk, d.offset)
             if chunk.t is not None:
                 self._now = chunk.t + len(chunk.data) * self.options.byte_time
+                self._seen(self._now)
             yield d.feed(chunk.data, chunk.t)
         yield d.finish()
+        yield self._at_end()
 
     def _merged(self) -> Iterator[list[Event]]:
         """Merge timed lines by the wire time of each event's first byte.
@@ -157,6 +175,7 @@ class Capture:
             if not chunk.data:            # an idle tick: time passed
                 if chunk.t is None:
                     continue
+                self._seen(chunk.t)
                 self._now, self._tick = chunk.t, True
                 for d in deframers.values():
                     for ev in d.idle(chunk.t):
@@ -166,6 +185,7 @@ class Capture:
                 if tap is not None:
                     tap(chunk, deframers[chunk.line].offset)
                 self._now = chunk.t + len(chunk.data) * self.options.byte_time
+                self._seen(self._now)
                 for ev in deframers[chunk.line].feed(chunk.data, chunk.t):
                     seq += 1
                     heapq.heappush(heap, (ev.t, seq, 0, ev))
@@ -174,6 +194,10 @@ class Capture:
                 p = d.pending_since
                 if p is not None and p < mark:
                     mark = p
+            if self._tick:
+                # pairing may only run up to what has been released: an answer still
+                # held back here must not find its command already timed out
+                self._now = mark
             ready = []
             while heap and heap[0][0] < mark:
                 ready.append(heapq.heappop(heap)[3])
@@ -183,6 +207,7 @@ class Capture:
                 seq += 1
                 heapq.heappush(heap, (ev.t, seq, 0, ev))
         yield [heapq.heappop(heap)[3] for _ in range(len(heap))]
+        yield self._at_end()
 
 
 _gc_depth = 0

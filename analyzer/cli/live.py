@@ -81,7 +81,7 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
             signal.signal(sig, handler)
         capture.source.close()
         if recorder is not None:
-            recorder.end_marker(capture.now)
+            recorder.end_marker(capture.latest)
             recorder.close()
             warn(f"recorded {recorder.messages} messages to {record}")
         sink.close()
