@@ -14,7 +14,7 @@ from ..simulation.controller import SimController
 from ..simulation.gimbal import Faults, GimbalModel
 from ..simulation.link import VirtualLink, WireFaults
 from .common import add_filter_arg, warn
-from .live import tap_and_print
+from .live import add_record_args, tap_and_print
 
 DEVICES = [(1, 1, 1), (1, 1, 2), (1, 1, 3)]
 
@@ -24,7 +24,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Run a simulated controller and three gimbals over pseudo-terminals and tap "
                                    "both lines; no hardware needed.")
     p.add_argument("--seconds", type=float, default=12.0, help="how long to run (default 12; 0 = until Ctrl-C)")
-    p.add_argument("--record", metavar="FILE.mcap", help="record the demo to MCAP")
+    add_record_args(p)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events")
     p.add_argument("--clean", action="store_true", help="no injected faults")

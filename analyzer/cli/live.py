@@ -15,7 +15,7 @@ import sys
 from .. import __version__
 from ..capture import Capture, open_live
 from ..output import JsonLinesSink, TextSink
-from ..recording import McapRecorder, RecordingError
+from ..recording import McapRecorder, RecordingError, RotatingRecorder
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, warn
 
 
@@ -28,9 +28,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_serial_args(p)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events (everything is still recorded)")
-    p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
+    add_record_args(p)
     p.add_argument("--no-tui", action="store_true", help="print events (the default until the TUI arrives)")
     p.set_defaults(run=run)
+
+
+def add_record_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
+    p.add_argument("--rotate-mb", type=float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
+    p.add_argument("--rotate-minutes", type=float, metavar="MIN", help="with --record: a new file every MIN minutes")
 
 
 def live_metadata(capture: Capture, ports: list[str]) -> dict[str, str]:
@@ -52,10 +58,15 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
     recorder = None
     if record:
+        kw = dict(metadata=live_metadata(capture, capture.source.ports), start_time=capture.source.start_time,
+                  flush_interval=1.0, lines=capture.lines)
+        mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
         try:
-            recorder = McapRecorder(record, metadata=live_metadata(capture, capture.source.ports),
-                                    start_time=capture.source.start_time, flush_interval=1.0,
-                                    lines=capture.lines)
+            if mb or minutes:
+                recorder = RotatingRecorder(record, max_bytes=int(mb * 1e6) if mb else None,
+                                            max_seconds=minutes * 60 if minutes else None, **kw)
+            else:
+                recorder = McapRecorder(record, **kw)
         except RecordingError as e:
             capture.source.close()
             raise UsageError(str(e)) from None
@@ -83,7 +94,8 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
         if recorder is not None:
             recorder.end_marker(capture.latest)
             recorder.close()
-            warn(f"recorded {recorder.messages} messages to {record}")
+            where = ", ".join(recorder.paths) if isinstance(recorder, RotatingRecorder) else record
+            warn(f"recorded {recorder.messages} messages to {where}")
         sink.close()
     return 0
 

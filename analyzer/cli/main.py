@@ -10,7 +10,7 @@ import sys
 
 from .. import __version__
 from ..sources import CaptureError
-from . import convert, decode, demo, live, recover, sim, stats
+from . import convert, decode, demo, live, recover, replay, sim, stats
 from .common import UsageError
 
 EXIT_INPUT = 2
@@ -33,6 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
     demo.register(sub)
     live.register(sub)
     sim.register(sub)
+    replay.register(sub)
     convert.register(sub)
     recover.register(sub)
     return p

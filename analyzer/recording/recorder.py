@@ -59,6 +59,7 @@ class McapRecorder:
         self._open_txn: dict[str, Any] | None = None
         self._offsets: dict[str, int] = {}
         self.messages = 0
+        self.message_bytes = 0   # before compression
         self._closed = False
         if self._metadata:   # written first, so a killed recording still says what it is
             self._writer.add_metadata(S.METADATA_NAME, self._metadata)
@@ -118,8 +119,10 @@ class McapRecorder:
         return self.start_ns + int(round(t * 1e9))
 
     def _write(self, channel: int, ts: int, obj: dict) -> None:
-        self._writer.add_message(channel, log_time=ts, data=dumps(obj), publish_time=ts)
+        data = dumps(obj)
+        self._writer.add_message(channel, log_time=ts, data=data, publish_time=ts)
         self.messages += 1
+        self.message_bytes += len(data)
         if self._flush_interval is not None and self._clock() - self._last_flush >= self._flush_interval:
             self.flush()
 
@@ -165,3 +168,53 @@ class McapRecorder:
         if self._open_txn is not None:
             self._write(self._txns, self._open_txn["ts"], self._open_txn["msg"])
             self._open_txn = None
+
+
+class RotatingRecorder:
+    """Long unattended captures: a new numbered file (``name-0001.mcap``, …) when
+    the current one holds ``max_bytes`` of messages (counted before compression:
+    the writer keeps a chunk in memory until it flushes) or is ``max_seconds``
+    old; each part is a whole MCAP with its own metadata (``part``)."""
+
+    def __init__(self, path: str, *, max_bytes: int | None = None, max_seconds: float | None = None,
+                 clock: Callable[[], float] = time.monotonic, **kw) -> None:
+        self.base, ext = os.path.splitext(path)
+        self.ext = ext or ".mcap"
+        self.max_bytes, self.max_seconds, self.clock = max_bytes, max_seconds, clock
+        self.kw = kw
+        self.part = 0
+        self.paths: list[str] = []
+        self.messages = 0
+        self._open()
+
+    def _open(self) -> None:
+        self.part += 1
+        path = f"{self.base}-{self.part:04d}{self.ext}"
+        kw = dict(self.kw)
+        kw["metadata"] = {**kw.get("metadata", {}), "part": str(self.part)}
+        self.current = McapRecorder(path, **kw)
+        self.paths.append(path)
+        self.opened = self.clock()
+
+    def _maybe_rotate(self) -> None:
+        cur = self.current
+        too_big = self.max_bytes is not None and cur.message_bytes >= self.max_bytes
+        too_old = self.max_seconds is not None and self.clock() - self.opened >= self.max_seconds
+        if too_big or too_old:
+            self.messages += cur.messages
+            cur.close()
+            self._open()
+
+    def raw(self, chunk: Chunk, offset: int) -> None:
+        self.current.raw(chunk, offset)
+        self._maybe_rotate()
+
+    def event(self, ev: Event) -> None:
+        self.current.event(ev)
+
+    def end_marker(self, t: float | None) -> None:
+        self.current.end_marker(t)
+
+    def close(self) -> None:
+        self.messages += self.current.messages
+        self.current.close()

@@ -69,3 +69,40 @@ def test_sim_answers_on_a_pty(tmp_path):
 def test_sim_bad_port_is_one_line():
     out = run_cli("sim", "/dev/ttyNOPE9")
     assert out.returncode == 2 and "no such serial port" in out.stderr and "Traceback" not in out.stderr
+
+
+def test_replay_keeps_the_recorded_pace(tmp_path):
+    rec = tmp_path / "r.mcap"
+    r = run_cli("convert", os.path.join(ROOT, "captures", "demo-socat.log"), "-o", rec)
+    assert r.returncode == 0
+    # the sample spans 8.0 s: at speed 4 the last event is due after about 2 s
+    t0 = time.monotonic()
+    fast = run_cli("replay", rec, "--speed", "4", "--format", "jsonl", timeout=60)
+    paced = time.monotonic() - t0
+    quick = run_cli("replay", rec, "--speed", "max", "--format", "jsonl", timeout=60)
+    assert fast.returncode == quick.returncode == 0
+    assert fast.stdout == quick.stdout == run_cli("decode", rec, "--format", "jsonl").stdout
+    assert paced >= 8.0 / 4 - 0.1   # it waited for the recorded times (a lower bound, not a speed)
+
+
+def test_replay_errors():
+    out = run_cli("replay", os.path.join(ROOT, "captures", "demo-bus.bin"))
+    assert out.returncode == 2 and "replay takes an MCAP recording" in out.stderr
+    out = run_cli("replay", "x.mcap", "--speed", "0")
+    assert out.returncode == 2 and "'0': a factor above 0" in out.stderr
+
+
+def test_demo_recording_rotates_by_size(tmp_path):
+    rec = tmp_path / "long.mcap"
+    out = run_cli("demo", "--seconds", "4", "--format", "jsonl", "--record", rec, "--rotate-mb", "0.005",
+                  timeout=60)
+    assert out.returncode == 0, out.stderr
+    parts = sorted(tmp_path.glob("long-*.mcap"))
+    assert len(parts) >= 2
+    total = 0
+    for k, part in enumerate(parts, 1):
+        assert doctor(part) == []
+        report = go_read(part)
+        assert report["metadata"]["gimbalscope"]["part"] == str(k)
+        total += report["messages"]["/serial/A/raw"] + report["messages"].get("/serial/B/raw", 0)
+    assert total > 0

@@ -1,0 +1,55 @@
+"""``gimbalscope replay``: play an MCAP recording back at its recorded pace
+(``--speed 2`` twice as fast, ``--speed max`` without waiting), re-dissecting
+its raw byte topics like ``decode`` (Table 1 framing, Tables 4-18 fields)."""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from ..output import JsonLinesSink, TextSink
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs
+
+
+def speed(text: str) -> float:
+    if text == "max":
+        return 0.0
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: a factor above 0 (2 = twice as fast) or 'max'")
+    return value
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("replay", help="play an MCAP recording back at its pace",
+                       description="Replay an MCAP recording: events at their recorded pace.")
+    p.add_argument("inputs", nargs=1, metavar="FILE.mcap")
+    add_serial_args(p)
+    p.add_argument("--speed", type=speed, default=1.0, metavar="N|max", help="pace factor (default 1) or max")
+    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    add_filter_arg(p, "show only matching events")
+    p.add_argument("--no-tui", action="store_true", help="print events (the default until the TUI arrives)")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    keep = build_filter(args.filter)
+    capture = open_inputs(args)
+    if type(capture.source).__name__ != "McapSource":
+        raise UsageError(f"{args.inputs[0]}: replay takes an MCAP recording (use decode for other captures)")
+    sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
+    start = time.monotonic()
+    try:
+        for ev in capture:
+            if args.speed and ev.t is not None:
+                delay = start + ev.t / args.speed - time.monotonic()
+                if delay > 0:
+                    time.sleep(delay)
+            if keep is None or keep(ev):
+                sink(ev)
+    finally:
+        sink.close()
+    return 0
