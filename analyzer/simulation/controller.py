@@ -98,8 +98,7 @@ class SimController(threading.Thread):
     # --------------------------------------------------------------- script
     def default_script(self):
         """An endless mix: poll, sweep, set rates, query, and now and then a
-        command the gimbal does not implement; IX once at the start."""
-        yield (self.devices[-1], "IX", 3.0)
+        command the gimbal does not implement; one IX (initialisation) early on."""
         targets = [(40.0, -10.0), (-40.0, 10.0), (0.0, 0.0)]
         k = 0
         while True:
@@ -116,6 +115,8 @@ class SimController(threading.Thread):
                     yield (dev, "FA", 1.0)   # auto-focus: not implemented -> NIC
             if k % 13 == 3:
                 yield (self.devices[0], "D?", 1.0)
+            if k == 4:
+                yield (self.devices[-1], "IX", 3.0)
             k += 1
 
     def run(self) -> None:

@@ -94,7 +94,7 @@ def test_replay_errors():
 
 def test_demo_recording_rotates_by_size(tmp_path):
     rec = tmp_path / "long.mcap"
-    out = run_cli("demo", "--seconds", "4", "--format", "jsonl", "--record", rec, "--rotate-mb", "0.005",
+    out = run_cli("demo", "--seconds", "4", "--format", "jsonl", "--record", rec, "--rotate-mb", "0.004",
                   timeout=60)
     assert out.returncode == 0, out.stderr
     parts = sorted(tmp_path.glob("long-*.mcap"))
