@@ -253,7 +253,7 @@ class Deframer:
 
     def _prune(self) -> None:
         base = self._base
-        if self._seg_off and len(self._seg_off) > 1:
+        if len(self._seg_off) > 32:   # now and then: a small list costs nothing to keep
             k = bisect_right(self._seg_off, base) - 1
             if k > 0:
                 del self._seg_off[:k]

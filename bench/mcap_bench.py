@@ -1,0 +1,145 @@
+#!/usr/bin/env python3
+"""MCAP recording and live-tap figures (issue: live tap and MCAP).
+
+Prints:
+  1. events/s when recording (decode + MCAP writer, `convert` of a raw capture)
+  2. MB per hour of recording a saturated 115200-baud pair of lines
+  3. events/s when re-dissecting an MCAP, and its share of raw-dump decode speed
+     (target >= 50%)
+  4. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
+     115200-baud traffic (target < 20% of one core)
+
+    python3 bench/mcap_bench.py [--events 300000] [--live-seconds 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import tty
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+import analyzer  # noqa: E402
+from analyzer.capture import Options  # noqa: E402
+from analyzer.recording import McapRecorder  # noqa: E402
+from analyzer.traffic import generate  # noqa: E402
+
+BAUD = 115200
+EVENTS_PER_COMMAND = 2.55
+
+
+def saturated(commands: int, seed: int = 1):
+    """Back-to-back traffic at 115200 baud: answers as fast as devices give them."""
+    return generate(commands, baud=BAUD, seed=seed, bit_error_rate=0.002, drop_ack_rate=0.002, noise_rate=0.002)
+
+
+def decode_rate(paths: list[str]) -> tuple[int, float]:
+    t = time.perf_counter()
+    n = sum(1 for _ in analyzer.open(*paths, baud=BAUD))
+    return n, n / (time.perf_counter() - t)
+
+
+def record(paths: list[str], out: str) -> tuple[int, float]:
+    cap = analyzer.open(*paths, baud=BAUD)
+    t = time.perf_counter()
+    rec = McapRecorder(out, metadata={"tool": "bench"}, start_time=time.time(), lines=cap.lines)
+    cap.on_chunk = rec.raw
+    n = 0
+    for ev in cap:
+        rec.event(ev)
+        n += 1
+    rec.close()
+    return n, n / (time.perf_counter() - t)
+
+
+def cpu_seconds(pid: int) -> float:
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def live_cpu(seconds: float, out: str) -> tuple[float, int]:
+    """CPU share of a live tap recording two saturated lines, fed through ptys."""
+    ptys = []
+    for _ in range(2):
+        m, s = os.openpty()
+        tty.setraw(s)
+        ptys.append((m, s, os.ttyname(s)))
+    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "live", ptys[0][2], ptys[1][2], "--baud",
+                             str(BAUD), "--format", "jsonl", "--record", out],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    time.sleep(1.0)
+    tr = saturated(int(seconds * 400) + 100, seed=3)
+    bt = 10 / BAUD
+    stop = threading.Event()
+
+    def feed(line: str, fd: int) -> None:
+        # each line carries its bytes back to back at 115200 baud: saturated
+        start = time.monotonic()
+        for w in (w for w in tr.writes if w.line == line):
+            if stop.is_set():
+                return
+            due = start + w.t + len(w.data) * bt
+            d = due - time.monotonic()
+            if d > 0:
+                time.sleep(d)
+            os.write(fd, w.data)
+
+    threads = [threading.Thread(target=feed, args=(line, ptys[k][0]), daemon=True) for k, line in enumerate("AB")]
+    cpu0, wall0 = cpu_seconds(proc.pid), time.monotonic()
+    for th in threads:
+        th.start()
+    time.sleep(seconds)
+    cpu1, wall1 = cpu_seconds(proc.pid), time.monotonic()
+    stop.set()
+    proc.send_signal(signal.SIGINT)
+    proc.communicate(timeout=30)
+    events = sum(1 for _ in analyzer.open(out))
+    return (cpu1 - cpu0) / (wall1 - wall0), events
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--events", type=int, default=300_000)
+    ap.add_argument("--live-seconds", type=float, default=10.0)
+    args = ap.parse_args()
+    tmp = tempfile.mkdtemp(prefix="gimbalscope-mcap-bench-")
+    tr = saturated(int(args.events / EVENTS_PER_COMMAND))
+    ctl, dev = os.path.join(tmp, "ctl.bin"), os.path.join(tmp, "dev.bin")
+    with open(ctl, "wb") as f:
+        f.write(tr.line_bytes("A"))
+    with open(dev, "wb") as f:
+        f.write(tr.line_bytes("B"))
+    log = os.path.join(tmp, "tap.log")
+    with open(log, "w") as f:
+        f.write(tr.socat_log())
+    wire_seconds = max(w.t for w in tr.writes)
+
+    n, raw_rate = decode_rate([log])
+    out = os.path.join(tmp, "rec.mcap")
+    n_rec, rec_rate = record([log], out)
+    n_mcap, mcap_rate = decode_rate([out])
+    size = os.path.getsize(out)
+    print(f"capture: {n:,} events, {wire_seconds:.0f} s of saturated {BAUD}-baud traffic on two lines")
+    print(f"1. recording (decode + MCAP writer): {rec_rate:,.0f} events/s")
+    print(f"2. MCAP size: {size / 1e6:.1f} MB for {wire_seconds:.0f} s = {size / 1e6 / wire_seconds * 3600:.0f} MB "
+          f"per hour of a saturated {BAUD}-baud pair")
+    print(f"3. re-dissecting the MCAP: {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
+          f"log: {raw_rate:,.0f} events/s; from raw dumps: {decode_rate([ctl, dev])[1]:,.0f} events/s")
+    print(f"   MCAP re-dissection is {mcap_rate / decode_rate([ctl, dev])[1]:.0%} of raw-dump decode speed "
+          "(target >= 50%)")
+    share, events = live_cpu(args.live_seconds, os.path.join(tmp, "live.mcap"))
+    print(f"4. live --record on two saturated {BAUD}-baud ptys: {share:.0%} of one core over "
+          f"{args.live_seconds:.0f} s ({events:,} events recorded; target < 20%)")
+
+
+if __name__ == "__main__":
+    main()
