@@ -19,6 +19,7 @@ from dissectors.wire import byte_time
 
 from .align import align
 from .pairing import Pairer, Timeouts
+from .skew import SkewEstimator
 from .sources import LINE_AB, Chunk, Source, detect
 
 
@@ -56,6 +57,7 @@ class Capture:
         self._now: float | None = None   # the latest wire time seen (ticks included)
         self._tick = False               # an idle tick arrived: time passed with no bytes
         self._latest: float | None = None  # the latest time any chunk or tick showed
+        self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
@@ -171,6 +173,30 @@ class Capture:
         heap: list[tuple[float, int, int, Event]] = []
         seq = 0
         tap = self.on_chunk
+        estimator = SkewEstimator()
+        reported = 0.0
+
+        def arrived(events: list[Event]) -> None:
+            nonlocal seq, heap, reported
+            for ev in events:
+                if estimator.observe(ev):   # sees the times as read
+                    delta = estimator.skew - self.skew
+                    self.skew = estimator.skew
+                    if delta:
+                        # line B events still held here move with the estimate
+                        for _t, _s, _z, held in heap:
+                            if held.line == "B":
+                                _shift(held, delta)
+                        heap = [(e.t, q, 0, e) for _t, q, _z, e in heap]
+                        heapq.heapify(heap)
+                    if abs(self.skew - reported) >= 0.001:
+                        reported = self.skew
+                        self._warn(f"line B reads about {self.skew * 1000:.1f} ms ahead of line A (adapter "
+                                   f"delays): its times are moved later by that much")
+                if ev.line == "B" and self.skew:
+                    _shift(ev, self.skew)
+                seq += 1
+                heapq.heappush(heap, (ev.t, seq, 0, ev))
         for chunk in self.source.chunks():
             if not chunk.data:            # an idle tick: time passed
                 if chunk.t is None:
@@ -178,17 +204,13 @@ class Capture:
                 self._seen(chunk.t)
                 self._now, self._tick = chunk.t, True
                 for d in deframers.values():
-                    for ev in d.idle(chunk.t):
-                        seq += 1
-                        heapq.heappush(heap, (ev.t, seq, 0, ev))
+                    arrived(d.idle(chunk.t))
             else:
                 if tap is not None:
                     tap(chunk, deframers[chunk.line].offset)
                 self._now = chunk.t + len(chunk.data) * self.options.byte_time
                 self._seen(self._now)
-                for ev in deframers[chunk.line].feed(chunk.data, chunk.t):
-                    seq += 1
-                    heapq.heappush(heap, (ev.t, seq, 0, ev))
+                arrived(deframers[chunk.line].feed(chunk.data, chunk.t))
             mark = chunk.t - margin
             for d in deframers.values():
                 p = d.pending_since
@@ -203,11 +225,15 @@ class Capture:
                 ready.append(heapq.heappop(heap)[3])
             yield ready
         for d in deframers.values():
-            for ev in d.finish():
-                seq += 1
-                heapq.heappush(heap, (ev.t, seq, 0, ev))
+            arrived(d.finish())
         yield [heapq.heappop(heap)[3] for _ in range(len(heap))]
         yield self._at_end()
+
+
+def _shift(ev: Event, delta: float) -> None:
+    if ev.t is not None:
+        ev.t += delta
+        ev.t_end += delta
 
 
 _gc_depth = 0

@@ -118,7 +118,9 @@ def _payload_for(kind: str, rng: random.Random) -> tuple[str, str | None]:
 
 def generate(commands: int, *, baud: int = 9600, seed: int = 1, devices=((1, 1, 1), (1, 1, 2), (1, 2, 1)),
              controller_group: int = 0, bit_error_rate: float = 0.0, drop_ack_rate: float = 0.0,
-             noise_rate: float = 0.0, ack_timeout: float = 0.2) -> Traffic:
+             noise_rate: float = 0.0, ack_timeout: float = 0.2,
+             think: tuple[float, float] = (0.005, 0.02),
+             answer_delay: tuple[float, float] = (0.002, 0.008)) -> Traffic:
     """A conversation of ``commands`` commands (retransmissions included)."""
     rng = random.Random(seed)
     traffic = Traffic(baud)
@@ -141,7 +143,7 @@ def generate(commands: int, *, baud: int = 9600, seed: int = 1, devices=((1, 1, 
                 wire[k] ^= 1 << rng.randrange(8)
             traffic.writes.append(Write("A", bytes(wire), t))
             t += len(wire) * bt
-            t_answer = t + rng.uniform(0.002, 0.008)
+            t_answer = t + rng.uniform(*answer_delay)
             if drop_ack_rate and rng.random() < drop_ack_rate:
                 t += ack_timeout + rng.uniform(0.001, 0.01)
                 continue   # the controller times out and retransmits
@@ -155,7 +157,7 @@ def generate(commands: int, *, baud: int = 9600, seed: int = 1, devices=((1, 1, 
             if result is not None:
                 g, p, d = dev
                 res = build_frame((controller_group, p, d), g, result)
-                t_res = t + rng.uniform(0.001, 0.004)
+                t_res = t + rng.uniform(answer_delay[0] / 2, answer_delay[1] / 2)
                 traffic.writes.append(Write("B", res, t_res))
                 t = t_res + len(res) * bt
             break
@@ -163,5 +165,5 @@ def generate(commands: int, *, baud: int = 9600, seed: int = 1, devices=((1, 1, 
             junk = bytes(rng.choice([0x00, 0xFF, 0x80, 0x7E, 0xE0]) for _ in range(rng.randint(1, 6)))
             traffic.writes.append(Write("B", junk, t + 0.001))
             t += 0.001 + len(junk) * bt
-        t += rng.uniform(0.005, 0.02)   # controller think time
+        t += rng.uniform(*think)   # controller think time
     return traffic

@@ -38,7 +38,8 @@ EVENTS_PER_COMMAND = 2.55
 
 def saturated(commands: int, seed: int = 1):
     """Back-to-back traffic at 115200 baud: answers as fast as devices give them."""
-    return generate(commands, baud=BAUD, seed=seed, bit_error_rate=0.002, drop_ack_rate=0.002, noise_rate=0.002)
+    return generate(commands, baud=BAUD, seed=seed, bit_error_rate=0.002, drop_ack_rate=0.002, noise_rate=0.002,
+                    think=(0.0, 0.0002), answer_delay=(0.0002, 0.0005))
 
 
 def decode_rate(paths: list[str]) -> tuple[int, float]:
@@ -77,7 +78,7 @@ def live_cpu(seconds: float, out: str) -> tuple[float, int]:
                              str(BAUD), "--format", "jsonl", "--record", out],
                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT)
     time.sleep(1.0)
-    tr = saturated(int(seconds * 400) + 100, seed=3)
+    tr = saturated(int(seconds * 1500) + 100, seed=3)
     bt = 10 / BAUD
     stop = threading.Event()
 
@@ -122,13 +123,15 @@ def main() -> None:
     with open(log, "w") as f:
         f.write(tr.socat_log())
     wire_seconds = max(w.t for w in tr.writes)
+    busy = sum(len(w.data) for w in tr.writes) * 10 / BAUD / 2 / wire_seconds
 
     n, raw_rate = decode_rate([log])
     out = os.path.join(tmp, "rec.mcap")
     n_rec, rec_rate = record([log], out)
     n_mcap, mcap_rate = decode_rate([out])
     size = os.path.getsize(out)
-    print(f"capture: {n:,} events, {wire_seconds:.0f} s of saturated {BAUD}-baud traffic on two lines")
+    print(f"capture: {n:,} events, {wire_seconds:.0f} s of {BAUD}-baud traffic on two lines, "
+          f"each line busy {busy:.0%} of the time")
     print(f"1. recording (decode + MCAP writer): {rec_rate:,.0f} events/s")
     print(f"2. MCAP size: {size / 1e6:.1f} MB for {wire_seconds:.0f} s = {size / 1e6 / wire_seconds * 3600:.0f} MB "
           f"per hour of a saturated {BAUD}-baud pair")

@@ -166,3 +166,32 @@ def test_loop_url_is_accepted_and_sigterm_ends_cleanly():
     proc.send_signal(signal.SIGTERM)
     out, err = proc.communicate(timeout=10)
     assert proc.returncode == 0 and out == "" and "Traceback" not in err
+
+
+def test_skewed_adapters_are_detected_and_corrected(tmp_path):
+    ma, sa, pa = pty_pair()
+    mb, sb, pb = pty_pair()
+    rec = tmp_path / "skew.mcap"
+    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
+    wait_open(proc)
+    for k in range(6):
+        # the gimbal answers 8 ms after the command, but line A's adapter delivers
+        # the command 20 ms late: the ACK is read 12 ms before the command
+        cmd = frame((1, 1, 1), 0, "HO")
+        time.sleep(0.008 + BT)
+        os.write(mb, b"\x06")
+        time.sleep(0.020 - 0.008 - BT)
+        os.write(ma, cmd)
+        time.sleep(0.15)
+    time.sleep(0.6)
+    code, out, err = stop(proc)
+    assert code == 0, err
+    assert "line B reads about" in err and "ms ahead of line A" in err
+    live = [json.loads(x) for x in out.splitlines()]
+    commands = [e for e in live if e["kind"] == "command"]
+    acks = [e for e in live if e["kind"] == "ack"]
+    assert len(commands) == len(acks) == 6
+    # after the first pair taught the estimate, every ACK pairs with its command
+    assert all(c["status"] == "ok" for c in commands[1:])
+    assert all(a["latency"] is not None and a["latency"] >= 0 for a in acks[1:])
+    assert jsonl(rec) == live
