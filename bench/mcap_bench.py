@@ -133,8 +133,9 @@ def main() -> None:
     print(f"capture: {n:,} events, {wire_seconds:.0f} s of {BAUD}-baud traffic on two lines, "
           f"each line busy {busy:.0%} of the time")
     print(f"1. recording (decode + MCAP writer): {rec_rate:,.0f} events/s")
-    print(f"2. MCAP size: {size / 1e6:.1f} MB for {wire_seconds:.0f} s = {size / 1e6 / wire_seconds * 3600:.0f} MB "
-          f"per hour of a saturated {BAUD}-baud pair")
+    per_hour = size / 1e6 / wire_seconds * 3600
+    print(f"2. MCAP size: {size / 1e6:.1f} MB for {wire_seconds:.0f} s = {per_hour:.0f} MB per hour of this "
+          f"conversation running flat out; {per_hour / busy:.0f} MB per hour if both lines were 100% busy")
     print(f"3. re-dissecting the MCAP: {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
           f"log: {raw_rate:,.0f} events/s; from raw dumps: {decode_rate([ctl, dev])[1]:,.0f} events/s")
     print(f"   MCAP re-dissection is {mcap_rate / decode_rate([ctl, dev])[1]:.0%} of raw-dump decode speed "
