@@ -18,9 +18,12 @@ from dissectors.event import ACK, COMMAND, NAK, Event
 
 
 class SkewEstimator:
-    def __init__(self, window: int = 64, near: float = 0.5, guard: float = 0.0002) -> None:
+    def __init__(self, window: int = 64, near: float = 0.05, guard: float = 0.0002) -> None:
         self.window = window
-        self.near = near        # seconds: farther apart, they are not command and answer
+        # seconds: farther apart, they are not a command and its answer. Adapter
+        # skew is milliseconds (USB latency timers are 1-16 ms); a wide window would
+        # pair an answer with the next command and invent a skew.
+        self.near = near
         self.guard = guard      # a device needs at least this long to answer
         self._samples: deque[float] = deque(maxlen=window)
         self._cmd: Event | None = None       # a command waiting for its ACK/NAK

@@ -312,8 +312,10 @@ class Deframer:
             if v > 0:
                 return self._before_resync(out, p, base + q, length)
             q = buf.find(START, q + 1, limit - base)
-        # 2. the length byte was corrupted: an end before the next start byte checks out
-        repaired = self._length_repair(p, length, limit if cut is not None else None, final)
+        # 2. the length byte was corrupted: an end before the next start byte checks out.
+        # No frame spans a silence, so the first silence after p bounds the search.
+        bound = cut if cut is not None else self._gap_in(p, end_abs + 1)
+        repaired = self._length_repair(p, length, bound, final)
         if repaired is None:
             return None
         if repaired > 0:
