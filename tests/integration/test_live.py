@@ -34,6 +34,17 @@ def wait_open(proc, seconds=1.0):
     assert proc.poll() is None, proc.communicate()
 
 
+def recording_tap(tmp_path, name="live.mcap"):
+    """Two pty pairs, ``gimbalscope live`` on their slave ends recording to ``name``:
+    (line A master, line B master, A path, B path, recording, process)."""
+    ma, sa, pa = pty_pair()
+    mb, sb, pb = pty_pair()
+    rec = tmp_path / name
+    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
+    wait_open(proc)
+    return ma, mb, sb, pa, pb, rec, proc
+
+
 def conversation(ma, mb, rounds=3):
     """The controller's bytes on line A, the gimbal's on line B, answers 20 ms late."""
     a, b = b"", b""
@@ -65,11 +76,7 @@ def stop(proc):
 
 
 def test_live_equals_decode_of_recording_and_of_the_same_bytes(tmp_path):
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
-    rec = tmp_path / "live.mcap"
-    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
-    wait_open(proc)
+    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "live.mcap")
     a, b = conversation(ma, mb)
     time.sleep(0.7)
     code, out, err = stop(proc)
@@ -92,11 +99,7 @@ def test_live_equals_decode_of_recording_and_of_the_same_bytes(tmp_path):
 
 
 def test_port_vanishing_mid_capture_keeps_everything(tmp_path):
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
-    rec = tmp_path / "live.mcap"
-    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
-    wait_open(proc)
+    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "live.mcap")
     conversation(ma, mb, rounds=1)
     time.sleep(0.3)
     os.close(mb)          # the device-side adapter is unplugged
@@ -115,11 +118,7 @@ def test_port_vanishing_mid_capture_keeps_everything(tmp_path):
 
 
 def test_sigkill_during_record_leaves_a_file_that_reads_and_recovers(tmp_path):
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
-    rec = tmp_path / "killed.mcap"
-    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
-    wait_open(proc)
+    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "killed.mcap")
     conversation(ma, mb, rounds=3)
     time.sleep(1.5)       # the recorder flushes about once a second
     conversation(ma, mb, rounds=1)
@@ -169,11 +168,7 @@ def test_loop_url_is_accepted_and_sigterm_ends_cleanly():
 
 
 def test_skewed_adapters_are_detected_and_corrected(tmp_path):
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
-    rec = tmp_path / "skew.mcap"
-    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
-    wait_open(proc)
+    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "skew.mcap")
     for k in range(6):
         # the gimbal answers 8 ms after the command, but line A's adapter delivers
         # the command 20 ms late: the ACK is read 12 ms before the command
