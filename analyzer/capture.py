@@ -51,7 +51,7 @@ class Capture:
         self.source = source
         self.options = options or Options()
         self.warnings: list[str] = []
-        self._on_warning = on_warning
+        self.on_warning = on_warning     # also told every warning (recorders log them)
         # called with (chunk, offset of its first byte) for every chunk read: recorders
         self.on_chunk: Callable[[Chunk, int], None] | None = None
         self._now: float | None = None   # the latest wire time seen (ticks included)
@@ -62,8 +62,8 @@ class Capture:
 
     def _warn(self, msg: str) -> None:
         self.warnings.append(msg)
-        if self._on_warning is not None:
-            self._on_warning(msg)
+        if self.on_warning is not None:
+            self.on_warning(msg)
 
     @property
     def latest(self) -> float | None:

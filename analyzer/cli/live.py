@@ -72,6 +72,12 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
             raise UsageError(str(e)) from None
         capture.on_chunk = recorder.raw
 
+        def warn_and_log(msg: str) -> None:   # a lost port is marked in the recording too
+            warn(msg)
+            recorder.note(msg, capture.latest)
+
+        capture.on_warning = warn_and_log
+
     def stop(_signum, _frame):
         capture.source.stop()
 

@@ -33,6 +33,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--drop-acks", type=float, default=0.0, metavar="P", help="probability of not answering")
     p.add_argument("--late", type=float, default=0.0, metavar="P", help="probability of answering 0.8 s late")
     p.add_argument("--init-seconds", type=float, default=3.0, help="how long IX takes (default 3)")
+    p.add_argument("--wrong-baud", type=int, metavar="RATE",
+                   help="fault: answer at RATE while the line runs at --baud (a misconfigured gimbal)")
     p.set_defaults(run=run)
 
 
@@ -43,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
                for k, a in enumerate(addresses, 1)]
     from ..sources.serialport import _open
     _open(args.port, args.baud, 8, "N", 1).close()   # one clear line if the port is bad
-    bus = GimbalBus(args.port, gimbals, args.baud)
+    bus = GimbalBus(args.port, gimbals, args.baud, wrong_baud=args.wrong_baud)
     done = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: done.set())

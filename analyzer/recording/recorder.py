@@ -87,6 +87,13 @@ class McapRecorder:
         self._write(self._raw_channels[line], self._time_ns(t, 0),
                     {"line": line, "offset": self._offsets.get(line, 0), "t": t, "data": ""})
 
+    def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
+        """A tap's own message (a port lost and back, the skew estimate) on /log."""
+        ts = self._time_ns(t, 0)
+        self._write(self._log, ts, {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000},
+                                    "level": level, "message": message, "name": "gimbalscope tap",
+                                    "file": "", "line": 0})
+
     def event(self, ev: Event) -> None:
         ts = self._time_ns(ev.t, ev.number)
         self._write(self._events, ts, ev.to_dict())
@@ -214,6 +221,9 @@ class RotatingRecorder:
 
     def end_marker(self, t: float | None) -> None:
         self.current.end_marker(t)
+
+    def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
+        self.current.note(message, t, level)
 
     def close(self) -> None:
         self.messages += self.current.messages

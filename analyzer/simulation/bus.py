@@ -16,7 +16,9 @@ from .gimbal import GimbalModel
 
 
 class GimbalBus(threading.Thread):
-    def __init__(self, port: str, gimbals: list[GimbalModel], baud: int = 9600) -> None:
+    def __init__(self, port: str, gimbals: list[GimbalModel], baud: int = 9600,
+                 wrong_baud: int | None = None) -> None:
+        self.wrong_baud = wrong_baud   # fault: answer at this rate instead
         super().__init__(daemon=True, name="gimbal-bus")
         self.port = serial.serial_for_url(port, baudrate=baud, timeout=0.005)
         self.gimbals = gimbals
@@ -54,6 +56,9 @@ class GimbalBus(threading.Thread):
                             heapq.heappush(pending, (start + reply.at, seq, reply.data))
             while pending and pending[0][0] <= time.monotonic():
                 _, _, out = heapq.heappop(pending)
+                if self.wrong_baud:
+                    from .uart import misread
+                    out = misread(out, self.wrong_baud, self.port.baudrate)
                 try:
                     self.port.write(out)
                 except (serial.SerialException, OSError):

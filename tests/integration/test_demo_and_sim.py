@@ -107,3 +107,21 @@ def test_demo_recording_rotates_by_size(tmp_path):
         assert report["metadata"]["gimbalscope"]["part"] == str(k)
         total += report["messages"]["/serial/A/raw"] + report["messages"].get("/serial/B/raw", 0)
     assert total > 0
+
+
+def test_sim_at_a_wrong_baud_rate_answers_garbage():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    port = os.ttyname(slave)
+    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "sim", port, "--wrong-baud", "19200"],
+                            cwd=ROOT, stderr=subprocess.PIPE, text=True)
+    try:
+        time.sleep(0.7)
+        os.write(master, frame((1, 1, 1), 0, "HO"))
+        time.sleep(0.3)
+        got = os.read(master, 100)
+        # the ACK (0x06) sent at 19200 reads as 0xF9 at 9600 (tests/pure/test_uart.py)
+        assert got == b"\xf9"
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(10)

@@ -115,6 +115,11 @@ def test_port_vanishing_mid_capture_keeps_everything(tmp_path):
     assert [e["kind"] for e in live] == ["command", "ack", "result", "command", "ack", "command"]
     assert live[-1]["command"] == "HO" and live[-1]["status"] == "no_ack"
     assert jsonl(rec) == live and doctor(rec) == []
+    # the gap is marked in the recording: a foxglove.Log message on /log
+    from mcap.reader import make_reader
+    with open(rec, "rb") as f:
+        messages = [json.loads(m.data)["message"] for _s, _c, m in make_reader(f).iter_messages(topics=["/log"])]
+    assert any(f"{pb}: lost" in m for m in messages), messages
 
 
 def test_sigkill_during_record_leaves_a_file_that_reads_and_recovers(tmp_path):
