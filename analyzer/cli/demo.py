@@ -13,7 +13,7 @@ from ..simulation.bus import GimbalBus
 from ..simulation.controller import SimController
 from ..simulation.gimbal import Faults, GimbalModel
 from ..simulation.link import VirtualLink, WireFaults
-from .common import add_filter_arg, warn
+from .common import UsageError, add_filter_arg, warn
 from .live import add_record_args, tap_and_print
 
 DEVICES = [(1, 1, 1), (1, 1, 2), (1, 1, 3)]
@@ -34,6 +34,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.seconds < 0:
+        raise UsageError(f"--seconds {args.seconds:g}: must be 0 (until Ctrl-C) or more")
     clean = args.clean
     link = VirtualLink(WireFaults(bit_error=0.0 if clean else 0.002, seed=args.seed),
                        WireFaults(bit_error=0.0 if clean else 0.002, noise=0.0 if clean else 0.02,
