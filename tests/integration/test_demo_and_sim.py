@@ -1,5 +1,6 @@
 """The demo and the simulator as a user runs them."""
 
+import contextlib
 import json
 import os
 import signal
@@ -41,14 +42,24 @@ def test_clean_demo_has_no_problems():
     assert bad == [], bad
 
 
-def test_sim_answers_on_a_pty(tmp_path):
+@contextlib.contextmanager
+def sim_on_pty(*args):
+    """``gimbalscope sim`` on a pty's slave end; yields the master end."""
     master, slave = os.openpty()
     tty.setraw(slave)
-    port = os.ttyname(slave)
-    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "sim", port, "--address", "1.1.2"],
+    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "sim", os.ttyname(slave), *args],
                             cwd=ROOT, stderr=subprocess.PIPE, text=True)
     try:
         time.sleep(0.7)
+        yield master
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.wait(10)
+    assert proc.returncode == 0
+
+
+def test_sim_answers_on_a_pty():
+    with sim_on_pty("--address", "1.1.2") as master:
         os.write(master, frame((1, 1, 2), 0, "P?"))
         time.sleep(0.3)
         got = os.read(master, 100)
@@ -61,10 +72,6 @@ def test_sim_answers_on_a_pty(tmp_path):
             assert os.read(master, 100) == b""
         except BlockingIOError:
             pass
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(10)
-    assert proc.returncode == 0
 
 
 def test_sim_bad_port_is_one_line():
@@ -110,21 +117,11 @@ def test_demo_recording_rotates_by_size(tmp_path):
 
 
 def test_sim_at_a_wrong_baud_rate_answers_garbage():
-    master, slave = os.openpty()
-    tty.setraw(slave)
-    port = os.ttyname(slave)
-    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "sim", port, "--wrong-baud", "19200"],
-                            cwd=ROOT, stderr=subprocess.PIPE, text=True)
-    try:
-        time.sleep(0.7)
+    with sim_on_pty("--wrong-baud", "19200") as master:
         os.write(master, frame((1, 1, 1), 0, "HO"))
         time.sleep(0.3)
-        got = os.read(master, 100)
         # the ACK (0x06) sent at 19200 reads as 0xF9 at 9600 (tests/pure/test_uart.py)
-        assert got == b"\xf9"
-    finally:
-        proc.send_signal(signal.SIGTERM)
-        proc.wait(10)
+        assert os.read(master, 100) == b"\xf9"
 
 
 def test_demo_and_live_bad_options_are_one_line(tmp_path):
