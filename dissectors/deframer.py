@@ -112,8 +112,34 @@ class Deframer:
             self._seg_off.append(off)
             self._seg_t.append(t)
             self._last_end = t + len(data) * bt
+        if not self._buf and self._noise_start is None and not self._gaps:
+            ev = self._whole(bytes(data), t)
+            if ev is not None:   # one whole token with nothing pending: the usual read
+                self._base += len(data)
+                self._resume = self._base
+                self._seg_off.clear()
+                self._seg_t.clear()
+                return [ev]
         self._buf = self._buf + data if self._buf else bytes(data)
         return self._parse(final=False)
+
+    def _whole(self, data: bytes, t: float | None) -> Event | None:
+        """The event ``_parse`` would make of ``data`` when it is exactly one valid
+        frame or one simple response byte, else None."""
+        n = len(data)
+        base = self._base
+        if n == 1:
+            kind = _SIMPLE.get(data[0]) if self.simple else None
+            if kind is None:
+                return None
+            return Event(self.line, base, kind, data, t, None if t is None else t + self.byte_time)
+        if data[0] != START or n < 8 or (data[5] or 256) + 7 != n:
+            return None
+        if sum(data[1:-1]) & 0xFF != data[-1] or data.find(START, 6, n - 1) >= 0:
+            return None
+        t1 = None if t is None else t + n * self.byte_time
+        return Event(self.line, base, self.frame_kind, data, t, t1,
+                     (data[1], data[2], data[3]), data[4], data[6:-1], True)
 
     def idle(self, now: float) -> list[Event]:
         """Live input: nothing arrived until ``now``; close what a silence closes."""
