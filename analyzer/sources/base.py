@@ -8,8 +8,7 @@ MCAP recordings and live serial ports plug in behind the same interface.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from typing import Callable, Iterator
+from typing import Callable, Iterator, NamedTuple
 
 LINE_A = "A"    # controller → device
 LINE_B = "B"    # device → controller
@@ -20,8 +19,8 @@ class CaptureError(Exception):
     """An input that cannot be read as a capture; the message names what and where."""
 
 
-@dataclass(frozen=True)
-class Chunk:
+class Chunk(NamedTuple):
+    """Bytes read from one line (a NamedTuple: one is made per read, so it is cheap)."""
     line: str
     data: bytes
     t: float | None = None   # seconds since capture start of the first byte's start bit
