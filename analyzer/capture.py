@@ -54,7 +54,7 @@ class Capture:
         self.on_warning = on_warning     # also told every warning (recorders log them)
         # called with (chunk, offset of its first byte) for every chunk read: recorders
         self.on_chunk: Callable[[Chunk, int], None] | None = None
-        self._now: float | None = None   # the latest wire time seen (ticks included)
+        self._now: float | None = None   # after an idle tick: the time pairing may run on to
         self._tick = False               # an idle tick arrived: time passed with no bytes
         self._latest: float | None = None  # the latest time any chunk or tick showed
         self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
@@ -152,8 +152,7 @@ class Capture:
             if tap is not None:
                 tap(chunk, d.offset)
             if chunk.t is not None:
-                self._now = chunk.t + len(chunk.data) * self.options.byte_time
-                self._seen(self._now)
+                self._seen(chunk.t + len(chunk.data) * self.options.byte_time)
             yield d.feed(chunk.data, chunk.t)
         yield d.finish()
         yield self._at_end()
@@ -170,7 +169,7 @@ class Capture:
         # live ports deliver in arrival order within a few reads; logs can hold big chunks
         chunks_ahead = 64 if getattr(self.source, "live", False) else 512
         margin = chunks_ahead * self.options.byte_time + 0.05
-        heap: list[tuple[float, int, int, Event]] = []
+        heap: list[tuple[float, int, Event]] = []   # (time, arrival sequence, event)
         seq = 0
         tap = self.on_chunk
         estimator = SkewEstimator()
@@ -185,10 +184,10 @@ class Capture:
                     self.skew = estimator.skew
                     if delta:
                         # line B events still held here move with the estimate
-                        for _t, _s, _z, held in heap:
+                        for _t, _s, held in heap:
                             if held.line == "B":
                                 _shift(held, delta)
-                        heap = [(e.t, q, 0, e) for _t, q, _z, e in heap]
+                        heap = [(e.t, q, e) for _t, q, e in heap]
                         heapq.heapify(heap)
                     if abs(self.skew - reported) >= 0.001:
                         reported = self.skew
@@ -197,7 +196,7 @@ class Capture:
                 if ev.line == "B" and self.skew:
                     _shift(ev, self.skew)
                 seq += 1
-                heapq.heappush(heap, (ev.t, seq, 0, ev))
+                heapq.heappush(heap, (ev.t, seq, ev))
         for chunk in self.source.chunks():
             if not chunk.data:            # an idle tick: time passed
                 if chunk.t is None:
@@ -209,8 +208,7 @@ class Capture:
             else:
                 if tap is not None:
                     tap(chunk, deframers[chunk.line].offset)
-                self._now = chunk.t + len(chunk.data) * self.options.byte_time
-                self._seen(self._now)
+                self._seen(chunk.t + len(chunk.data) * self.options.byte_time)
                 arrived(deframers[chunk.line].feed(chunk.data, chunk.t))
             since_release += 1
             if not self._tick and since_release < 32:
@@ -227,11 +225,11 @@ class Capture:
                 self._now = mark
             ready = []
             while heap and heap[0][0] < mark:
-                ready.append(heapq.heappop(heap)[3])
+                ready.append(heapq.heappop(heap)[2])
             yield ready
         for d in deframers.values():
             arrived(d.finish())
-        yield [heapq.heappop(heap)[3] for _ in range(len(heap))]
+        yield [heapq.heappop(heap)[2] for _ in range(len(heap))]
         yield self._at_end()
 
 

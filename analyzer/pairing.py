@@ -42,13 +42,12 @@ class Timeouts:
 
 
 class _Txn:
-    __slots__ = ("cmd", "no", "deadline", "acked", "optional", "age")
+    __slots__ = ("cmd", "no", "deadline", "optional", "age")
 
     def __init__(self, cmd: Event, no: int) -> None:
         self.cmd = cmd
         self.no = no
         self.deadline: float | None = None
-        self.acked = False
         self.optional = False
         self.age = 0  # commands seen since this one (untimed expiry)
 
@@ -89,7 +88,6 @@ class Pairer:
         self._held: deque[Event] = deque()
         self._awaiting_ack: _Txn | None = None
         self._awaiting_result: list[_Txn] = []
-        self._last_acked: _Txn | None = None   # for a NIC right after the ACK
         self._last_cmd: _Txn | None = None     # for retransmissions
         self._timed_out: _Txn | None = None    # no_ack by timeout: a late ACK may still come
         self._controller_groups: set[int] = set()
@@ -98,7 +96,8 @@ class Pairer:
         self._provisional: _Txn | None = None
         self._provisional_since: float | None = None
         self._prev: Event | None = None        # the event pushed before this one
-        self._last_ack: Event | None = None    # a NIC must follow this ACK directly (§1.4.2)
+        # the latest ACK and its transaction: a NIC must follow that ACK directly (§1.4.2)
+        self._last_ack: tuple[Event, _Txn] | None = None
 
     # ----------------------------------------------------------------- API
     def push(self, ev: Event) -> list[Event]:
@@ -122,7 +121,6 @@ class Pairer:
             if ev.t is not None:
                 self._expire(ev.t)
             if kind == FRAME:
-                self._number = number
                 kind = ev.kind = self._classify(ev)
             if kind == COMMAND:
                 command(ev)
@@ -293,9 +291,7 @@ class Pairer:
         if ev.kind == NAK:
             cmd.status = ST_NAK
             return
-        txn.acked = True
-        self._last_acked = txn
-        self._last_ack = ev
+        self._last_ack = (ev, txn)
         due = cmd.entry.result_due if cmd.entry is not None else None
         if due == DUE or due == OPTIONAL:
             txn.optional = due == OPTIONAL
@@ -312,18 +308,18 @@ class Pairer:
             self._provisional_since = ev.t_end
 
     def _nic(self, ev: Event) -> None:
-        txn = self._last_acked
-        if txn is None or self._prev is None or self._prev is not self._last_ack \
-                or txn.cmd.status not in (None, OK):
+        last = self._last_ack
+        if last is None or self._prev is not last[0] or last[1].cmd.status not in (None, OK):
             ev.note(f"{P_ORPHAN}: NIC not right after an ACK")
             return
+        txn = last[1]
         self._link(ev, txn)
         txn.cmd.status = ST_NIC
         if self._provisional is txn:
             self._provisional = None
         if txn in self._awaiting_result:
             self._awaiting_result.remove(txn)
-        self._last_acked = None
+        self._last_ack = None
 
     def _result(self, ev: Event) -> None:
         match = None

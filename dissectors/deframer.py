@@ -296,10 +296,9 @@ class Deframer:
         rp = p - base
         avail = len(buf) - rp
         end_abs = base + len(buf)
-        horizon = end_abs if final else None   # no byte will join after this
         if avail < 6:
             cut = self._gap_in(p, end_abs + 1)
-            if cut is None and horizon is None:
+            if cut is None and not final:
                 return None
             stop = cut if cut is not None else end_abs
             return self._broken(out, p, stop, f"{P_TRUNCATED}: header cut after {stop - p} bytes")
@@ -325,7 +324,7 @@ class Deframer:
                 self._flush_noise(out, p)
                 out.append(self._frame_event(p, p + total, True))
                 return p + total
-        elif cut is None and horizon is None:
+        elif cut is None and not final:
             return None  # the frame is still arriving
         # The stated frame is bad: checksum failed, or cut by silence / end of data.
         limit = cut if cut is not None else min(p + total, end_abs)

@@ -16,7 +16,6 @@ from typing import Iterator
 from io import BytesIO
 
 from mcap.data_stream import ReadDataStream
-from mcap.reader import NonSeekingReader
 from mcap.records import Channel, Chunk as McapChunk, Message
 from mcap.stream_reader import get_chunk_data_stream
 
@@ -34,6 +33,7 @@ RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}
 _RECORD = struct.Struct("<BQ")
 _CHANNEL_HEAD = struct.Struct("<HHI")     # id, schema id, topic length
 _MESSAGE_HEAD = 22                         # channel u16, sequence u32, log and publish times u64
+_LOG_TIME = struct.Struct("<Q")            # at byte 6 of a message record
 _OP_FOOTER, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x02, 0x04, 0x05, 0x06
 _MAGIC_LEN = 8
 
@@ -43,14 +43,14 @@ class McapSource(Source):
         super().__init__()
         self.path = path
         self.description = f"{path} (MCAP)"
-        self.metadata: dict[str, str] = {}
         lines, timed, start = self._survey()
         self.lines = lines
         self.timed = timed
         self.start_time = start
 
-    def _messages(self, topics: list[str]) -> Iterator[tuple[str, dict]]:
-        """(line, raw message) in file order; stops with a warning at a cut end.
+    def _messages(self, topics: list[str]) -> Iterator[tuple[str, int, dict]]:
+        """(line, log time in ns, raw message) in file order; stops with a warning
+        at a cut end.
 
         Records are stepped over by their opcode and length (MCAP's framing); the
         mcap library parses the ones needed (Channel, Message, Chunk) and
@@ -92,7 +92,7 @@ class McapSource(Source):
                         record = Message.read(stream, length)
                         line = wanted.get(record.channel_id)
                         if line is not None:
-                            yield line, json_loads(record.data)
+                            yield line, record.log_time, json_loads(record.data)
                         continue
                     chunk_stream, size = get_chunk_data_stream(McapChunk.read(stream))
                     data = chunk_stream.read(size)
@@ -106,7 +106,8 @@ class McapSource(Source):
                     if op == _OP_MESSAGE:
                         line = wanted.get(data[pos] | data[pos + 1] << 8)
                         if line is not None:
-                            yield line, json_loads(data[pos + _MESSAGE_HEAD:pos + length])
+                            yield (line, _LOG_TIME.unpack_from(data, pos + 6)[0],
+                                   json_loads(data[pos + _MESSAGE_HEAD:pos + length]))
                     elif op == _OP_CHANNEL:
                         cid, _schema, n = unpack_channel(data, pos)
                         topic = data[pos + 8:pos + 8 + n].decode()
@@ -119,35 +120,27 @@ class McapSource(Source):
                   f"(a killed recording? 'gimbalscope recover' rewrites it)")
 
     def _survey(self) -> tuple[tuple[str, ...], bool, float | None]:
-        lines = set()
-        timed = False
-        seen = 0
-        with open_input(self.path) as f:
-            reader = NonSeekingReader(f)
-            try:
-                for _schema, channel, message in reader.iter_messages(log_time_order=False):
-                    if channel.topic in RAW_TOPICS:
-                        lines.add(RAW_TOPICS[channel.topic])
-                        if seen == 0:
-                            timed = json.loads(message.data).get("t") is not None
-                            self.start_time = message.log_time / 1e9 - (json.loads(message.data).get("t") or 0)
-                        seen += 1
-                    if len(lines) == 2 or LINE_AB in lines:
-                        if seen > 0:
-                            break
-            except Exception:
-                pass   # a cut file: what was read is what there is (warned when read)
-        if not lines:
+        """Which lines the recording has, whether it carries time, and when it
+        started (the first raw message's log time less its wire time)."""
+        lines: set[str] = set()
+        first: tuple[int, float | None] | None = None
+        for line, log_time, msg in self._messages(list(RAW_TOPICS)):
+            if first is None:
+                first = (log_time, msg.get("t"))
+            lines.add(line)
+            if len(lines) == 2 or LINE_AB in lines:
+                break
+        if first is None:
             raise CaptureError(f"{self.path}: MCAP file without gimbalscope raw topics "
                                f"({', '.join(RAW_TOPICS)})")
-        if LINE_AB in lines:
-            return (LINE_AB,), timed, self.start_time
-        return (LINE_A, LINE_B), timed, self.start_time
+        log_time, t = first
+        start = log_time / 1e9 - (t or 0)
+        return ((LINE_AB,) if LINE_AB in lines else (LINE_A, LINE_B)), t is not None, start
 
     def chunks(self) -> Iterator[Chunk]:
-        for line, msg in self._messages(list(RAW_TOPICS)):
+        for line, _log_time, msg in self._messages(list(RAW_TOPICS)):
             yield Chunk(line, bytes.fromhex(msg["data"]), msg.get("t"))
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
-        for _line, msg in self._messages([f"/serial/{line}/raw"]):
+        for _line, _log_time, msg in self._messages([f"/serial/{line}/raw"]):
             yield Chunk(line, bytes.fromhex(msg["data"]), msg.get("t"))

@@ -91,7 +91,6 @@ class SocatLogSource(Source):
         line_no = 0
         current: tuple[str, float, int, int] | None = None   # line, t_first, length, lineno
         data = bytearray()
-        bad_lines = 0
         expected_from = {LINE_A: 0, LINE_B: 0}
         with open_input(self.path) as f:
             def finish_chunk():
@@ -114,7 +113,6 @@ class SocatLogSource(Source):
                     try:
                         data += bytes.fromhex(raw_line[:HEX_COLUMNS].decode("ascii"))
                     except (ValueError, UnicodeDecodeError):
-                        bad_lines += 1
                         self.warn(f"{self.path}:{line_no}: not a socat hex line, skipped")
                     continue
                 m = HEADER.match(raw_line) if first in (b">", b"<") else None
@@ -140,7 +138,6 @@ class SocatLogSource(Source):
                 if current is not None and len(data) == 0:
                     raise CaptureError(f"{self.path}:{line_no}: socat log without hex dump; "
                                        f"record it with socat -x -v")
-                bad_lines += 1
                 self.warn(f"{self.path}:{line_no}: not socat -x -v output, skipped")
             if current is not None:
                 yield finish_chunk()

@@ -9,7 +9,6 @@ import sys
 import time
 import tty
 
-import serial
 
 from tests.conftest import ROOT, frame, run_cli
 from tests.integration.test_mcap import doctor, go_read, jsonl

@@ -48,7 +48,7 @@ def recording_tap(tmp_path, name="live.mcap"):
 def conversation(ma, mb, rounds=3):
     """The controller's bytes on line A, the gimbal's on line B, answers 20 ms late."""
     a, b = b"", b""
-    for k in range(rounds):
+    for _ in range(rounds):
         cmd = frame((1, 1, 1), 0, "P?")
         os.write(ma, cmd)
         a += cmd
@@ -174,7 +174,7 @@ def test_loop_url_is_accepted_and_sigterm_ends_cleanly():
 
 def test_skewed_adapters_are_detected_and_corrected(tmp_path):
     ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "skew.mcap")
-    for k in range(6):
+    for _ in range(6):
         # the gimbal answers 8 ms after the command, but line A's adapter delivers
         # the command 20 ms late: the ACK is read 12 ms before the command
         cmd = frame((1, 1, 1), 0, "HO")
