@@ -28,7 +28,6 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 import analyzer  # noqa: E402
-from analyzer.capture import Options  # noqa: E402
 from analyzer.recording import McapRecorder  # noqa: E402
 from analyzer.traffic import generate  # noqa: E402
 
