@@ -9,12 +9,13 @@ pair. This is what ``analyzer.open`` returns and what every CLI command reads.
 from __future__ import annotations
 
 import gc
-import heapq
+from bisect import bisect_left
 from dataclasses import dataclass, field
+from operator import attrgetter
 from typing import Callable, Iterator
 
 from dissectors import Deframer
-from dissectors.event import Event
+from dissectors.event import ACK, COMMAND, NAK, Event
 from dissectors.wire import byte_time
 
 from .align import align
@@ -169,36 +170,37 @@ class Capture:
         # live ports deliver in arrival order within a few reads; logs can hold big chunks
         chunks_ahead = 64 if getattr(self.source, "live", False) else 512
         margin = chunks_ahead * self.options.byte_time + 0.05
-        heap: list[tuple[float, int, Event]] = []   # (time, arrival sequence, event)
-        seq = 0
+        # Events not yet released, in arrival order; sorted by time (stably: ties keep
+        # arrival order) at each release. They arrive nearly in time order, so the
+        # sort is a merge of a few runs: cheaper than a heap operation per event.
+        held: list[Event] = []
         tap = self.on_chunk
         estimator = SkewEstimator()
+        observe = estimator.observe
         reported = 0.0
         since_release = 0
 
         def arrived(events: list[Event]) -> None:
-            nonlocal seq, heap, reported
+            nonlocal reported
             for ev in events:
-                if estimator.observe(ev):   # sees the times as read
+                # only commands and ACK/NAK bytes inform the estimate
+                if ev.kind in _SKEW_KINDS and observe(ev):   # sees the times as read
                     delta = estimator.skew - self.skew
                     self.skew = estimator.skew
-                    if delta:
-                        # line B events still held here move with the estimate
-                        for _t, _s, held in heap:
-                            if held.line == "B":
-                                _shift(held, delta)
-                        heap = [(e.t, q, e) for _t, q, e in heap]
-                        heapq.heapify(heap)
+                    for other in held:   # line B events still held move with the estimate
+                        if other.line == "B":
+                            _shift(other, delta)
                     if abs(self.skew - reported) >= 0.001:
                         reported = self.skew
                         self._warn(f"line B reads about {self.skew * 1000:.1f} ms ahead of line A (adapter "
                                    f"delays): its times are moved later by that much")
-                if ev.line == "B" and self.skew:
+                if self.skew and ev.line == "B":
                     _shift(ev, self.skew)
-                seq += 1
-                heapq.heappush(heap, (ev.t, seq, ev))
+                held.append(ev)
+        byte_time = self.options.byte_time
         for chunk in self.source.chunks():
-            if not chunk.data:            # an idle tick: time passed
+            data = chunk.data
+            if not data:                  # an idle tick: time passed
                 if chunk.t is None:
                     continue
                 self._seen(chunk.t)
@@ -206,10 +208,13 @@ class Capture:
                 for d in deframers.values():
                     arrived(d.idle(chunk.t))
             else:
+                d = deframers[chunk.line]
                 if tap is not None:
-                    tap(chunk, deframers[chunk.line].offset)
-                self._seen(chunk.t + len(chunk.data) * self.options.byte_time)
-                arrived(deframers[chunk.line].feed(chunk.data, chunk.t))
+                    tap(chunk, d.offset)
+                end = chunk.t + len(data) * byte_time
+                if self._latest is None or end > self._latest:
+                    self._latest = end
+                arrived(d.feed(data, chunk.t))
             since_release += 1
             if not self._tick and since_release < 32:
                 continue   # release every 32 chunks: per-chunk bookkeeping was most of the cost
@@ -223,14 +228,23 @@ class Capture:
                 # pairing may only run up to what has been released: an answer still
                 # held back here must not find its command already timed out
                 self._now = mark
-            ready = []
-            while heap and heap[0][0] < mark:
-                ready.append(heapq.heappop(heap)[2])
-            yield ready
+            if held:
+                held.sort(key=_time)
+                k = bisect_left(held, mark, key=_time)
+                ready = held[:k]
+                del held[:k]
+                yield ready
+            else:
+                yield held[:0]
         for d in deframers.values():
             arrived(d.finish())
-        yield [heapq.heappop(heap)[2] for _ in range(len(heap))]
+        held.sort(key=_time)
+        yield held
         yield self._at_end()
+
+
+_time = attrgetter("t")
+_SKEW_KINDS = frozenset((COMMAND, ACK, NAK))
 
 
 def _shift(ev: Event, delta: float) -> None:

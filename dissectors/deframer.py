@@ -98,28 +98,27 @@ class Deframer:
             return []
         if t is not None:
             self._timed = True
-            bt = self.byte_time
             last = self._last_end
             if last is not None:
                 if t < last:
                     # Bytes on one line cannot overlap, so the estimate was early; but
                     # bytes cannot end after they were read either (t + n·bt is the read
                     # time): move at most two byte times, then allow the overlap.
-                    t = min(last, t + 2 * bt)
+                    t = min(last, t + 2 * self.byte_time)
                 elif t - last > self.frame_gap and self._buf:
-                    self._gaps.append(self.offset)
-            off = self.offset
-            self._seg_off.append(off)
-            self._seg_t.append(t)
-            self._last_end = t + len(data) * bt
+                    self._gaps.append(self._base + len(self._buf))
+            self._last_end = t + len(data) * self.byte_time
         if not self._buf and self._noise_start is None and not self._gaps:
+            # the usual read: one whole token with nothing pending becomes its event
+            # directly (no segment bookkeeping: nothing of it stays buffered)
             ev = self._whole(bytes(data), t)
-            if ev is not None:   # one whole token with nothing pending: the usual read
+            if ev is not None:
                 self._base += len(data)
                 self._resume = self._base
-                self._seg_off.clear()
-                self._seg_t.clear()
                 return [ev]
+        if t is not None:
+            self._seg_off.append(self._base + len(self._buf))
+            self._seg_t.append(t)
         self._buf = self._buf + data if self._buf else bytes(data)
         return self._parse(final=False)
 

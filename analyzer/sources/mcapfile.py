@@ -48,9 +48,9 @@ class McapSource(Source):
         self.timed = timed
         self.start_time = start
 
-    def _messages(self, topics: list[str]) -> Iterator[tuple[str, int, dict]]:
-        """(line, log time in ns, raw message) in file order; stops with a warning
-        at a cut end.
+    def _messages(self, topics: list[str], as_chunks: bool = False) -> Iterator:
+        """(line, log time in ns, raw message) in file order, or with ``as_chunks``
+        the ``Chunk`` each message holds; stops with a warning at a cut end.
 
         Records are stepped over by their opcode and length (MCAP's framing); the
         mcap library parses the ones needed (Channel, Message, Chunk) and
@@ -92,7 +92,9 @@ class McapSource(Source):
                         record = Message.read(stream, length)
                         line = wanted.get(record.channel_id)
                         if line is not None:
-                            yield line, record.log_time, json_loads(record.data)
+                            msg = json_loads(record.data)
+                            yield (Chunk(line, bytes.fromhex(msg["data"]), msg.get("t")) if as_chunks
+                                   else (line, record.log_time, msg))
                         continue
                     chunk_stream, size = get_chunk_data_stream(McapChunk.read(stream))
                     data = chunk_stream.read(size)
@@ -106,8 +108,11 @@ class McapSource(Source):
                     if op == _OP_MESSAGE:
                         line = wanted.get(data[pos] | data[pos + 1] << 8)
                         if line is not None:
-                            yield (line, _LOG_TIME.unpack_from(data, pos + 6)[0],
-                                   json_loads(data[pos + _MESSAGE_HEAD:pos + length]))
+                            msg = json_loads(data[pos + _MESSAGE_HEAD:pos + length])
+                            if as_chunks:   # the re-dissection path: one per read, kept lean
+                                yield Chunk(line, bytes.fromhex(msg["data"]), msg.get("t"))
+                            else:
+                                yield line, _LOG_TIME.unpack_from(data, pos + 6)[0], msg
                     elif op == _OP_CHANNEL:
                         cid, _schema, n = unpack_channel(data, pos)
                         topic = data[pos + 8:pos + 8 + n].decode()
@@ -138,9 +143,7 @@ class McapSource(Source):
         return ((LINE_AB,) if LINE_AB in lines else (LINE_A, LINE_B)), t is not None, start
 
     def chunks(self) -> Iterator[Chunk]:
-        for line, _log_time, msg in self._messages(list(RAW_TOPICS)):
-            yield Chunk(line, bytes.fromhex(msg["data"]), msg.get("t"))
+        return self._messages(list(RAW_TOPICS), as_chunks=True)
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
-        for _line, _log_time, msg in self._messages([f"/serial/{line}/raw"]):
-            yield Chunk(line, bytes.fromhex(msg["data"]), msg.get("t"))
+        return self._messages([f"/serial/{line}/raw"], as_chunks=True)

@@ -198,3 +198,57 @@ def test_skewed_adapters_are_detected_and_corrected(tmp_path):
     assert all(a["latency"] is not None and a["latency"] > -0.001 for a in acks[1:]), \
         [(a["number"], a["latency"], a["t"]) for a in acks]
     assert jsonl(rec) == live
+
+
+def test_vanished_port_is_reopened_when_it_returns(tmp_path, socat_bin):
+    """A USB adapter unplugged and plugged back keeps its device name: here line B
+    is a socat pty link; killing socat removes it, starting it again brings the
+    same name back. The tap says both, keeps reading, and decodes what follows."""
+    from tests.integration.test_socat_real import wait_for
+
+    tap_b, feed_b = tmp_path / "tapB", tmp_path / "feedB"
+
+    def plug_in():
+        proc = subprocess.Popen([socat_bin, f"PTY,link={tap_b},raw,echo=0", f"PTY,link={feed_b},raw,echo=0"])
+        wait_for(tap_b)
+        wait_for(feed_b)
+        return proc, serial.Serial(str(feed_b), 9600)
+
+    ma, _sa, pa = pty_pair()
+    adapter, dev = plug_in()
+    rec = tmp_path / "live.mcap"
+    proc = start_live(pa, tap_b, "--format", "jsonl", "--record", rec)
+    try:
+        wait_open(proc)
+        cmd = frame((1, 1, 1), 0, "HO")
+        os.write(ma, cmd)
+        time.sleep(0.01 + BT)
+        dev.write(b"\x06")
+        time.sleep(0.3)
+        dev.close()
+        adapter.terminate()        # unplugged
+        adapter.wait(5)
+        time.sleep(0.8)
+        adapter, dev = plug_in()   # plugged back in, same name
+        time.sleep(1.5)            # the tap retries every 0.5 s
+        os.write(ma, cmd)
+        time.sleep(0.01 + BT)
+        dev.write(b"\x06")
+        time.sleep(0.5)
+        code, out, err = stop(proc)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        dev.close()
+        adapter.terminate()
+        adapter.wait(5)
+    assert code == 0 and "Traceback" not in err
+    assert f"{tap_b}: lost" in err and f"{tap_b}: back" in err
+    assert err.index(f"{tap_b}: lost") < err.index(f"{tap_b}: back")
+    live = [json.loads(x) for x in out.splitlines()]
+    assert [(e["kind"], e["status"]) for e in live] == [("command", "ok"), ("ack", None)] * 2
+    assert jsonl(rec) == live and doctor(rec) == []
+    from mcap.reader import make_reader
+    with open(rec, "rb") as f:
+        messages = [json.loads(m.data)["message"] for _s, _c, m in make_reader(f).iter_messages(topics=["/log"])]
+    assert any(f"{tap_b}: lost" in m for m in messages) and any(f"{tap_b}: back" in m for m in messages)
