@@ -59,6 +59,7 @@ class Capture:
         self._tick = False               # an idle tick arrived: time passed with no bytes
         self._latest: float | None = None  # the latest time any chunk or tick showed
         self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
+        self._pairer: Pairer | None = None
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
@@ -95,21 +96,36 @@ class Capture:
         return Deframer(line, byte_time=o.byte_time, frame_gap=o.frame_gap)
 
     def __iter__(self) -> Iterator[Event]:
+        for batch in self.batches():
+            yield from batch
+
+    def batches(self) -> Iterator[list[Event]]:
+        """The events in wire order, a list per step of the source; a live source's
+        idle ticks give (often empty) lists too, so a consumer regains control
+        while the line is quiet (the TUI's feed thread). Between steps,
+        ``unsettled()`` shows what pairing still holds."""
         if self.options.tune_gc:
             _gc_busy(+1)
         try:
-            pairer = Pairer(self.options.timeouts)
+            pairer = self._pairer = Pairer(self.options.timeouts)
             push_many = pairer.push_many
             for batch in self._wire_order():
-                if batch:
-                    yield from push_many(batch)
+                out = push_many(batch) if batch else []
                 if self._tick:   # timeouts expire while the line is quiet
                     self._tick = False
-                    yield from pairer.advance(self._now)
-            yield from pairer.finish()
+                    out += pairer.advance(self._now)
+                yield out
+            yield pairer.finish()
         finally:
             if self.options.tune_gc:
                 _gc_busy(-1)
+
+    def unsettled(self) -> list[Event]:
+        """Events pairing still holds (a command waiting for its answers, and what
+        came after it), numbered and linked so far; their status may change. Call
+        between steps of ``batches()``, from the thread iterating it."""
+        pairer = self._pairer
+        return list(pairer._held) if pairer is not None else []
 
     def events(self) -> Iterator[Event]:
         return iter(self)

@@ -14,7 +14,7 @@ from ..simulation.controller import SimController
 from ..simulation.gimbal import Faults, GimbalModel
 from ..simulation.link import VirtualLink, WireFaults
 from .common import UsageError, add_filter_arg, warn
-from .live import add_record_args, tap_and_print
+from .live import add_record_args, add_tui_args, tap, wants_tui
 
 DEVICES = [(1, 1, 1), (1, 1, 2), (1, 1, 3)]
 
@@ -23,17 +23,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="simulated controller and gimbals on virtual lines, tapped live",
                        description="Run a simulated controller and three gimbals over pseudo-terminals and tap "
                                    "both lines; no hardware needed.")
-    p.add_argument("--seconds", type=float, default=12.0, help="how long to run (default 12; 0 = until Ctrl-C)")
+    p.add_argument("--seconds", type=float, default=None,
+                   help="how long to run (0 = until stopped); default: until you quit the TUI, "
+                        "12 s when printing")
     add_record_args(p)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events")
     p.add_argument("--clean", action="store_true", help="no injected faults")
-    p.add_argument("--no-tui", action="store_true", help="print events (the default until the TUI arrives)")
+    add_tui_args(p)
     p.add_argument("--seed", type=int, default=5)
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.seconds is None:
+        args.seconds = 0.0 if wants_tui(args) else 12.0
     if args.seconds < 0:
         raise UsageError(f"--seconds {args.seconds:g}: must be 0 (until Ctrl-C) or more")
     clean = args.clean
@@ -54,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
         timer.daemon = True
         timer.start()
     try:
-        return tap_and_print(capture, args, args.record)
+        return tap(capture, args, args.record)
     finally:
         if timer is not None:
             timer.cancel()

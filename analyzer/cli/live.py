@@ -29,8 +29,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events (everything is still recorded)")
     add_record_args(p)
-    p.add_argument("--no-tui", action="store_true", help="print events (the default until the TUI arrives)")
+    add_tui_args(p)
     p.set_defaults(run=run)
+
+
+def add_tui_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--no-tui", action="store_true",
+                   help="print events instead of opening the TUI (also when output is not a terminal)")
+    p.add_argument("--keymap", metavar="FILE.toml", help="TUI key bindings: binding id = \"keys\"")
 
 
 def add_record_args(p: argparse.ArgumentParser) -> None:
@@ -52,24 +58,55 @@ def live_metadata(capture: Capture, ports: list[str]) -> dict[str, str]:
     }
 
 
+def open_recorder(capture: Capture, args: argparse.Namespace, record: str | None):
+    """The --record recorder (rotating with --rotate-*), or None; a path that cannot
+    be written is a one-line error before anything starts."""
+    if not record:
+        return None
+    kw = dict(metadata=live_metadata(capture, capture.source.ports), start_time=capture.source.start_time,
+              flush_interval=1.0, lines=capture.lines)
+    mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
+    try:
+        if mb or minutes:
+            return RotatingRecorder(record, max_bytes=int(mb * 1e6) if mb else None,
+                                    max_seconds=minutes * 60 if minutes else None, **kw)
+        return McapRecorder(record, **kw)
+    except RecordingError as e:
+        capture.source.close()
+        raise UsageError(str(e)) from None
+
+
+def wants_tui(args: argparse.Namespace) -> bool:
+    """The TUI unless --no-tui, JSON Lines, or output that is not a terminal (a pipe
+    or a file gets the printed events, as grep and jq expect)."""
+    return not args.no_tui and args.format == "text" and sys.stdout.isatty() and sys.stdin.isatty()
+
+
+def tap(capture: Capture, args: argparse.Namespace, record: str | None) -> int:
+    """Run a live capture: the TUI, or printed events (see ``wants_tui``)."""
+    if not wants_tui(args):
+        return tap_and_print(capture, args, record)
+    from ..tui.run import KeymapError, load_keymap, run_app
+
+    try:
+        keymap = load_keymap(getattr(args, "keymap", None))
+    except KeymapError as e:
+        capture.source.close()
+        raise UsageError(str(e)) from None
+    recorder = open_recorder(capture, args, record)
+    ports = capture.source.ports
+    if recorder is not None:
+        capture.on_chunk = recorder.raw
+    return run_app(capture, mode="live", ports=ports, recorder=recorder, record_path=record,
+                   metadata=lambda: live_metadata(capture, ports), keymap=keymap)
+
+
 def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None) -> int:
-    """Run a live capture to the end (SIGINT/SIGTERM stop it cleanly)."""
+    """Run a live capture to the end, printing events (SIGINT/SIGTERM stop it cleanly)."""
     keep = build_filter(getattr(args, "filter", None))
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
-    recorder = None
-    if record:
-        kw = dict(metadata=live_metadata(capture, capture.source.ports), start_time=capture.source.start_time,
-                  flush_interval=1.0, lines=capture.lines)
-        mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
-        try:
-            if mb or minutes:
-                recorder = RotatingRecorder(record, max_bytes=int(mb * 1e6) if mb else None,
-                                            max_seconds=minutes * 60 if minutes else None, **kw)
-            else:
-                recorder = McapRecorder(record, **kw)
-        except RecordingError as e:
-            capture.source.close()
-            raise UsageError(str(e)) from None
+    recorder = open_recorder(capture, args, record)
+    if recorder is not None:
         capture.on_chunk = recorder.raw
 
         def warn_and_log(msg: str) -> None:   # a lost port is marked in the recording too
@@ -110,4 +147,4 @@ def run(args: argparse.Namespace) -> int:
     if len(args.ports) > 2:
         raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
     capture = open_live(args.ports, options_from(args), on_warning=warn)
-    return tap_and_print(capture, args, args.record)
+    return tap(capture, args, args.record)

@@ -10,7 +10,7 @@ import sys
 
 from .. import __version__
 from ..sources import CaptureError
-from . import convert, decode, demo, live, recover, replay, sim, stats
+from . import convert, decode, demo, live, recover, replay, sim, stats, view
 from .common import UsageError
 
 EXIT_INPUT = 2
@@ -34,6 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     live.register(sub)
     sim.register(sub)
     replay.register(sub)
+    view.register(sub)
     convert.register(sub)
     recover.register(sub)
     return p

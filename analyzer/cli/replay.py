@@ -9,6 +9,7 @@ import time
 
 from ..output import JsonLinesSink, TextSink
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs
+from .live import add_tui_args, wants_tui
 
 
 def speed(text: str) -> float:
@@ -31,7 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--speed", type=speed, default=1.0, metavar="N|max", help="pace factor (default 1) or max")
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events")
-    p.add_argument("--no-tui", action="store_true", help="print events (the default until the TUI arrives)")
+    add_tui_args(p)
     p.set_defaults(run=run)
 
 
@@ -40,6 +41,9 @@ def run(args: argparse.Namespace) -> int:
     capture = open_inputs(args)
     if type(capture.source).__name__ != "McapSource":
         raise UsageError(f"{args.inputs[0]}: replay takes an MCAP recording (use decode for other captures)")
+    if wants_tui(args):
+        from ..tui.run import open_tui
+        return open_tui(capture, args, mode="replay", speed=args.speed)
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
     start = time.monotonic()
     try:

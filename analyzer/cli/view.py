@@ -1,0 +1,31 @@
+"""``gimbalscope view INPUT…``: open any capture (socat log, raw dumps, MCAP) in
+the TUI: the event list, detail tree (fields per Tables 4-18), hex, timeline,
+statistics and plots. Everything is loaded in the background; the first screen
+shows at once."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .common import UsageError, add_filter_arg, add_input_args, build_filter, open_inputs
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("view", help="open a capture in the TUI",
+                       description="Open a capture in the TUI: a socat -x -v log, an MCAP recording, a raw "
+                                   "single-line dump, or two raw dumps (line A, line B).")
+    add_input_args(p)
+    add_filter_arg(p, "start with this filter")
+    p.add_argument("--keymap", metavar="FILE.toml", help="TUI key bindings: binding id = \"keys\"")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    if not (sys.stdout.isatty() and sys.stdin.isatty()):
+        raise UsageError("view needs a terminal (for scripts: gimbalscope decode)")
+    build_filter(args.filter)   # a bad filter is one line, before the screen opens
+    capture = open_inputs(args)
+    from ..tui.run import open_tui
+
+    return open_tui(capture, args, mode="view")

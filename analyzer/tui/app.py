@@ -1,0 +1,444 @@
+"""The gimbalscope TUI: termshark's three linked panes (event list, detail tree,
+hex) plus a timeline of both lines, over a ``CaptureModel`` fed by a capture
+thread (``Feed``) through batched messages.
+
+Keys have ids (``Binding(id=...)``) so a keymap file can rebind them
+(``--keymap FILE``, TOML: ``"app.filter" = "ctrl+l"``).
+"""
+
+from __future__ import annotations
+
+import time
+from datetime import datetime
+
+from rich.text import Text
+from textual import on
+from textual.app import App, ComposeResult
+from textual.binding import Binding
+from textual.containers import Horizontal, Vertical
+from textual.message import Message
+from textual.widgets import Footer, Input, Static
+
+from ..filter import FilterError, compile_filter
+from .feed import Feed, FeedBatch
+from .model import CaptureModel
+from .widgets import DetailTree, EventList, HexView, TimelineView
+
+
+class FeedMessage(Message):
+    def __init__(self, batch: FeedBatch) -> None:
+        super().__init__()
+        self.batch = batch
+
+
+def _size(n: float) -> str:
+    for unit in ("B", "kB", "MB", "GB"):
+        if n < 1000 or unit == "GB":
+            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
+        n /= 1000
+    return ""
+
+
+class GimbalscopeApp(App):
+    TITLE = "gimbalscope"
+    CSS = """
+    #status { height: 2; background: $panel; padding: 0 1; }
+    EventList { height: 1fr; min-height: 6; overflow-x: hidden; }
+    #lower { height: 30%; min-height: 6; }
+    DetailTree { width: 1fr; border-top: solid $primary; }
+    HexView { width: 40%; max-width: 74; border-top: solid $primary; padding: 0 1; }
+    TimelineView { height: 5; border-top: solid $primary; }
+    #filterbar { height: auto; display: none; }
+    #filterbar.shown { display: block; }
+    #filter-error { color: $error; height: auto; padding: 0 1; }
+    #filter-error.ok { color: $success; }
+    #search { display: none; }
+    #search.shown { display: block; }
+    """
+
+    BINDINGS = [
+        Binding("q,ctrl+c", "quit", "Quit", id="app.quit"),
+        Binding("slash", "filter", "Filter", id="app.filter"),
+        Binding("e", "error(1)", "Next error", id="app.next_error"),
+        Binding("E", "error(-1)", "Prev error", show=False, id="app.prev_error"),
+        Binding("p", "partner", "Pair", id="app.pair"),
+        Binding("d", "device(1)", "Same device", show=False, id="app.next_device"),
+        Binding("D", "device(-1)", "Same device back", show=False, id="app.prev_device"),
+        Binding("m", "mark", "Mark", show=False, id="app.mark"),
+        Binding("apostrophe", "next_mark", "Next mark", show=False, id="app.next_mark"),
+        Binding("ctrl+f", "search", "Search", show=False, id="app.search"),
+        Binding("n", "search_next(1)", "Next hit", show=False, id="app.search_next"),
+        Binding("N", "search_next(-1)", "Prev hit", show=False, id="app.search_prev"),
+        Binding("end,G", "follow", "Follow", id="app.follow"),
+        Binding("t", "time_mode", "Time", id="app.time_mode"),
+        Binding("z", "zoom(-1)", "Zoom in", show=False, id="app.zoom_in"),
+        Binding("Z", "zoom(1)", "Zoom out", show=False, id="app.zoom_out"),
+        Binding("S", "stats", "Stats", id="app.stats"),
+        Binding("P", "plots", "Plots", id="app.plots"),
+        Binding("r", "record", "Record", id="app.record"),
+        Binding("space", "play_pause", "Play/pause", id="app.play"),
+        Binding("plus", "speed(2)", "Faster", show=False, id="app.faster"),
+        Binding("minus", "speed(0.5)", "Slower", show=False, id="app.slower"),
+        Binding("greater_than_sign", "seek(10)", "+10 s", show=False, id="app.seek_forward"),
+        Binding("less_than_sign", "seek(-10)", "-10 s", show=False, id="app.seek_back"),
+        Binding("full_stop", "seek(1)", "+1 s", show=False, id="app.seek_forward_1"),
+        Binding("comma", "seek(-1)", "-1 s", show=False, id="app.seek_back_1"),
+        Binding("question_mark", "help", "Help", id="app.help"),
+    ]
+
+    def __init__(self, model: CaptureModel, feed_factory, *, mode: str, source: str, settings: str = "",
+                 record_path: str | None = None, keymap: dict[str, str] | None = None) -> None:
+        super().__init__()
+        self.model = model
+        self._feed_factory = feed_factory
+        self.feed: Feed | None = None
+        self.mode = mode                 # live, replay, view
+        self.source_name = source
+        self.settings = settings
+        self.record_path = record_path   # where the record key writes
+        self._keymap = keymap or {}
+        self.last: FeedBatch | None = None
+        self.messages: list[str] = []    # the feed's warnings, newest last
+        self.started = time.monotonic()
+        self._search_text = ""
+        self._history_pos: int | None = None
+
+    # ------------------------------------------------------------- layout
+    def compose(self) -> ComposeResult:
+        # The panes are kept as attributes: App.query_one looks at the active screen,
+        # which is the statistics or plots screen while one is open.
+        self.status_bar = Static(id="status")
+        self.event_list = EventList(self.model, id="events")
+        self.detail = DetailTree(id="detail")
+        self.hex = HexView(id="hex")
+        self.timeline = TimelineView(self.model, id="timeline")
+        self.filter_bar = Vertical(id="filterbar")
+        self.filter_box = Input(placeholder="filter: kind == \"command\" and status != \"ok\"   (Enter "
+                                            "applies, Esc cancels, ↑/↓ history)", id="filter")
+        self.filter_error = Static("", id="filter-error")
+        self.search_box = Input(placeholder="search text (Enter finds, n/N next/previous)", id="search")
+        yield self.status_bar
+        yield self.event_list
+        with Horizontal(id="lower"):
+            yield self.detail
+            yield self.hex
+        yield self.timeline
+        with self.filter_bar:
+            yield self.filter_box
+            yield self.filter_error
+        yield self.search_box
+        yield Footer()
+
+    def on_mount(self) -> None:
+        if self._keymap:
+            self.set_keymap(self._keymap)
+        self.event_list.focus()
+        self.feed = self._feed_factory(self._deliver)
+        self.feed.start()
+        self.set_interval(0.1, self._tick)
+        self._refresh_status()
+
+    def _deliver(self, batch: FeedBatch) -> None:
+        """From the capture thread: hand the batch to the UI thread (never blocks)."""
+        self.post_message(FeedMessage(batch))
+
+    # -------------------------------------------------------------- input
+    def on_feed_message(self, message: FeedMessage) -> None:
+        b = message.batch
+        m = self.model
+        m.extend(b.events)
+        m.set_unsettled(b.unsettled)
+        self.last = b
+        self.messages.extend(b.warnings)
+        if b.error:
+            self.messages.append(f"capture stopped: {b.error}")
+        if b.done:
+            m.done = True
+        self._rows_changed()
+        self._refresh_status()
+
+    def _tick(self) -> None:
+        if self.model.playback is not None and self.model.advance_playback(time.monotonic()):
+            self._rows_changed()
+        self._refresh_status()
+
+    def _rows_changed(self) -> None:
+        lst = self.event_list
+        before = lst.selected
+        lst.rows_changed()
+        if lst.selected is None and self.model.row_count:
+            lst.go_to(self.model.row(0).number)   # a file opens on its first event
+        if lst.selected is not None and (lst.selected != before or self._selected_unsettled(lst.selected)):
+            self._show_selected(lst.selected)
+
+    def _selected_unsettled(self, number: int) -> bool:
+        return bool(self.model.unsettled) and number >= self.model.unsettled[0].number
+
+    # -------------------------------------------------------------- status
+    def _refresh_status(self) -> None:
+        m = self.model
+        b = self.last
+        parts: list[Text | str] = []
+        line1 = Text()
+        if b is not None and self.mode != "live":
+            line1.append(self.source_name + "  ")
+        elif b is not None:
+            for st in b.lines:
+                colour = {"open": "green", "lost": "red", "reconnecting": "yellow"}.get(st.state, "white")
+                state = "" if self.mode != "live" else f" {st.state}"
+                line1.append(f"{st.line} ", style="bold")
+                line1.append(f"{st.port}")
+                line1.append(state, style=colour)
+                if self.mode == "live":
+                    line1.append(f" {_size(st.rate)}/s")
+                line1.append("  ")
+        line1.append(self.settings, style="dim")
+        if b is not None and b.skew:
+            line1.append(f"  skew +{b.skew * 1000:.1f} ms", style="yellow")
+        if b is not None and b.recording:
+            line1.append(f"  ● REC {b.recording} {_size(b.recording_bytes)}", style="bold red")
+        elapsed = time.monotonic() - self.started
+        line1.append(f"  {int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:{int(elapsed % 60):02d}",
+                     style="dim")
+        line2 = Text()
+        errors = len(m.errors)
+        line2.append(f"{len(m.events) + len(m.unsettled):,} events", style="bold")
+        line2.append(f"  {errors:,} errors", style="bold red" if errors else "")
+        line2.append(f"  {m.stats.checksum_errors} checksum")
+        if m.filter_text:
+            line2.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")
+        if m.playback is not None:
+            pb = m.playback
+            state = "▶" if pb.playing else "⏸"
+            speed = "max" if pb.speed == 0 else f"{pb.speed:g}×"
+            line2.append(f"  replay {state} {speed} at {pb.position:.1f} s", style="bold")
+        if m.follow:
+            line2.append("  FOLLOW", style="bold green")
+        elif m.new_while_away:
+            line2.append(f"  +{m.new_while_away:,} new (End follows)", style="bold yellow")
+        if m.done and self.mode == "live":
+            line2.append("  capture ended", style="red")
+        elif m.done and self.mode != "replay":
+            line2.append("  loaded", style="dim")
+        if self.messages:
+            line2.append(f"  {self.messages[-1]}", style="italic")
+        parts = [line1, Text("\n"), line2]
+        self.status_bar.update(Text.assemble(*parts))
+
+    # ----------------------------------------------------------- selection
+    @on(EventList.Selected)
+    def _selected(self, message: EventList.Selected) -> None:
+        self._show_selected(message.number)
+
+    def _show_selected(self, number: int | None) -> None:
+        m = self.model
+        ev = m.event(number) if number is not None else None
+        tree = self.detail
+        hexv = self.hex
+        tl = self.timeline
+        if ev is None:
+            tree.show([], "no event selected")
+            hexv.show(None)
+            return
+        tree.show(m.detail(ev), f"#{ev.number}")
+        hexv.show(ev.raw)
+        tl.selected = ev.number
+        if ev.t is not None:
+            tl.center = ev.t
+        tl.redraw()
+
+    @on(EventList.Navigated)
+    def _navigated(self) -> None:
+        self.model.stop_following()
+
+    @on(DetailTree.Jump)
+    def _jump(self, message: DetailTree.Jump) -> None:
+        self._go(message.number)
+
+    @on(DetailTree.FieldBytes)
+    def _field_bytes(self, message: DetailTree.FieldBytes) -> None:
+        lst = self.event_list
+        ev = self.model.event(lst.selected) if lst.selected is not None else None
+        if ev is not None:
+            self.hex.show(ev.raw, message.span)
+
+    def _go(self, number: int | None) -> None:
+        if number is None:
+            self.bell()
+            return
+        self.model.stop_following()
+        lst = self.event_list
+        if lst.go_to(number):
+            lst.focus()
+
+    # -------------------------------------------------------------- actions
+    def _current(self) -> int:
+        sel = self.event_list.selected
+        return sel if sel is not None else 0
+
+    def action_error(self, step: int) -> None:
+        self._go(self.model.next_error(self._current(), forward=step > 0))
+
+    def action_partner(self) -> None:
+        self._go(self.model.partner(self._current()))
+
+    def action_device(self, step: int) -> None:
+        self._go(self.model.same_device(self._current(), forward=step > 0))
+
+    def action_mark(self) -> None:
+        if self.event_list.selected is not None:
+            self.model.toggle_mark(self._current())
+            self.event_list.refresh()
+
+    def action_next_mark(self) -> None:
+        self._go(self.model.next_mark(self._current()))
+
+    def action_follow(self) -> None:
+        self.model.resume_following()
+        self._rows_changed()
+        self._refresh_status()
+
+    def action_time_mode(self) -> None:
+        mode = self.model.cycle_time_mode()
+        self.notify(f"time: {mode}", timeout=1.5)
+        self.event_list.refresh()
+
+    def action_zoom(self, step: int) -> None:
+        self.timeline.zoom(step)
+
+    def action_stats(self) -> None:
+        from .screens import StatsScreen
+        self.push_screen(StatsScreen(self.model))
+
+    def action_plots(self) -> None:
+        from .screens import PlotScreen
+        self.push_screen(PlotScreen(self.model))
+
+    def action_help(self) -> None:
+        from .screens import HelpScreen
+        self.push_screen(HelpScreen(self))
+
+    # ------------------------------------------------------------- replay
+    def action_play_pause(self) -> None:
+        pb = self.model.playback
+        if pb is None:
+            self.notify("play/pause is for replays", timeout=2)
+            return
+        pb.playing = not pb.playing
+        pb.tick(time.monotonic())
+        self._refresh_status()
+
+    def action_speed(self, factor: float) -> None:
+        pb = self.model.playback
+        if pb is None:
+            return
+        pb.tick(time.monotonic())
+        pb.speed = min(64.0, max(0.125, (pb.speed or 64.0) * factor))
+        self._refresh_status()
+
+    def action_seek(self, seconds: float) -> None:
+        if self.model.playback is None:
+            return
+        self.model.seek(seconds)
+        self._rows_changed()
+        self._refresh_status()
+
+    # ------------------------------------------------------------ record
+    def action_record(self) -> None:
+        if self.mode != "live" or self.feed is None:
+            self.notify("recording is for live taps (replays are recordings already)", timeout=2)
+            return
+        if self.feed.recording or (self.last is not None and self.last.recording):
+            self.feed.stop_recording()
+            self.notify("recording stopped", timeout=2)
+            return
+        path = self.record_path or datetime.now().strftime("gimbalscope-%Y%m%d-%H%M%S.mcap")
+        self.feed.start_recording(path)
+        self.notify(f"recording to {path}", timeout=2)
+
+    # ------------------------------------------------------------- filter
+    def action_filter(self) -> None:
+        bar = self.filter_bar
+        bar.add_class("shown")
+        box = self.filter_box
+        box.value = self.model.filter_text
+        self._history_pos = None
+        box.focus()
+
+    @on(Input.Changed, "#filter")
+    def _filter_changed(self, event: Input.Changed) -> None:
+        err = self.filter_error
+        text = event.value.strip()
+        if not text:
+            err.update("empty: shows every event")
+            err.add_class("ok")
+            return
+        try:
+            compile_filter(text)
+        except FilterError as e:
+            err.update(f"{e}\n{e.pointer()}")
+            err.remove_class("ok")
+        else:
+            err.update("ok")
+            err.add_class("ok")
+
+    @on(Input.Submitted, "#filter")
+    def _filter_submitted(self, event: Input.Submitted) -> None:
+        lst = self.event_list
+        keep = lst.selected
+        try:
+            self.model.set_filter(event.value)
+        except FilterError:
+            self.bell()
+            return
+        self.filter_bar.remove_class("shown")
+        lst.virtual_size = lst.virtual_size  # resized in rows_changed
+        if keep is not None and not self.model.follow:
+            lst.go_to(keep)
+        lst.rows_changed()
+        lst.focus()
+        self._refresh_status()
+
+    def on_key(self, event) -> None:
+        box = self.filter_box
+        if self.focused is box:
+            hist = self.model.filter_history
+            if event.key == "escape":
+                self.filter_bar.remove_class("shown")
+                self.event_list.focus()
+                event.stop()
+            elif event.key in ("up", "down") and hist:
+                pos = len(hist) if self._history_pos is None else self._history_pos
+                pos = max(0, min(len(hist) - 1, pos + (-1 if event.key == "up" else 1)))
+                self._history_pos = pos
+                box.value = hist[pos]
+                box.cursor_position = len(box.value)
+                event.stop()
+        search = self.search_box
+        if self.focused is search and event.key == "escape":
+            search.remove_class("shown")
+            self.event_list.focus()
+            event.stop()
+
+    # ------------------------------------------------------------- search
+    def action_search(self) -> None:
+        box = self.search_box
+        box.add_class("shown")
+        box.value = self._search_text
+        box.focus()
+
+    @on(Input.Submitted, "#search")
+    def _search_submitted(self, event: Input.Submitted) -> None:
+        self._search_text = event.value
+        event.input.remove_class("shown")
+        self.event_list.focus()
+        self.action_search_next(1)
+
+    def action_search_next(self, step: int) -> None:
+        if not self._search_text:
+            return
+        self._go(self.model.search(self._search_text, self._current(), forward=step > 0))
+
+    # -------------------------------------------------------------- quit
+    async def action_quit(self) -> None:
+        self.exit()   # run_app stops the capture and finalises any recording

@@ -1,0 +1,99 @@
+"""Open the TUI on a capture: the glue between the CLI and the app. The capture
+runs in a ``Feed`` thread; quitting stops it and finalises any recording."""
+
+from __future__ import annotations
+
+import signal
+import sys
+import tomllib
+
+from ..capture import Capture
+from ..recording import McapRecorder, RotatingRecorder
+from .app import GimbalscopeApp
+from .feed import Feed
+from .model import CaptureModel
+
+
+class KeymapError(ValueError):
+    pass
+
+
+def load_keymap(path: str | None) -> dict[str, str]:
+    """A TOML file of binding id = "keys" (e.g. ``"app.filter" = "ctrl+l"``)."""
+    if not path:
+        return {}
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as e:
+        raise KeymapError(f"{path}: cannot read keymap: {e.strerror or e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise KeymapError(f"{path}: not a TOML keymap: {e}") from None
+    bad = [k for k, v in data.items() if not isinstance(v, str)]
+    if bad:
+        raise KeymapError(f"{path}: keymap values must be key strings: {', '.join(bad)}")
+    return data
+
+
+def settings_text(capture: Capture) -> str:
+    o = capture.options
+    return f"{o.baud} {o.data_bits}{o.parity}{o.stop_bits:g}"
+
+
+def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, speed: float = 1.0,
+             recorder: McapRecorder | RotatingRecorder | None = None, record_path: str | None = None,
+             metadata=None, keymap: dict[str, str] | None = None,
+             filter_text: str | None = None) -> GimbalscopeApp:
+    """mode: live (follow on, record key), replay (paced, follow on), view (a file,
+    follow off). The capture starts in its own thread when the app mounts."""
+    model = CaptureModel(follow=mode != "view")
+    if filter_text:
+        model.set_filter(filter_text)   # already checked by the CLI
+    if mode == "replay":
+        model.start_playback(speed)
+
+    def make_feed(deliver) -> Feed:
+        return Feed(capture, deliver, ports=ports, metadata=metadata, recorder=recorder,
+                    recording=record_path if recorder is not None else None)
+
+    source = " + ".join(ports) if ports else capture.source.description
+    return GimbalscopeApp(model, make_feed, mode=mode, source=source, settings=settings_text(capture),
+                          record_path=record_path, keymap=keymap)
+
+
+def stop_feed(app: GimbalscopeApp) -> list[str]:
+    """Stop the capture thread and finalise its recording; what it has to say."""
+    feed = app.feed
+    if feed is None:
+        return []
+    feed.stop()
+    feed.join(timeout=5.0)
+    return feed.notes
+
+
+def run_app(capture: Capture, **kw) -> int:
+    app = make_app(capture, **kw)
+    old = signal.signal(signal.SIGTERM, lambda *_: app.call_later(app.exit))
+    switch = sys.getswitchinterval()
+    if kw.get("mode") == "live":
+        sys.setswitchinterval(0.0002)   # reader threads stamp reads promptly (see cli/live.py)
+    try:
+        app.run()
+    finally:
+        sys.setswitchinterval(switch)
+        signal.signal(signal.SIGTERM, old)
+        notes = stop_feed(app)
+    for note in notes:
+        print(f"gimbalscope: {note}", file=sys.stderr)
+    return 0
+
+
+def open_tui(capture: Capture, args, *, mode: str, speed: float = 1.0) -> int:
+    """``replay`` and ``view``: the TUI on a capture file (--keymap, --filter honoured)."""
+    from ..cli.common import UsageError
+
+    try:
+        keymap = load_keymap(getattr(args, "keymap", None))
+    except KeymapError as e:
+        raise UsageError(str(e)) from None
+    return run_app(capture, mode=mode, speed=speed, keymap=keymap, filter_text=getattr(args, "filter", None))

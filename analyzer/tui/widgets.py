@@ -1,0 +1,292 @@
+"""The TUI's panes. Each reads the ``CaptureModel``; none holds events of its own.
+
+The event list is a Line API widget (``ScrollView.render_line``): it renders only
+the rows on screen, so a million events cost no more than a hundred.
+"""
+
+from __future__ import annotations
+
+from rich.segment import Segment
+from rich.style import Style
+from rich.text import Text
+from textual.binding import Binding
+from textual.geometry import Size
+from textual.message import Message
+from textual.scroll_view import ScrollView
+from textual.strip import Strip
+from textual.widgets import Static, Tree
+
+from .model import CaptureModel, DetailNode, hex_lines
+from .timeline import SCALES, layout
+
+# row colouring rules (model.row_style names them)
+ROW_STYLES = {
+    "checksum": Style(color="white", bgcolor="red", bold=True),
+    "noise": Style(color="red"),
+    "nak": Style(color="bright_red", bold=True),
+    "nic": Style(color="magenta"),
+    "unanswered": Style(color="yellow", bold=True),
+    "retransmission": Style(color="dark_orange"),
+    "slow": Style(color="yellow"),
+    "problem": Style(color="yellow"),
+    "command": Style(color="cyan"),
+    "waiting": Style(color="cyan", dim=True),
+    "": Style(),
+}
+CURSOR = Style(reverse=True)
+MARK = Style(underline=True)
+HEADER = Style(bold=True, color="bright_white", bgcolor="grey23")
+
+# column: (title, minimum width, flexible)
+COLUMNS = (("No.", 6), ("Time", 11), ("Dir", 3), ("Address", 9), ("Kind", 7), ("Cmd", 5),
+           ("Summary", 0), ("Status", 9), ("Latency", 8))
+
+
+def _fit(text: str, width: int, right: bool = False) -> str:
+    if len(text) > width:
+        return text[:max(0, width - 1)] + "…" if width > 0 else ""
+    return text.rjust(width) if right else text.ljust(width)
+
+
+class EventList(ScrollView, can_focus=True):
+    """Number, time, lane, address, kind, command, summary, status, latency."""
+
+    BINDINGS = [
+        Binding("up,k", "move(-1)", "Up", show=False, id="list.up"),
+        Binding("down,j", "move(1)", "Down", show=False, id="list.down"),
+        Binding("pageup", "page(-1)", "Page up", show=False, id="list.page_up"),
+        Binding("pagedown", "page(1)", "Page down", show=False, id="list.page_down"),
+        Binding("home", "first", "First", show=False, id="list.first"),
+    ]
+
+    class Selected(Message):
+        def __init__(self, number: int | None) -> None:
+            super().__init__()
+            self.number = number
+
+    class Navigated(Message):
+        """The user moved: follow mode stops."""
+
+    def __init__(self, model: CaptureModel, **kw) -> None:
+        super().__init__(**kw)
+        self.model = model
+        self.cursor = 0
+        self.selected: int | None = None   # event number under the cursor
+
+    # ------------------------------------------------------------ layout
+    def _widths(self) -> list[int]:
+        width = max(self.scrollable_content_region.width, 40)
+        fixed = sum(w + 1 for _t, w in COLUMNS)
+        return [w if w else max(10, width - fixed) for _t, w in COLUMNS]
+
+    def header_text(self) -> Text:
+        cells = [_fit(t, w, right=k in (0, 8)) for k, ((t, _), w) in enumerate(zip(COLUMNS, self._widths()))]
+        return Text(" ".join(cells), style=HEADER)
+
+    def render_line(self, y: int) -> Strip:
+        scroll_x, scroll_y = self.scroll_offset
+        width = self.size.width
+        if y == 0:
+            return Strip([Segment(_fit(self.header_text().plain, width), HEADER)]).crop(0, width)
+        row = scroll_y + y - 1
+        ev = self.model.row(row)
+        if ev is None:
+            return Strip.blank(width)
+        from .model import row_style
+
+        cells = self.model.cells(ev, row)
+        text = " ".join(_fit(c, w, right=k in (0, 8)) for k, (c, w) in enumerate(zip(cells, self._widths())))
+        style = ROW_STYLES.get(row_style(ev, self.model.slow), Style())
+        if ev.number in self.model.marks:
+            style = style + MARK
+        if row == self.cursor:
+            style = style + CURSOR
+        return Strip([Segment(_fit(text, width), style)]).crop(0, width)
+
+    # ----------------------------------------------------------- updates
+    def rows_changed(self) -> None:
+        """The model has more (or other) rows: resize, and in follow mode go to the end."""
+        n = self.model.row_count
+        self.virtual_size = Size(self.size.width, n + 1)
+        if self.model.follow and n:
+            self._set_cursor(n - 1, announce=True)
+            self.scroll_to(y=max(0, n + 1 - self.size.height), animate=False)
+        elif self.selected is not None:
+            row = self.model.row_of(self.selected)
+            if row is not None and row != self.cursor:
+                self.cursor = row
+        self.refresh()
+
+    def _set_cursor(self, row: int, announce: bool = True) -> None:
+        n = self.model.row_count
+        row = max(0, min(row, n - 1)) if n else 0
+        self.cursor = row
+        ev = self.model.row(row)
+        number = ev.number if ev is not None else None
+        if announce and number != self.selected:
+            self.selected = number
+            self.post_message(self.Selected(number))
+        self.selected = number
+        # keep the cursor on screen (one line is the header)
+        visible = max(1, self.size.height - 1)
+        top = int(self.scroll_y)
+        if row < top:
+            self.scroll_to(y=row, animate=False)
+        elif row >= top + visible:
+            self.scroll_to(y=row - visible + 1, animate=False)
+        self.refresh()
+
+    def go_to(self, number: int) -> bool:
+        """Put the cursor on event ``number`` (the nearest shown one if filtered out)."""
+        if not self.model.row_count:
+            return False
+        self._set_cursor(self.model.nearest_row(number))
+        return True
+
+    def _navigate(self) -> None:
+        self.post_message(self.Navigated())
+
+    def action_move(self, step: int) -> None:
+        self._navigate()
+        self._set_cursor(self.cursor + step)
+
+    def action_page(self, step: int) -> None:
+        self._navigate()
+        self._set_cursor(self.cursor + step * max(1, self.size.height - 2))
+
+    def action_first(self) -> None:
+        self._navigate()
+        self._set_cursor(0)
+
+    def on_click(self, event) -> None:
+        row = int(self.scroll_y) + event.y - 1
+        if 0 <= row < self.model.row_count:
+            self._navigate()
+            self._set_cursor(row)
+
+    def on_resize(self) -> None:
+        self.virtual_size = Size(self.size.width, self.model.row_count + 1)
+
+
+class DetailTree(Tree):
+    """Every field of the selected event, its problems, and its pairing; Enter on
+    a pairing line jumps to that event."""
+
+    class Jump(Message):
+        def __init__(self, number: int) -> None:
+            super().__init__()
+            self.number = number
+
+    class FieldBytes(Message):
+        def __init__(self, span: tuple[int, int] | None) -> None:
+            super().__init__()
+            self.span = span
+
+    def __init__(self, **kw) -> None:
+        super().__init__("no event selected", **kw)
+        self.show_root = False
+        self.guide_depth = 2
+
+    def show(self, nodes: list[DetailNode], title: str) -> None:
+        self.clear()
+        self.root.set_label(title)
+
+        def add(parent, node: DetailNode) -> None:
+            label = Text(node.label, style="underline cyan" if node.jump is not None else "")
+            if node.children:
+                child = parent.add(label, data=node, expand=node.expanded)
+                for c in node.children:
+                    add(child, c)
+            else:
+                parent.add_leaf(label, data=node)
+
+        for n in nodes:
+            add(self.root, n)
+        self.root.expand()
+
+    def on_tree_node_selected(self, event: Tree.NodeSelected) -> None:
+        node = event.node.data
+        if isinstance(node, DetailNode) and node.jump is not None:
+            self.post_message(self.Jump(node.jump))
+
+    def on_tree_node_highlighted(self, event: Tree.NodeHighlighted) -> None:
+        node = event.node.data
+        if isinstance(node, DetailNode):
+            self.post_message(self.FieldBytes(node.span))
+
+
+class HexView(Static):
+    """Hex and ASCII of the selected event; the selected field's bytes highlighted."""
+
+    def show(self, raw: bytes | None, span: tuple[int, int] | None = None) -> None:
+        self._shown = (raw, span)
+        if raw is None:
+            self.update("")
+            return
+        # 16 bytes a line when there is room (4 columns a byte: hex, space, ASCII)
+        per = 16 if self.size.width - 2 >= 72 else 8 if self.size.width - 2 >= 40 else 4
+        text = Text()
+        for off, hx, asc, marks in hex_lines(raw, span, per):
+            line = Text(f"{off}  ", style="dim")
+            h = Text(hx.ljust(per * 3 - 1))
+            for a, b in marks:
+                h.stylize("reverse bold yellow", a, b)
+            line.append_text(h)
+            line.append("  " + asc, style="green")
+            text.append_text(line)
+            text.append("\n")
+        self.update(text)
+
+    def on_resize(self) -> None:
+        shown = getattr(self, "_shown", None)
+        if shown is not None:
+            self.show(*shown)
+
+
+TIMELINE_STYLES = {
+    "axis": "dim", "link": "grey50", "gap": "dim italic", "selected": "bold reverse",
+    "checksum": "bold white on red", "noise": "red", "nak": "bright_red", "nic": "magenta",
+    "unanswered": "yellow", "retransmission": "dark_orange", "slow": "yellow", "problem": "yellow",
+    "command": "cyan", "waiting": "cyan", "ack": "green", "result": "bright_green", "": "",
+}
+
+
+class TimelineView(Static):
+    """Lanes A and B on a time axis around the selected event; z / Z zoom."""
+
+    def __init__(self, model: CaptureModel, **kw) -> None:
+        super().__init__(**kw)
+        self.model = model
+        self.scale_index = SCALES.index(0.002)
+        self.center: float | None = None
+        self.selected: int | None = None
+
+    @property
+    def scale(self) -> float:
+        return SCALES[self.scale_index]
+
+    def zoom(self, step: int) -> None:
+        self.scale_index = max(0, min(len(SCALES) - 1, self.scale_index + step))
+        self.redraw()
+
+    def redraw(self) -> None:
+        from .model import row_style
+
+        width = max(20, self.size.width - 8)
+        if self.center is None:
+            self.update(Text("timeline: no timed event selected", style="dim"))
+            return
+        start = self.center - width * self.scale / 2
+        events = self.model.window(start, start + width * self.scale)
+        rows = layout(events, start, self.scale, width, self.selected, lambda e: row_style(e, self.model.slow))
+        labels = [f"{self.scale * 1000:g} ms/c"[:7].ljust(7), "A →".ljust(7), "".ljust(7), "B ←".ljust(7)]
+        out = Text()
+        for label, lane in zip(labels, rows):
+            out.append(label + " ", style="bold")
+            for ch, st in zip(lane.chars, lane.styles):
+                out.append(ch, style=TIMELINE_STYLES.get(st, ""))
+            out.append("\n")
+        self.update(out)
+
+    def on_resize(self) -> None:
+        self.redraw()

@@ -1,0 +1,176 @@
+"""The TUI driven by keys with Textual's Pilot: filtering, error and pair jumps,
+follow mode, replay controls, the record toggle. Captures are real: a socat-log
+file, and a live tap over pseudo-terminals opened with pyserial."""
+
+import asyncio
+import os
+import time
+import tty
+
+import analyzer
+from analyzer.capture import open_live
+from analyzer.tui.run import make_app, stop_feed
+from analyzer.tui.widgets import EventList
+from tests.conftest import frame
+from tests.integration.test_mcap import doctor, jsonl
+from tests.tui_fixtures import write_capture
+
+SIZE = (120, 40)
+
+
+def run(coro):
+    return asyncio.run(coro)
+
+
+async def settle(pilot, app, until, seconds=5.0):
+    """Let the feed deliver until ``until(app)`` holds."""
+    end = time.monotonic() + seconds
+    while not until(app):
+        assert time.monotonic() < end, "timed out waiting for the TUI"
+        await pilot.pause(0.05)
+
+
+def selected(app) -> int | None:
+    return app.query_one(EventList).selected
+
+
+def test_view_keys_errors_pairs_filter(tmp_path):
+    path = tmp_path / "tap.log"
+    expected = write_capture(path)
+    app = make_app(analyzer.open(str(path)), mode="view")
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            assert selected(app) == 1 and not app.model.follow     # a file opens at its start
+            await pilot.press("e")
+            assert selected(app) == expected["errors"][0] == 4
+            await pilot.press("p")
+            assert selected(app) == 5                           # its NAK
+            await pilot.press("p")
+            assert selected(app) == 4
+            await pilot.press("e", "e", "E")          # 4 → 5 → 6 → back to 5
+            assert selected(app) == 5
+            # the filter bar: validated as you type, applied on Enter
+            await pilot.press("slash")
+            await pilot.press(*'kind == "comand"')
+            err = str(app.query_one("#filter-error").render())
+            assert "column 9" in err and ">>>\"comand\"" in err   # points at the token
+            await pilot.press("escape")
+            assert app.model.filter_text == "" and app.model.row_count == 13
+            await pilot.press("slash", *'kind == "ack"', "enter")
+            assert [app.model.row(i).number for i in range(app.model.row_count)] == [2, 7, 9, 13]
+            assert selected(app) == 7          # the nearest shown event to where the cursor was
+            await pilot.press("down")
+            assert selected(app) == 9
+            # history: the previous filter comes back with up
+            await pilot.press("slash", "ctrl+u", "up")
+            assert app.query_one("#filter").value == 'kind == "ack"'
+            await pilot.press("escape")
+        stop_feed(app)
+
+    run(drive())
+
+
+def test_detail_enter_jumps_and_hex_highlights_field(tmp_path):
+    path = tmp_path / "tap.log"
+    write_capture(path)
+    app = make_app(analyzer.open(str(path)), mode="view")
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            await pilot.press("down", "down")          # #3, the P? result
+            assert selected(app) == 3
+            tree = app.query_one("#detail")
+            tree.focus()
+            # walk to the "answers #1" line and press Enter
+            for _ in range(40):
+                node = tree.cursor_node
+                if node is not None and str(node.label).startswith("answers #1"):
+                    break
+                await pilot.press("down")
+            await pilot.press("enter")
+            assert selected(app) == 1
+        stop_feed(app)
+
+    run(drive())
+
+
+def pty_pair():
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    return master, slave, os.ttyname(slave)
+
+
+def exchange(ma, mb, dst=(1, 1, 1)):
+    os.write(ma, frame(dst, 0, "HO"))
+    time.sleep(0.02)
+    os.write(mb, b"\x06")
+    time.sleep(0.03)
+
+
+def test_live_follow_badge_and_record_toggle(tmp_path):
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
+    rec = tmp_path / "toggled.mcap"
+    capture = open_live([pa, pb])
+    app = make_app(capture, mode="live", ports=[pa, pb], record_path=str(rec))
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            exchange(ma, mb)
+            await settle(pilot, app, lambda a: a.model.row_count >= 2)
+            assert app.model.follow and selected(app) == app.model.row(app.model.row_count - 1).number
+            await pilot.press("up")                  # navigating stops following
+            assert not app.model.follow
+            at = selected(app)
+            exchange(ma, mb)
+            await settle(pilot, app, lambda a: a.model.new_while_away >= 2)
+            assert selected(app) == at               # the view stayed
+            await settle(pilot, app, lambda a: "+2 new" in str(a.status_bar.render()))
+            await pilot.press("G")
+            assert app.model.follow and selected(app) == app.model.row(app.model.row_count - 1).number
+            # record from now on, then stop
+            await pilot.press("r")
+            await settle(pilot, app, lambda a: a.last is not None and a.last.recording)
+            for _ in range(3):
+                exchange(ma, mb, dst=(1, 1, 2))
+            await settle(pilot, app, lambda a: sum(1 for e in a.model.events if e.dst == (1, 1, 2)) >= 3)
+            await pilot.press("r")
+            await settle(pilot, app, lambda a: a.last is not None and not a.last.recording)
+        stop_feed(app)
+
+    run(drive())
+    # the recording holds what crossed the wire while it ran, and passes the checkers
+    events = jsonl(rec)
+    assert [e["kind"] for e in events if e["kind"] == "command"] == ["command"] * 3
+    assert all(e["dst"] == [1, 1, 2] and e["status"] == "ok" for e in events if e["kind"] == "command")
+    assert doctor(rec) == []
+
+
+def test_replay_controls(tmp_path):
+    path = tmp_path / "tap.log"
+    write_capture(path)
+    t = [e.t for e in analyzer.open(str(path))]
+    app = make_app(analyzer.open(str(path)), mode="replay", speed=1.0)
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.row_count >= 1)
+            assert app.model.row_count < 13            # at recorded pace, the end is ~0.6 s away
+            await pilot.press("space")                 # pause
+            shown = app.model.row_count
+            await pilot.pause(0.4)
+            assert app.model.row_count == shown and not app.model.playback.playing
+            await pilot.press("greater_than_sign")     # +10 s: to the end
+            assert app.model.row_count == 13
+            await pilot.press("less_than_sign")        # -10 s: back to the start
+            assert app.model.row_count == 1 and app.model.position == t[0]
+            await pilot.press("plus")
+            assert app.model.playback.speed == 2.0
+            await pilot.press("space")                 # play on, twice as fast
+            await settle(pilot, app, lambda a: a.model.row_count == 13, seconds=3)
+        stop_feed(app)
+
+    run(drive())
