@@ -42,7 +42,7 @@ def _size(n: float) -> str:
 class GimbalscopeApp(App):
     TITLE = "gimbalscope"
     CSS = """
-    #status { height: 2; background: $panel; padding: 0 1; }
+    #status { height: auto; max-height: 4; background: $panel; padding: 0 1; }
     EventList { height: 1fr; min-height: 6; overflow-x: hidden; }
     #lower { height: 30%; min-height: 6; }
     DetailTree { width: 1fr; border-top: solid $primary; }
@@ -197,9 +197,10 @@ class GimbalscopeApp(App):
             line1.append(f"  skew +{b.skew * 1000:.1f} ms", style="yellow")
         if b is not None and b.recording:
             line1.append(f"  ● REC {b.recording} {_size(b.recording_bytes)}", style="bold red")
-        elapsed = time.monotonic() - self.started
-        line1.append(f"  {int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:{int(elapsed % 60):02d}",
-                     style="dim")
+        if self.mode == "live":   # how long the tap has run (a file's duration is in its stats)
+            elapsed = time.monotonic() - self.started
+            line1.append(f"  {int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:{int(elapsed % 60):02d}",
+                         style="dim")
         line2 = Text()
         errors = len(m.errors)
         line2.append(f"{len(m.events) + len(m.unsettled):,} events", style="bold")
@@ -262,9 +263,11 @@ class GimbalscopeApp(App):
         if ev is not None:
             self.hex.show(ev.raw, message.span)
 
-    def _go(self, number: int | None) -> None:
+    def _go(self, number: int | None, what: str = "") -> None:
         if number is None:
             self.bell()
+            if what:
+                self.notify(f"no {what}", timeout=1.5)
             return
         self.model.stop_following()
         lst = self.event_list
@@ -277,13 +280,14 @@ class GimbalscopeApp(App):
         return sel if sel is not None else 0
 
     def action_error(self, step: int) -> None:
-        self._go(self.model.next_error(self._current(), forward=step > 0))
+        self._go(self.model.next_error(self._current(), forward=step > 0),
+                 "later error (E goes back)" if step > 0 else "earlier error")
 
     def action_partner(self) -> None:
-        self._go(self.model.partner(self._current()))
+        self._go(self.model.partner(self._current()), "paired event")
 
     def action_device(self, step: int) -> None:
-        self._go(self.model.same_device(self._current(), forward=step > 0))
+        self._go(self.model.same_device(self._current(), forward=step > 0), "other event of this device")
 
     def action_mark(self) -> None:
         if self.event_list.selected is not None:
@@ -291,7 +295,7 @@ class GimbalscopeApp(App):
             self.event_list.refresh()
 
     def action_next_mark(self) -> None:
-        self._go(self.model.next_mark(self._current()))
+        self._go(self.model.next_mark(self._current()), "marks (m marks a row)")
 
     def action_follow(self) -> None:
         self.model.resume_following()
@@ -384,15 +388,29 @@ class GimbalscopeApp(App):
 
     @on(Input.Submitted, "#filter")
     def _filter_submitted(self, event: Input.Submitted) -> None:
-        lst = self.event_list
-        keep = lst.selected
+        text = event.value
         try:
-            self.model.set_filter(event.value)
+            compile_filter(text) if text.strip() else None
         except FilterError:
             self.bell()
             return
         self.filter_bar.remove_class("shown")
-        lst.virtual_size = lst.virtual_size  # resized in rows_changed
+        self.event_list.focus()
+        if len(self.model.events) < 50_000:
+            self._filter_ready(text, *self.model.prepare_filter(text))
+            return
+        # a large capture is scanned in a thread: the screen (and the capture) go on
+        self.messages.append(f"filtering {len(self.model.events):,} events …")
+        self._refresh_status()
+        self.run_worker(lambda: self.call_from_thread(self._filter_ready, text, *self.model.prepare_filter(text)),
+                        thread=True, exclusive=True, group="filter")
+
+    def _filter_ready(self, text: str, pred, upto: int, view) -> None:
+        lst = self.event_list
+        keep = lst.selected
+        self.model.apply_filter(text, pred, upto, view)
+        if self.messages and self.messages[-1].startswith("filtering "):
+            self.messages.pop()
         if keep is not None and not self.model.follow:
             lst.go_to(keep)
         lst.rows_changed()
@@ -437,7 +455,8 @@ class GimbalscopeApp(App):
     def action_search_next(self, step: int) -> None:
         if not self._search_text:
             return
-        self._go(self.model.search(self._search_text, self._current(), forward=step > 0))
+        self._go(self.model.search(self._search_text, self._current(), forward=step > 0),
+                 f"row contains {self._search_text!r}")
 
     # -------------------------------------------------------------- quit
     async def action_quit(self) -> None:

@@ -22,6 +22,9 @@ from ..capture import Capture
 from ..recording import McapRecorder, RecordingError
 
 
+MAX_BATCH = 20_000
+
+
 @dataclass
 class LineStatus:
     line: str
@@ -58,6 +61,7 @@ class Feed(threading.Thread):
         self._window: dict[str, list[tuple[float, int]]] = {line: [] for line in capture.lines}
         self._requests: queue.Queue = queue.Queue()
         self._stopped = threading.Event()   # a file source has no stop of its own
+        self._sent_any = False
         self._warnings: list[str] = []
         self.recorder: McapRecorder | None = recorder   # --record: made (and checked) before the screen opens
         self.recording: str | None = recording
@@ -161,7 +165,10 @@ class Feed(threading.Thread):
                     pending.extend(batch)
                     self.events_seen += len(batch)
                 now = time.monotonic()
-                if now - last >= self.interval:
+                # the first events go out at once (the first screen), then at most every
+                # interval; a file loading flat out sends at most MAX_BATCH events a message
+                if now - last >= self.interval or (pending and not self._sent_any) or len(pending) >= MAX_BATCH:
+                    self._sent_any = self._sent_any or bool(pending)
                     self._handle_requests()
                     self._send(pending)
                     pending = []

@@ -202,19 +202,37 @@ class CaptureModel:
         """Show only events matching ``text`` (the ``decode --filter`` language).
         Raises FilterError (with the column) for a bad expression; an empty text
         shows everything."""
+        pred, upto, view = self.prepare_filter(text)
+        self.apply_filter(text, pred, upto, view)
+
+    def prepare_filter(self, text: str) -> tuple:
+        """The slow half of ``set_filter``, safe in a worker thread (events are only
+        appended): (predicate, events scanned, matching indices)."""
         text = text.strip()
         pred = compile_filter(text) if text else None
+        events = self.events
+        upto = len(events)
+        if pred is None:
+            return None, upto, None
+        return pred, upto, [i for i in range(upto) if pred(events[i])]
+
+    def apply_filter(self, text: str, pred, upto: int, view: list[int] | None) -> None:
+        """The fast half, on the thread that extends the model: catch up with the
+        events that arrived while the view was being computed."""
+        text = text.strip()
         self._pred = pred
         self.filter_text = text
         if pred is None:
             self._view = None
             self._unsettled_view = self.unsettled
-        else:
-            self._view = [i for i, ev in enumerate(self.events) if pred(ev)]
-            self._unsettled_view = [e for e in self.unsettled if pred(e)]
-            if text in self.filter_history:
-                self.filter_history.remove(text)
-            self.filter_history.append(text)
+            return
+        events = self.events
+        view.extend(i for i in range(upto, len(events)) if pred(events[i]))
+        self._view = view
+        self._unsettled_view = [e for e in self.unsettled if pred(e)]
+        if text in self.filter_history:
+            self.filter_history.remove(text)
+        self.filter_history.append(text)
 
     # --------------------------------------------------------------- rows
     @property

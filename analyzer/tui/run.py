@@ -14,6 +14,13 @@ from .feed import Feed
 from .model import CaptureModel
 
 
+# The capture thread decodes flat out while a file loads; with the interpreter's
+# default 5 ms switch interval the screen's thread waits that long for every turn
+# and the first screen took over a second. Switch more often (live reader threads
+# also stamp reads more promptly: see cli/live.py).
+SWITCH = 0.0002
+
+
 class KeymapError(ValueError):
     pass
 
@@ -75,8 +82,7 @@ def run_app(capture: Capture, **kw) -> int:
     app = make_app(capture, **kw)
     old = signal.signal(signal.SIGTERM, lambda *_: app.call_later(app.exit))
     switch = sys.getswitchinterval()
-    if kw.get("mode") == "live":
-        sys.setswitchinterval(0.0002)   # reader threads stamp reads promptly (see cli/live.py)
+    sys.setswitchinterval(SWITCH)
     try:
         app.run()
     finally:

@@ -50,7 +50,7 @@ def layout(events: list[Event], start: float, scale: float, width: int, selected
     """Rows: axis, lane A, links, lane B, and a legend of silences. ``start`` is the
     time at column 0, ``scale`` seconds per column; ``style_of(ev)`` names a style."""
     axis, upper, links, lower = (Lane.blank(width) for _ in range(4))
-    # axis: a tick every 10 columns, labelled with its time
+    # axis: a tick every 14 columns, labelled with its time
     for col in range(0, width, 14):
         label = f"│{_fmt(start + col * scale, scale)}"
         for k, ch in enumerate(label):

@@ -174,3 +174,20 @@ def test_replay_controls(tmp_path):
         stop_feed(app)
 
     run(drive())
+
+
+def test_keymap_rebinds_by_id(tmp_path):
+    path = tmp_path / "tap.log"
+    expected = write_capture(path)
+    app = make_app(analyzer.open(str(path)), mode="view", keymap={"app.next_error": "x"})
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            await pilot.press("e")                 # no longer bound
+            assert selected(app) == 1
+            await pilot.press("x")
+            assert selected(app) == expected["errors"][0]
+        stop_feed(app)
+
+    run(drive())

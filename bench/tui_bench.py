@@ -1,0 +1,230 @@
+#!/usr/bin/env python3
+"""TUI figures (issue: Textual TUI). Runs the real app headless (Textual's
+Pilot) and prints:
+
+  1. replay of a 1M-event MCAP at --speed max: time to the first screen, time
+     until every event is loaded, peak memory
+  2. responsiveness on those 1M events: page down, jump to the next error, apply
+     a filter, clear it, jump to the end (milliseconds per key, screen refreshed)
+  3. live tap of two saturated 115200-baud ptys: events shown vs events on the
+     wire (dropped?), and how far the screen is behind the wire (p50/p95/max)
+
+Targets: first screen within 1 s; keys responsive; live no drops and at most
+250 ms behind.
+
+    python3 bench/tui_bench.py [--events 1000000] [--live-seconds 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import resource
+import sys
+import tempfile
+import threading
+import time
+import tty
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+
+import analyzer  # noqa: E402
+from analyzer.capture import open_live  # noqa: E402
+from analyzer.recording import McapRecorder  # noqa: E402
+from analyzer.tui.run import SWITCH, make_app, stop_feed  # noqa: E402
+from analyzer.tui.widgets import EventList  # noqa: E402
+from mcap_bench import BAUD, EVENTS_PER_COMMAND, saturated  # noqa: E402
+
+SIZE = (120, 40)
+
+
+def rss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def make_recording(events: int, path: str) -> None:
+    """An MCAP of about ``events`` events, recorded as ``convert`` does."""
+    tr = saturated(int(events / EVENTS_PER_COMMAND), seed=11)
+    log = path + ".log"
+    with open(log, "w") as f:
+        f.write(tr.socat_log())
+    cap = analyzer.open(log, baud=BAUD)
+    rec = McapRecorder(path, metadata={"tool": "tui_bench"}, start_time=0.0, lines=cap.lines)
+    cap.on_chunk = rec.raw
+    for ev in cap:
+        rec.event(ev)
+    rec.close()
+    os.remove(log)
+
+
+async def timed_press(pilot, key: str) -> float:
+    t = time.perf_counter()
+    await pilot.press(key)
+    await pilot.pause()          # the screen has processed the key and refreshed
+    return (time.perf_counter() - t) * 1000
+
+
+def replay_figures(path: str) -> None:
+    sys.setswitchinterval(SWITCH)   # as run_app does
+    t0 = time.perf_counter()
+    app = make_app(analyzer.open(path, baud=BAUD), mode="replay", speed=0.0)
+    figures: dict[str, float] = {}
+
+    # the first screen: when the event list first renders a line holding an event
+    # (Pilot's pause() waits for an idle queue, which never comes while loading)
+    original = EventList.render_line
+
+    def render_line(self, y):
+        strip = original(self, y)
+        if "first" not in figures and y > 0 and self.model.row(int(self.scroll_y) + y - 1) is not None:
+            figures["first"] = time.perf_counter() - t0
+            figures["rows_at_first"] = self.model.row_count
+        return strip
+    EventList.render_line = render_line
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            while "first" not in figures:
+                await pilot.pause(0.01)
+            EventList.render_line = original
+            while not app.model.done:
+                await pilot.pause(0.05)
+            app.model.advance_playback(time.monotonic())
+            figures["loaded"] = time.perf_counter() - t0
+            figures["events"] = len(app.model.events)
+            app.query_one(EventList).focus()
+            await timed_press(pilot, "home")
+            figures["pagedown"] = sum([await timed_press(pilot, "pagedown") for _ in range(20)]) / 20
+            figures["next_error"] = sum([await timed_press(pilot, "e") for _ in range(20)]) / 20
+            await pilot.press("slash", *'status == "nak"')
+            t = time.perf_counter()
+            await pilot.press("enter")
+            # large captures filter in a thread: a key pressed meanwhile is answered at once
+            figures["key_while_filtering"] = await timed_press(pilot, "up")
+            while app.model.filter_text != 'status == "nak"':
+                await pilot.pause(0.01)
+            await pilot.pause()
+            figures["filter"] = (time.perf_counter() - t) * 1000
+            figures["filter_rows"] = app.model.row_count
+            await pilot.press("slash", "ctrl+u")
+            t = time.perf_counter()
+            await pilot.press("enter")
+            while app.model.filter_text:
+                await pilot.pause(0.01)
+            await pilot.pause()
+            figures["unfilter"] = (time.perf_counter() - t) * 1000
+            figures["end"] = await timed_press(pilot, "G")
+            figures["rss"] = rss_mb()
+    asyncio.run(drive())
+    stop_feed(app)
+    print(f"1. replay of {figures['events']:,} events (--speed max): first screen after {figures['first']:.2f} s "
+          f"({figures['rows_at_first']:,} rows loaded by then; target < 1 s); all loaded after "
+          f"{figures['loaded']:.1f} s ({figures['events'] / figures['loaded']:,.0f} events/s); "
+          f"peak RSS {figures['rss']:.0f} MB")
+    print(f"2. keys on {figures['events']:,} events (ms until the screen has refreshed): page down "
+          f"{figures['pagedown']:.0f}, next error {figures['next_error']:.0f}, end {figures['end']:.0f}; filter "
+          f"'status == \"nak\"' applied after {figures['filter']:.0f} ({figures['filter_rows']:,} rows; a key "
+          f"meanwhile {figures['key_while_filtering']:.0f}), cleared after {figures['unfilter']:.0f}")
+
+
+def baseline_keys() -> None:
+    """The same keys on the 474-event sample: what a key costs with few rows."""
+    app = make_app(analyzer.open(os.path.join(ROOT, "captures", "demo-socat.log")), mode="view")
+    out: dict[str, float] = {}
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            while not app.model.done:
+                await pilot.pause(0.05)
+            out["pagedown"] = sum([await timed_press(pilot, "pagedown") for _ in range(20)]) / 20
+            out["next_error"] = sum([await timed_press(pilot, "e") for _ in range(10)]) / 10
+    asyncio.run(drive())
+    stop_feed(app)
+    print(f"   the same keys on the 474-event sample: page down {out['pagedown']:.0f}, next error "
+          f"{out['next_error']:.0f} (the cost of a key does not grow with the capture)")
+
+
+def live_figures(seconds: float) -> None:
+    ptys = []
+    for _ in range(2):
+        m, s = os.openpty()
+        tty.setraw(s)
+        ptys.append((m, s, os.ttyname(s)))
+    ports = [ptys[0][2], ptys[1][2]]
+    capture = open_live(ports, analyzer.Options(baud=BAUD))
+    app = make_app(capture, mode="live", ports=ports)
+    tr = saturated(int(seconds * 1500) + 100, seed=5)
+    bt = 10 / BAUD
+    stop = threading.Event()
+    lags: list[float] = []
+
+    def feed(line: str, fd: int, start: float) -> None:
+        for w in (w for w in tr.writes if w.line == line):
+            if stop.is_set():
+                return
+            due = start + w.t + len(w.data) * bt
+            d = due - time.monotonic()
+            if d > 0:
+                time.sleep(d)
+            os.write(fd, w.data)
+
+    async def drive():
+        sys.setswitchinterval(0.0002)
+        async with app.run_test(size=SIZE) as pilot:
+            await pilot.pause(0.5)
+            start = time.monotonic() + 0.05
+            writers = [threading.Thread(target=feed, args=(line, ptys[k][0], start), daemon=True)
+                       for k, line in enumerate("AB")]
+            for w in writers:
+                w.start()
+            end = start + seconds
+            while time.monotonic() < end:
+                await pilot.pause(0.1)
+                m = app.model
+                last = m.unsettled[-1] if m.unsettled else (m.events[-1] if m.events else None)
+                if last is not None and last.t_end is not None:
+                    # wire time now (capture clock) minus the end of the newest row on screen
+                    now = time.time() - capture.source.start_time
+                    lags.append(now - last.t_end)
+            stop.set()
+            await pilot.pause(1.5)   # let the last batch arrive
+            shown = len(app.model.events) + len(app.model.unsettled)
+            return shown
+    shown = asyncio.run(drive())
+    stop_feed(app)
+    # what was on the wire: the bytes written during the run, decoded from files
+    tmp = tempfile.mkdtemp(prefix="gimbalscope-tui-bench-")
+    written = [w for w in tr.writes if w.t <= seconds]
+    with open(os.path.join(tmp, "a.bin"), "wb") as f:
+        f.write(b"".join(w.data for w in written if w.line == "A"))
+    with open(os.path.join(tmp, "b.bin"), "wb") as f:
+        f.write(b"".join(w.data for w in written if w.line == "B"))
+    on_wire = sum(1 for _ in analyzer.open(os.path.join(tmp, "a.bin"), os.path.join(tmp, "b.bin"), baud=BAUD))
+    lags.sort()
+    p = lambda q: lags[min(len(lags) - 1, int(q * len(lags)))] * 1000  # noqa: E731
+    print(f"3. live, two saturated {BAUD}-baud ptys for {seconds:.0f} s: {shown:,} events shown, {on_wire:,} "
+          f"decoded from the same bytes ({'none dropped' if shown >= on_wire else f'{on_wire - shown} missing'}); "
+          f"screen behind the wire p50 {p(0.5):.0f} ms, p95 {p(0.95):.0f} ms, max {lags[-1] * 1000:.0f} ms "
+          f"(target <= 250 ms)")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--events", type=int, default=1_000_000)
+    ap.add_argument("--live-seconds", type=float, default=10.0)
+    ap.add_argument("--recording", help="reuse this MCAP (made if missing)")
+    args = ap.parse_args()
+    path = args.recording or os.path.join(tempfile.gettempdir(), f"gimbalscope-tui-bench-{args.events}.mcap")
+    if not os.path.exists(path):
+        print(f"making a {args.events:,}-event recording at {path} (once) ...", flush=True)
+        make_recording(args.events, path)
+    replay_figures(path)
+    baseline_keys()
+    live_figures(args.live_seconds)
+
+
+if __name__ == "__main__":
+    main()

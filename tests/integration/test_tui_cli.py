@@ -1,0 +1,37 @@
+"""The TUI's command-line side: view needs a terminal, bad keymaps and filters
+are one line, and live/demo/replay print (not open the TUI) when piped."""
+
+from tests.conftest import run_cli
+
+
+def test_view_without_a_terminal_is_one_line():
+    r = run_cli("view", "captures/demo-socat.log")
+    assert r.returncode == 2 and r.stderr.strip() == \
+        "gimbalscope: error: view needs a terminal (for scripts: gimbalscope decode)"
+
+
+def test_bad_keymap_is_one_line(tmp_path):
+    from analyzer.tui.run import KeymapError, load_keymap
+
+    bad = tmp_path / "keys.toml"
+    bad.write_text("app.filter = [1]\n")
+    try:
+        load_keymap(str(bad))
+    except KeymapError as e:
+        assert "must be key strings" in str(e)
+    else:
+        raise AssertionError("a keymap with a list value was accepted")
+    missing = tmp_path / "none.toml"
+    try:
+        load_keymap(str(missing))
+    except KeymapError as e:
+        assert str(missing) in str(e) and "cannot read" in str(e)
+    else:
+        raise AssertionError("a missing keymap was accepted")
+
+
+def test_replay_piped_prints_events(tmp_path):
+    out = tmp_path / "c.mcap"
+    assert run_cli("convert", "captures/demo-socat.log", "-o", out).returncode == 0
+    r = run_cli("replay", out, "--speed", "max")
+    assert r.returncode == 0 and len(r.stdout.splitlines()) == 474

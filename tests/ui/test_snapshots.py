@@ -1,0 +1,55 @@
+"""Layout snapshots (pytest-textual-snapshot): the main screen on the sample
+capture at 80×24 on its first error, and the statistics screen. (A 120×40 main
+screen snapshot failed now and then after the Pilot tests with identical text
+and styles in the report; it is left out until that is understood.) Update them with
+``pytest tests/ui --snapshot-update`` after a deliberate change, and look at
+the SVGs before committing."""
+
+import os
+
+import analyzer
+from analyzer.tui.run import make_app, stop_feed
+from tests.conftest import ROOT
+
+SAMPLE = os.path.join("captures", "demo-socat.log")
+
+
+def sample_app():
+    os.chdir(ROOT)   # the status bar shows the path as given: keep it relative
+    return make_app(analyzer.open(SAMPLE), mode="view")
+
+
+async def loaded(pilot):
+    app = pilot.app
+    while not app.model.done:
+        await pilot.pause(0.05)
+    await pilot.press("home")     # the same selection however the batches arrived
+    await pilot.pause(0.3)
+
+
+def test_main_screen_80x24_on_first_error(snap_compare):
+    app = sample_app()
+
+    async def first_error(pilot):
+        await loaded(pilot)
+        await pilot.press("e")
+        await pilot.pause(0.1)
+
+    try:
+        assert snap_compare(app, terminal_size=(80, 24), run_before=first_error)
+    finally:
+        stop_feed(app)
+
+
+def test_statistics_screen(snap_compare):
+    app = sample_app()
+
+    async def stats(pilot):
+        await loaded(pilot)
+        await pilot.press("S")
+        await pilot.pause(0.2)
+
+    try:
+        assert snap_compare(app, terminal_size=(120, 40), run_before=stats)
+    finally:
+        stop_feed(app)
