@@ -142,3 +142,30 @@ def test_convert_refuses_to_overwrite(tmp_path):
     out.write_bytes(b"keep me")
     r = run_cli("convert", os.path.join(SAMPLES, "demo-bus.bin"), "-o", out)
     assert r.returncode == 2 and "exists" in r.stderr and out.read_bytes() == b"keep me"
+
+
+def test_reader_process_gives_the_same_events_and_warnings(tmp_path, monkeypatch):
+    """Large recordings are read in a second process; every file goes that way here."""
+    from analyzer.sources import mcapfile
+
+    full = tmp_path / "full.mcap"
+    assert run_cli("convert", os.path.join(SAMPLES, "demo-socat.log"), "-o", full).returncode == 0
+    data = full.read_bytes()
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(data[: len(data) - 200])
+    inline = {p: [e.to_dict() for e in analyzer.open(str(p))] for p in (full, cut)}
+    monkeypatch.setattr(mcapfile, "READER_PROCESS_MIN", 0)
+    for p in (full, cut):
+        warnings = []
+        cap = analyzer.open(str(p), on_warning=warnings.append)
+        assert [e.to_dict() for e in cap] == inline[p]
+        assert any("ends early" in w for w in warnings) == (p == cut)
+    # a consumer that stops early stops the reader process too
+    started = []
+    real_popen = mcapfile.subprocess.Popen
+    monkeypatch.setattr(mcapfile.subprocess, "Popen", lambda *a, **kw: started.append(real_popen(*a, **kw))
+                        or started[-1])
+    it = iter(analyzer.open(str(full)))
+    next(it)
+    it.close()
+    assert len(started) == 1 and started[0].poll() is not None
