@@ -184,7 +184,11 @@ class Capture:
         """
         deframers = {line: self._deframer(line) for line in self.source.lines}
         # live ports deliver in arrival order within a few reads; logs can hold big chunks
-        chunks_ahead = 64 if getattr(self.source, "live", False) else 512
+        live = getattr(self.source, "live", False)
+        chunks_ahead = 64 if live else 512
+        # release every 32 chunks (per-chunk bookkeeping was most of the cost of a
+        # file); a live tap releases every 4, so the screen stays close to the wire
+        release_every = 4 if live else 32
         margin = chunks_ahead * self.options.byte_time + 0.05
         # Events not yet released, in arrival order; sorted by time (stably: ties keep
         # arrival order) at each release. They arrive nearly in time order, so the
@@ -232,8 +236,8 @@ class Capture:
                     self._latest = end
                 arrived(d.feed(data, chunk.t))
             since_release += 1
-            if not self._tick and since_release < 32:
-                continue   # release every 32 chunks: per-chunk bookkeeping was most of the cost
+            if not self._tick and since_release < release_every:
+                continue
             since_release = 0
             mark = chunk.t - margin
             for d in deframers.values():

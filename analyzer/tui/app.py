@@ -102,6 +102,31 @@ class GimbalscopeApp(App):
         self.started = time.monotonic()
         self._search_text = ""
         self._history_pos: int | None = None
+        self._detail_due = False   # follow mode: the lower panes are refreshed on a timer
+
+    # Actions that only make sense in one mode are hidden from the footer (and
+    # refused) in the others.
+    _MODE_ACTIONS = {"record": {"live"}, "play_pause": {"replay"}, "speed": {"replay"}, "seek": {"replay"}}
+
+    def get_system_commands(self, screen):
+        """The command palette (ctrl+p): every bound action of this mode, by name."""
+        from textual.app import SystemCommand
+
+        yield from super().get_system_commands(screen)
+        for b in self.BINDINGS:
+            name, _, arg = b.action.partition("(")
+            if self.check_action(name, ()) is None or name == "quit":
+                continue
+            params = arg.rstrip(")")
+            run = getattr(self, f"action_{name}")
+            callback = (lambda run=run, p=params: run(float(p))) if params else run
+            yield SystemCommand(b.description, f"key: {b.key}", callback)
+
+    def check_action(self, action: str, parameters: tuple) -> bool | None:
+        modes = self._MODE_ACTIONS.get(action)
+        if modes is not None and self.mode not in modes:
+            return None
+        return True
 
     # ------------------------------------------------------------- layout
     def compose(self) -> ComposeResult:
@@ -136,6 +161,7 @@ class GimbalscopeApp(App):
         self.feed = self._feed_factory(self._deliver)
         self.feed.start()
         self.set_interval(0.1, self._tick)
+        self.set_interval(0.2, self._catch_up_detail)
         self._refresh_status()
 
     def _deliver(self, batch: FeedBatch) -> None:
@@ -146,8 +172,7 @@ class GimbalscopeApp(App):
     def on_feed_message(self, message: FeedMessage) -> None:
         b = message.batch
         m = self.model
-        m.extend(b.events)
-        m.set_unsettled(b.unsettled)
+        m.add(b.events, b.unsettled)
         self.last = b
         self.messages.extend(b.warnings)
         if b.error:
@@ -162,6 +187,11 @@ class GimbalscopeApp(App):
             self._rows_changed()
         self._refresh_status()
 
+    def _catch_up_detail(self) -> None:
+        if self._detail_due:
+            self._detail_due = False
+            self._show_selected(self.event_list.selected)
+
     def _rows_changed(self) -> None:
         lst = self.event_list
         before = lst.selected
@@ -169,7 +199,13 @@ class GimbalscopeApp(App):
         if lst.selected is None and self.model.row_count:
             lst.go_to(self.model.row(0).number)   # a file opens on its first event
         if lst.selected is not None and (lst.selected != before or self._selected_unsettled(lst.selected)):
-            self._show_selected(lst.selected)
+            if self.model.follow:
+                # following a busy line the selection moves with every batch; rebuilding
+                # the detail tree each time kept the screen's thread busy and the list
+                # fell behind the wire: the lower panes catch up five times a second
+                self._detail_due = True
+            else:
+                self._show_selected(lst.selected)
 
     def _selected_unsettled(self, number: int) -> bool:
         return bool(self.model.unsettled) and number >= self.model.unsettled[0].number

@@ -49,7 +49,7 @@ class FeedBatch:
 
 class Feed(threading.Thread):
     def __init__(self, capture: Capture, deliver: Callable[[FeedBatch], None], *, ports: list[str] | None = None,
-                 interval: float = 0.05, metadata: Callable[[], dict[str, str]] | None = None,
+                 interval: float = 0.03, metadata: Callable[[], dict[str, str]] | None = None,
                  recorder: McapRecorder | None = None, recording: str | None = None) -> None:
         super().__init__(daemon=True, name="gimbalscope-feed")
         self.capture = capture

@@ -107,13 +107,27 @@ class CaptureModel:
         self.devices: dict[str, DeviceInfo] = {}
         self.marks: set[int] = set()
         self.series: dict[str, dict[str, list[tuple[float, float]]]] = {}  # device -> name -> (t, deg)
-        self.playback: Playback | None = None    # replays only
-        self._times: list[float] = []            # events' t (untimed: their index), for playback
-        self.limit: int | None = None            # replay: settled events shown so far
+        self._times: list[float] = []            # events' t (untimed: their index): timeline
+        # Replays: the whole file is decoded into ``loaded`` ahead of the screen; the
+        # playback position moves events from there into the model, so statistics,
+        # plots and the device map describe what has been played so far.
+        self.playback: Playback | None = None
+        self.loaded: list[Event] = []
+        self._loaded_times: list[float] = []
         self.filter_history: list[str] = []
         self.done = False                        # the capture has ended
 
     # --------------------------------------------------------------- input
+    def add(self, batch: list[Event], unsettled: list[Event]) -> int:
+        """A batch from the capture thread: shown at once, or (replay) loaded for
+        the playback to reach. Returns how many rows became visible."""
+        if self.playback is None:
+            return self.extend(batch) + self.set_unsettled(unsettled)
+        self.loaded.extend(batch)
+        self._loaded_times.extend(ev.t if ev.t is not None else float(k)
+                                  for k, ev in enumerate(batch, len(self._loaded_times)))
+        return 0
+
     def extend(self, batch: list[Event]) -> int:
         """Add settled events (wire order). Returns how many rows became visible."""
         before = self.row_count
@@ -237,22 +251,17 @@ class CaptureModel:
     # --------------------------------------------------------------- rows
     @property
     def settled_visible(self) -> int:
-        """Settled events visible (a replay shows those up to its position)."""
-        n = len(self.events) if self.limit is None else self.limit
-        if self._view is None:
-            return n
-        return bisect_left(self._view, n)
+        return len(self.events) if self._view is None else len(self._view)
 
     @property
     def row_count(self) -> int:
-        shown_unsettled = len(self._unsettled_view) if self.limit is None else 0
-        return self.settled_visible + shown_unsettled
+        return self.settled_visible + len(self._unsettled_view)
 
     def row(self, i: int) -> Event | None:
         s = self.settled_visible
         if 0 <= i < s:
             return self.events[i if self._view is None else self._view[i]]
-        if self.limit is None and 0 <= i - s < len(self._unsettled_view):
+        if 0 <= i - s < len(self._unsettled_view):
             return self._unsettled_view[i - s]
         return None
 
@@ -262,7 +271,7 @@ class CaptureModel:
         s = self.settled_visible
         if 0 <= idx < len(self.events):
             if self._view is None:
-                return idx if idx < s else None
+                return idx
             k = bisect_left(self._view, idx)
             return k if k < s and self._view[k] == idx else None
         for k, ev in enumerate(self._unsettled_view):
@@ -415,43 +424,59 @@ class CaptureModel:
     def window(self, start: float, end: float, most: int = 4000) -> list[Event]:
         """Events on the wire between ``start`` and ``end`` (timeline), filter or not:
         the timeline shows the wire."""
-        n = len(self.events) if self.limit is None else self.limit
         times = self._times
-        i = bisect_left(times, start - 0.5, 0, n)   # a long frame may start before the window
-        j = bisect_right(times, end, i, n)
+        i = bisect_left(times, start - 0.5)   # a long frame may start before the window
+        j = bisect_right(times, end, i)
         out = [e for e in self.events[i:min(j, i + most)] if e.t_end is not None and e.t_end >= start]
-        if self.limit is None:
-            out += [e for e in self.unsettled if e.t is not None and e.t <= end and e.t_end >= start]
+        out += [e for e in self.unsettled if e.t is not None and e.t <= end and e.t_end >= start]
         return out
 
     # -------------------------------------------------------------- replay
     def start_playback(self, speed: float) -> None:
         self.playback = Playback(speed=speed)
-        self.limit = 0
 
     def advance_playback(self, wall: float) -> int:
         """Move a replay on to ``wall`` clock time; returns rows newly shown."""
         pb = self.playback
         if pb is None:
             return 0
-        before = self.row_count
         if pb.speed == 0:
-            self.limit = len(self.events)
-        else:
-            if self.limit == 0 and self._times and pb.position == 0.0:
-                pb.position = self._times[0]
-            pos = pb.tick(wall)
-            self.limit = bisect_right(self._times, pos)
-        return self._grew(before)
+            return self._play_to(len(self.loaded))
+        if not self.events and self._loaded_times and pb.position == 0.0:
+            pb.position = self._loaded_times[0]   # playing starts at the first event
+        return self._play_to(bisect_right(self._loaded_times, pb.tick(wall)))
 
     def seek(self, seconds: float) -> None:
         """Move a replay's position by ``seconds`` of capture time (either way)."""
         pb = self.playback
-        if pb is None or not self._times:
+        if pb is None or not self._loaded_times:
             return
-        first, last = self._times[0], self._times[-1]
+        first, last = self._loaded_times[0], self._loaded_times[-1]
         pb.position = min(max(pb.position + seconds, first), last)
-        self.limit = bisect_right(self._times, pb.position)
+        self._play_to(bisect_right(self._loaded_times, pb.position))
+
+    def _play_to(self, k: int) -> int:
+        """Show the first ``k`` loaded events. Going back rebuilds the model's
+        indexes from the start (about a second per 300k events)."""
+        n = len(self.events)
+        if k > n:
+            return self.extend(self.loaded[n:k])
+        if k < n:
+            self._reset()
+            self.extend(self.loaded[:k])
+        return 0
+
+    def _reset(self) -> None:
+        """Forget the shown events (not the filter, marks or loaded ones)."""
+        self.events = []
+        self._times = []
+        self.answers = {}
+        self.errors = []
+        self.stats = Stats()
+        self.devices = {}
+        self.series = {}
+        if self._view is not None:
+            self._view = []
 
     @property
     def position(self) -> float | None:

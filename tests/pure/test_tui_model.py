@@ -157,24 +157,31 @@ def test_unsettled_rows_show_after_settled_ones(loaded):
 
 
 def test_replay_playback_shows_events_up_to_the_position(loaded):
-    model, _ = loaded
-    t = [e.t for e in model.events]
+    done, _ = loaded
+    t = [e.t for e in done.events]
+    model = CaptureModel()
     model.start_playback(speed=1.0)
+    model.add(done.events[:7], [])         # the file loads ahead of the playback
+    model.add(done.events[7:], [])
     assert model.row_count == 0
     model.advance_playback(100.0)         # starts at the first event
     assert model.row_count == 1
     model.advance_playback(100.0 + (t[2] - t[0]) + 1e-6)   # one wall second = one capture second
     assert model.row_count == 3
+    assert model.stats.to_dict()["commands"] == 1          # statistics follow the position
     model.playback.playing = False
     model.advance_playback(200.0)
     assert model.row_count == 3
     model.seek(10.0)                      # past the end: clamps to the last event
-    assert model.row_count == 13
-    model.seek(-(t[-1] - t[3]))
-    assert model.row_count == 4
+    assert model.row_count == 13 and model.stats.to_dict()["status"]["nak"] == 1
+    model.seek(-(t[-1] - t[3]))           # back: to event 4 (the NAK'd go-to)
+    assert model.row_count == 4 and model.answers == {1: [2, 3]}
+    # #4 shows its final status (nak) before its NAK is played: a replay shows
+    # events as decoded from the whole file
+    assert model.stats.to_dict()["commands"] == 2 and model.next_error(0) == 4 and model.next_error(4) is None
     model.playback.speed = 0              # max: everything
     model.advance_playback(201.0)
-    assert model.row_count == 13
+    assert model.row_count == 13 and model.next_error(4) == 5
 
 
 def test_timeline_links_command_to_answers():

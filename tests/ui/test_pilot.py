@@ -191,3 +191,26 @@ def test_keymap_rebinds_by_id(tmp_path):
         stop_feed(app)
 
     run(drive())
+
+
+def test_command_palette_runs_actions_and_mode_hides_others(tmp_path):
+    path = tmp_path / "tap.log"
+    expected = write_capture(path)
+    app = make_app(analyzer.open(str(path)), mode="view")
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            titles = [c.title for c in app.get_system_commands(app.screen)]
+            assert "Next error" in titles and "Record" not in titles and "Play/pause" not in titles
+            await pilot.press("ctrl+p")
+            await pilot.pause(0.2)
+            await pilot.press(*"next error")
+            await pilot.pause(0.4)
+            await pilot.press("enter")
+            await settle(pilot, app, lambda a: selected(a) == expected["errors"][0])
+            await pilot.press("r")                 # not a live tap: nothing happens
+            assert app.feed.recording is None
+        stop_feed(app)
+
+    run(drive())
