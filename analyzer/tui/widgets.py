@@ -6,6 +6,8 @@ the rows on screen, so a million events cost no more than a hundred.
 
 from __future__ import annotations
 
+from itertools import groupby
+
 from rich.segment import Segment
 from rich.style import Style
 from rich.text import Text
@@ -225,7 +227,7 @@ class HexView(Static):
             return
         # 16 bytes a line when there is room (4 columns a byte: hex, space, ASCII)
         per = 16 if self.size.width - 2 >= 72 else 8 if self.size.width - 2 >= 40 else 4
-        text = Text()
+        lines = []
         for off, hx, asc, marks in hex_lines(raw, span, per):
             line = Text(f"{off}  ", style="dim")
             h = Text(hx.ljust(per * 3 - 1))
@@ -233,9 +235,8 @@ class HexView(Static):
                 h.stylize("reverse bold yellow", a, b)
             line.append_text(h)
             line.append("  " + asc, style="green")
-            text.append_text(line)
-            text.append("\n")
-        self.update(text)
+            lines.append(line)
+        self.update(Text("\n").join(lines))
 
     def on_resize(self) -> None:
         shown = getattr(self, "_shown", None)
@@ -283,8 +284,9 @@ class TimelineView(Static):
         out = Text()
         for label, lane in zip(labels, rows):
             out.append(label + " ", style="bold")
-            for ch, st in zip(lane.chars, lane.styles):
-                out.append(ch, style=TIMELINE_STYLES.get(st, ""))
+            # runs of one style as one span: the same picture whatever Rich's caches hold
+            for style, run in groupby(zip(lane.chars, lane.styles), key=lambda cs: cs[1]):
+                out.append("".join(ch for ch, _ in run), style=TIMELINE_STYLES.get(style, ""))
             out.append("\n")
         self.update(out)
 
