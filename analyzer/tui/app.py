@@ -105,7 +105,7 @@ class GimbalscopeApp(App):
         self._detail_due = False   # follow mode: the lower panes are refreshed on a timer
 
     # Actions that only make sense in one mode are hidden from the footer (and
-    # refused) in the others.
+    # refused) in the others: check_action returning False hides, None would dim.
     _MODE_ACTIONS = {"record": {"live"}, "play_pause": {"replay"}, "speed": {"replay"}, "seek": {"replay"}}
 
     def get_system_commands(self, screen):
@@ -115,7 +115,7 @@ class GimbalscopeApp(App):
         yield from super().get_system_commands(screen)
         for b in self.BINDINGS:
             name, _, arg = b.action.partition("(")
-            if self.check_action(name, ()) is None or name == "quit":
+            if not self.check_action(name, ()) or name == "quit":
                 continue
             params = arg.rstrip(")")
             run = getattr(self, f"action_{name}")
@@ -124,9 +124,7 @@ class GimbalscopeApp(App):
 
     def check_action(self, action: str, parameters: tuple) -> bool | None:
         modes = self._MODE_ACTIONS.get(action)
-        if modes is not None and self.mode not in modes:
-            return None
-        return True
+        return modes is None or self.mode in modes
 
     # ------------------------------------------------------------- layout
     def compose(self) -> ComposeResult:
@@ -239,8 +237,9 @@ class GimbalscopeApp(App):
                          style="dim")
         line2 = Text()
         errors = len(m.errors)
-        line2.append(f"{len(m.events) + len(m.unsettled):,} events", style="bold")
-        line2.append(f"  {errors:,} errors", style="bold red" if errors else "")
+        shown = len(m.events) + len(m.unsettled)
+        line2.append(f"{shown:,} event{'' if shown == 1 else 's'}", style="bold")
+        line2.append(f"  {errors:,} error{'' if errors == 1 else 's'}", style="bold red" if errors else "")
         line2.append(f"  {m.stats.checksum_errors} checksum")
         if m.filter_text:
             line2.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")

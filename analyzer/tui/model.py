@@ -488,8 +488,9 @@ class CaptureModel:
         from dissectors.dissect import field_spans
 
         nodes: list[DetailNode] = []
-        head = DetailNode(f"#{ev.number} {ev.kind} on line {ev.line}, bytes {ev.offset}–{ev.offset + len(ev.raw) - 1}"
-                          f" of the line ({len(ev.raw)} bytes)")
+        n = len(ev.raw)
+        head = DetailNode(f"#{ev.number} {ev.kind} on line {ev.line}, bytes {ev.offset}–{ev.offset + n - 1}"
+                          f" of the line ({n} byte{'' if n == 1 else 's'})")
         if ev.t is not None:
             head.children.append(DetailNode(f"time {ev.t:.6f} s → {ev.t_end:.6f} s"))
         if ev.dst is not None:
