@@ -19,6 +19,7 @@ from dissectors.event import ACK, COMMAND, NAK, Event
 from dissectors.wire import byte_time
 
 from .align import align
+from .echo import EchoStripper
 from .pairing import Pairer, Timeouts
 from .skew import SkewEstimator
 from .sources import LINE_AB, Chunk, Source, detect
@@ -34,6 +35,8 @@ class Options:
     frame_gap: float | None = None        # seconds; default max(50 ms, 20 characters)
     timeouts: Timeouts = field(default_factory=Timeouts)
     tune_gc: bool = True                  # raise the GC's young threshold while iterating
+    strip_echo: bool = True               # drop line B's copies of line A's frames (analyzer.echo)
+    swap_lines: bool = False              # the tap's ports were given the other way round
 
     @property
     def byte_time(self) -> float:
@@ -60,6 +63,11 @@ class Capture:
         self._latest: float | None = None  # the latest time any chunk or tick showed
         self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
         self._pairer: Pairer | None = None
+        # two lines: copies of line A's frames on line B are dropped (analyzer.echo)
+        self.echo = EchoStripper() if tuple(source.lines) == ("A", "B") and self.options.strip_echo else None
+        # the tap's lines were wired the other way round: read A as B and B as A
+        # (settable while a live capture runs: the TUI's swap key)
+        self.swap_lines = self.options.swap_lines
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
@@ -109,7 +117,10 @@ class Capture:
         try:
             pairer = self._pairer = Pairer(self.options.timeouts)
             push_many = pairer.push_many
+            strip = self.echo.strip if self.echo is not None else None
             for batch in self._wire_order():
+                if batch and strip is not None:
+                    batch = strip(batch)
                 out = push_many(batch) if batch else []
                 if self._tick:   # timeouts expire while the line is quiet
                     self._tick = False
@@ -145,9 +156,12 @@ class Capture:
         d = self._deframer(line)
         feed = d.feed
         tap = self.on_chunk
-        for chunk in self.source.line_chunks(line):
+        physical = _SWAP[line] if self.swap_lines else line
+        for chunk in self.source.line_chunks(physical):
             if not chunk.data:
                 continue                  # untimed input: no ticks
+            if physical != line:
+                chunk = Chunk(line, chunk.data, chunk.t)
             if tap is not None:
                 tap(chunk, d.offset)
             yield feed(chunk.data, chunk.t)
@@ -228,6 +242,8 @@ class Capture:
                 for d in deframers.values():
                     arrived(d.idle(chunk.t))
             else:
+                if self.swap_lines:
+                    chunk = Chunk(_SWAP[chunk.line], data, chunk.t)
                 d = deframers[chunk.line]
                 if tap is not None:
                     tap(chunk, d.offset)
@@ -264,6 +280,7 @@ class Capture:
 
 
 _time = attrgetter("t")
+_SWAP = {"A": "B", "B": "A"}
 _SKEW_KINDS = frozenset((COMMAND, ACK, NAK))
 
 

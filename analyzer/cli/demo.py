@@ -9,14 +9,9 @@ import argparse
 import threading
 
 from ..capture import Options, open_live
-from ..simulation.bus import GimbalBus
-from ..simulation.controller import SimController
-from ..simulation.gimbal import Faults, GimbalModel
-from ..simulation.link import VirtualLink, WireFaults
+from ..simulation import scenario
 from .common import UsageError, add_filter_arg, warn
 from .live import add_record_args, add_tui_args, tap, wants_tui
-
-DEVICES = [(1, 1, 1), (1, 1, 2), (1, 1, 3)]
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,6 +25,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events")
     p.add_argument("--clean", action="store_true", help="no injected faults")
+    p.add_argument("--fault", action="append", default=[], metavar="NAME", choices=sorted(scenario.FAULTS),
+                   help="a clean installation with this fault (repeatable): "
+                        + "; ".join(f"{k}: {v}" for k, v in scenario.FAULTS.items()))
     add_tui_args(p)
     p.add_argument("--seed", type=int, default=5)
     p.set_defaults(run=run)
@@ -40,18 +38,12 @@ def run(args: argparse.Namespace) -> int:
         args.seconds = 0.0 if wants_tui(args) else 12.0
     if args.seconds < 0:
         raise UsageError(f"--seconds {args.seconds:g}: must be 0 (until Ctrl-C) or more")
-    clean = args.clean
-    link = VirtualLink(WireFaults(bit_error=0.0 if clean else 0.002, seed=args.seed),
-                       WireFaults(bit_error=0.0 if clean else 0.002, noise=0.0 if clean else 0.02,
-                                  seed=args.seed + 1))
-    faults = Faults(drop_ack=0.0 if clean else 0.02, late=0.0, seed=args.seed)
-    gimbals = [GimbalModel(a, serial=f"SN{k:04d}", init_seconds=1.5, faults=faults)
-               for k, a in enumerate(DEVICES, 1)]
-    bus = GimbalBus(link.device_port, gimbals)
-    controller = SimController(link.controller_port, DEVICES, seed=args.seed)
-    capture = open_live(list(link.tap_ports), Options(), on_warning=warn)
-    bus.start()
-    controller.start()
+    try:
+        site = scenario.build(set(args.fault), clean=args.clean, seed=args.seed)
+    except ValueError as e:
+        raise UsageError(f"--fault: {e}") from None
+    capture = open_live(list(site.link.tap_ports), Options(), on_warning=warn)
+    site.start()
     timer = None
     if args.seconds > 0:
         timer = threading.Timer(args.seconds, capture.source.stop)
@@ -62,8 +54,4 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if timer is not None:
             timer.cancel()
-        controller.stop()
-        bus.stop()
-        controller.join(timeout=1.0)
-        bus.join(timeout=1.0)
-        link.close()
+        site.stop()

@@ -14,6 +14,7 @@ import sys
 
 from .. import __version__
 from ..capture import Capture, open_live
+from ..doctor import LiveDoctor, log_level, one_line
 from ..output import JsonLinesSink, TextSink
 from ..recording import McapRecorder, RecordingError, RotatingRecorder
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, warn
@@ -123,12 +124,19 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
     # 5 ms thread switch interval would delay them by as much. Switch more often.
     switch = sys.getswitchinterval()
     sys.setswitchinterval(0.0002)
+    def found(f) -> None:   # the wiring doctor runs alongside: new findings are said once
+        warn(one_line(f))
+        if recorder is not None:
+            recorder.note(one_line(f), capture.latest, log_level(f))
+    doctor = LiveDoctor(capture, found)
     try:
-        for ev in capture:
-            if recorder is not None:
-                recorder.event(ev)
-            if keep is None or keep(ev):
-                sink(ev)
+        for batch in capture.batches():
+            for ev in batch:
+                if recorder is not None:
+                    recorder.event(ev)
+                if keep is None or keep(ev):
+                    sink(ev)
+            doctor.add_batch(batch)
     finally:
         sys.setswitchinterval(switch)
         for sig, handler in old.items():

@@ -10,7 +10,7 @@ import sys
 
 from .. import __version__
 from ..sources import CaptureError
-from . import convert, decode, demo, live, recover, replay, sim, stats, view
+from . import convert, decode, demo, doctor, live, recover, replay, sim, stats, view
 from .common import UsageError
 
 EXIT_INPUT = 2
@@ -30,6 +30,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     decode.register(sub)
     stats.register(sub)
+    doctor.register(sub)
     demo.register(sub)
     live.register(sub)
     sim.register(sub)

@@ -19,7 +19,8 @@ from dissectors.wire import build_frame
 
 class SimController(threading.Thread):
     def __init__(self, port: str, devices: list[tuple[int, int, int]], *, group: int = 0, seed: int = 3,
-                 ack_timeout: float = 0.25, retries: int = 2, baud: int = 9600, script: list | None = None) -> None:
+                 ack_timeout: float = 0.25, retries: int = 2, baud: int = 9600, script: list | None = None,
+                 wait_for_ack: bool = True, ix_patience: float = 3.0, retry_pause: float = 0.01) -> None:
         super().__init__(daemon=True, name="sim-controller")
         self.port = serial.serial_for_url(port, baudrate=baud, timeout=0.005)
         self.devices = devices
@@ -28,6 +29,9 @@ class SimController(threading.Thread):
         self.ack_timeout = ack_timeout
         self.retries = retries
         self.script = script
+        self.wait_for_ack = wait_for_ack    # fault when False: the next command goes out at once
+        self.ix_patience = ix_patience      # seconds it waits for IX's result before sending IX again
+        self.retry_pause = retry_pause      # seconds between a timeout or NAK and the retransmission
         self._halt = threading.Event()
         # timed, so a silence settles a broken frame at once instead of holding
         # back the answers after it
@@ -83,9 +87,12 @@ class SimController(threading.Thread):
             self._inbox.clear()
             self.port.write(frame)
             self.sent += 1
+            if not self.wait_for_ack:
+                time.sleep(len(frame) * self._bt + 0.001)   # on the wire, then straight on
+                return "sent"
             ans = self._next(time.monotonic() + self.ack_timeout + len(frame) / 960, (ACK, NAK))
             if ans is None or ans.kind == NAK:
-                time.sleep(0.01)
+                time.sleep(self.retry_pause)
                 continue   # retransmit after a timeout or a NAK
             if self._peek_nic(time.monotonic() + 0.02):
                 return "nic"
@@ -116,7 +123,9 @@ class SimController(threading.Thread):
             if k % 13 == 3:
                 yield (self.devices[0], "D?", 1.0)
             if k == 4:
-                yield (self.devices[-1], "IX", 3.0)
+                yield (self.devices[-1], "IX", self.ix_patience)
+                if self.ix_patience < 1.0:   # an impatient controller tries again
+                    yield (self.devices[-1], "IX", self.ix_patience)
             k += 1
 
     def run(self) -> None:

@@ -33,6 +33,8 @@ class Faults:
     drop_ack: float = 0.0      # probability of not answering at all
     late: float = 0.0          # probability of answering after ``late_by`` seconds
     late_by: float = 0.8
+    silent: bool = False       # never answers (no power, wrong address setting, a cut drop)
+    drift: float = 0.0         # seconds of extra answer delay per second of uptime (a device slowing down)
     seed: int = 1
     rng: random.Random = field(init=False)
 
@@ -54,6 +56,7 @@ class GimbalModel:
         self.init_seconds = init_seconds
         self.answer_delay = answer_delay
         self.faults = faults or Faults()
+        self._born: float | None = None   # when the first command came (drift)
         self.az = self.el = 0.0              # degrees
         self.target: tuple[float, float] | None = None
         self.sweep = (0.0, 0.0)              # continuous motion direction per axis (-1, 0, 1)
@@ -96,10 +99,16 @@ class GimbalModel:
     def handle(self, ev: Event, now: float) -> list[Reply]:
         """The replies to one command frame addressed to this gimbal."""
         self.update(now)
+        f = self.faults
+        if f.silent:
+            return []
         at = now + self.answer_delay
+        if f.drift:
+            if self._born is None:
+                self._born = now
+            at += f.drift * (now - self._born)
         if not ev.checksum_ok:
             return [Reply(at, bytes([NAK]))]
-        f = self.faults
         if f.drop_ack and f.rng.random() < f.drop_ack:
             return []
         if f.late and f.rng.random() < f.late:

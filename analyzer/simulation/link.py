@@ -16,6 +16,7 @@ import heapq
 import os
 import random
 import select
+import termios
 import threading
 import time
 import tty
@@ -63,9 +64,34 @@ class _Pty:
                 pass
 
 
+@dataclass
+class Wiring:
+    """How the tap is wired to the link (faults of the installation, not the wire)."""
+    swapped: bool = False      # the tap's A port is on the device→controller wire, B on the other
+    echo: bool = False         # the device-side adapter echoes: line B repeats line A
+    dead_b: bool = False       # the device→controller wire is cut: nothing comes back
+    wire_baud: int | None = None   # the link really runs at this rate; taps at another rate misread
+
+
+def _tap_baud(fd: int) -> int | None:
+    """The rate the tap opened its end of a pty at (termios is shared by both ends)."""
+    try:
+        speed = termios.tcgetattr(fd)[5]
+    except termios.error:
+        return None
+    return _SPEEDS.get(speed)
+
+
+_SPEEDS = {getattr(termios, f"B{r}"): r for r in (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)}
+
+
 class VirtualLink:
     def __init__(self, a_faults: WireFaults | None = None, b_faults: WireFaults | None = None,
-                 baud: int = 9600) -> None:
+                 baud: int = 9600, wiring: Wiring | None = None) -> None:
+        self.wiring = wiring or Wiring()
+        if self.wiring.wire_baud:
+            baud = self.wiring.wire_baud
+        self.baud = baud
         self.byte_time = 10 / baud
         self.ctl, self.dev, self.tap_a, self.tap_b = _Pty(), _Pty(), _Pty(), _Pty()
         for p in (self.tap_a, self.tap_b):
@@ -87,6 +113,8 @@ class VirtualLink:
 
     @property
     def tap_ports(self) -> tuple[str, str]:
+        if self.wiring.swapped:
+            return self.tap_b.path, self.tap_a.path
         return self.tap_a.path, self.tap_b.path
 
     def _forward(self) -> None:
@@ -112,15 +140,28 @@ class VirtualLink:
             while due and due[0][0] <= time.monotonic():
                 _, _, fd, data = heapq.heappop(due)
                 peer, tap, _faults = routes[fd]
+                from_device = fd == self.dev.master
+                if from_device and self.wiring.dead_b:
+                    continue   # the wire back is cut: neither the controller nor the tap hear it
                 try:
                     os.write(peer, data)
                 except OSError:
                     continue
-                try:
-                    os.write(tap, data)
-                except OSError as e:   # a tap that does not read: drop, never stall the link
-                    if e.errno not in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EIO):
-                        raise
+                self._to_tap(tap, data)
+                if not from_device and self.wiring.echo:
+                    self._to_tap(self.tap_b.master, data)   # the device side hears itself
+
+    def _to_tap(self, tap: int, data: bytes) -> None:
+        if self.wiring.wire_baud:
+            listen = _tap_baud(tap)
+            if listen and listen != self.baud:
+                from .uart import misread
+                data = misread(data, self.baud, listen)
+        try:
+            os.write(tap, data)
+        except OSError as e:   # a tap that does not read: drop, never stall the link
+            if e.errno not in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EIO):
+                raise
 
     def close(self) -> None:
         self._halt.set()

@@ -75,6 +75,8 @@ class GimbalscopeApp(App):
         Binding("Z", "zoom(1)", "Zoom out", show=False, id="app.zoom_out"),
         Binding("S", "stats", "Stats", id="app.stats"),
         Binding("P", "plots", "Plots", id="app.plots"),
+        Binding("w", "findings", "Doctor", id="app.findings"),
+        Binding("x", "swap_lines", "Swap A/B", show=False, id="app.swap_lines"),
         Binding("r", "record", "Record", id="app.record"),
         Binding("space", "play_pause", "Play/pause", id="app.play"),
         Binding("plus", "speed(2)", "Faster", show=False, id="app.faster"),
@@ -106,7 +108,8 @@ class GimbalscopeApp(App):
 
     # Actions that only make sense in one mode are hidden from the footer (and
     # refused) in the others: check_action returning False hides, None would dim.
-    _MODE_ACTIONS = {"record": {"live"}, "play_pause": {"replay"}, "speed": {"replay"}, "seek": {"replay"}}
+    _MODE_ACTIONS = {"record": {"live"}, "swap_lines": {"live"}, "play_pause": {"replay"}, "speed": {"replay"},
+                     "seek": {"replay"}}
 
     def get_system_commands(self, screen):
         """The command palette (ctrl+p): every bound action of this mode, by name."""
@@ -171,6 +174,8 @@ class GimbalscopeApp(App):
         b = message.batch
         m = self.model
         m.add(b.events, b.unsettled)
+        if b.findings is not None:
+            m.findings = b.findings
         self.last = b
         self.messages.extend(b.warnings)
         if b.error:
@@ -241,6 +246,11 @@ class GimbalscopeApp(App):
         line2.append(f"{shown:,} event{'' if shown == 1 else 's'}", style="bold")
         line2.append(f"  {errors:,} error{'' if errors == 1 else 's'}", style="bold red" if errors else "")
         line2.append(f"  {m.stats.checksum_errors} checksum")
+        problems = [f for f in m.findings if f.severity != "info"]
+        if problems:
+            worst = "error" if any(f.severity == "error" for f in problems) else "warning"
+            line2.append(f"  ⚠ {len(problems)} finding{'s' if len(problems) != 1 else ''} (w): {problems[0].title}",
+                         style="bold red" if worst == "error" else "bold yellow")
         if m.filter_text:
             line2.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")
         if m.playback is not None:
@@ -352,6 +362,26 @@ class GimbalscopeApp(App):
     def action_plots(self) -> None:
         from .screens import PlotScreen
         self.push_screen(PlotScreen(self.model))
+
+    def action_findings(self) -> None:
+        from .screens import FindingsScreen
+        self.push_screen(FindingsScreen(self.model), self._findings_closed)
+
+    def _findings_closed(self, number: int | None) -> None:
+        if number is not None:
+            self._go(number, "such event shown yet")
+
+    def action_swap_lines(self) -> None:
+        """The tap's ports were the other way round: read A as B from now on."""
+        cap = self.feed.capture if self.feed is not None else None
+        if cap is None or tuple(cap.lines) != ("A", "B"):
+            self.notify("swapping needs a two-line tap", timeout=2)
+            return
+        cap.swap_lines = not cap.swap_lines
+        msg = (f"lines swapped: {self.feed.lines['A'].port} is read as line B, {self.feed.lines['B'].port} as line A"
+               if cap.swap_lines else "lines as given again")
+        cap._warn(msg)   # on screen, and on the recording's /log topic
+        self.notify(msg, timeout=3)
 
     def action_help(self) -> None:
         from .screens import HelpScreen

@@ -19,6 +19,7 @@ from dissectors.event import Event
 
 from .. import __version__
 from ..capture import Capture
+from ..doctor import LiveDoctor, log_level, one_line
 from ..recording import McapRecorder, RecordingError
 
 
@@ -43,6 +44,7 @@ class FeedBatch:
     recording: str | None = None
     recording_bytes: int = 0
     warnings: list[str] = field(default_factory=list)
+    findings: list | None = None     # the wiring doctor's findings when re-checked (analyzer.doctor)
     done: bool = False
     error: str | None = None
 
@@ -69,6 +71,8 @@ class Feed(threading.Thread):
         self.notes: list[str] = []   # what to say when the screen has closed (recordings written)
         capture.on_chunk = self._chunk
         capture.on_warning = self._warn
+        self.doctor = LiveDoctor(capture, self._found)
+        self._findings: list | None = None
 
     # ------------------------------------------------------------ controls
     def start_recording(self, path: str) -> None:
@@ -97,6 +101,10 @@ class Feed(threading.Thread):
         self._warnings.append(msg)
         if self.recorder is not None:
             self.recorder.note(msg, self.capture.latest)
+
+    def _found(self, f) -> None:
+        if self.recorder is not None:
+            self.recorder.note(one_line(f), self.capture.latest, log_level(f))
 
     def _handle_requests(self) -> None:
         while True:
@@ -146,8 +154,9 @@ class Feed(threading.Thread):
         if rec is not None and self.recording and os.path.exists(self.recording):
             size = os.path.getsize(self.recording)
         warnings, self._warnings = self._warnings, []
+        findings, self._findings = self._findings, None
         self.deliver(FeedBatch(events, [] if done else self.capture.unsettled(), self._status(),
-                               self.capture.skew, self.recording, size, warnings, done, error))
+                               self.capture.skew, self.recording, size, warnings, findings, done, error))
 
     def run(self) -> None:
         pending: list[Event] = []
@@ -164,6 +173,8 @@ class Feed(threading.Thread):
                             rec.event(ev)
                     pending.extend(batch)
                     self.events_seen += len(batch)
+                if self.doctor.add_batch(batch):
+                    self._findings = self.doctor.findings
                 now = time.monotonic()
                 # the first events go out at once (the first screen), then at most every
                 # interval; a file loading flat out sends at most MAX_BATCH events a message
@@ -180,6 +191,7 @@ class Feed(threading.Thread):
             close = getattr(self.capture.source, "close", None)
             if close is not None:
                 close()
+            self._findings = self.doctor.findings = self.doctor.doctor.findings()   # the last word
             if self.recorder is not None:
                 self._close_recorder()
             self._send(pending, done=True, error=error)

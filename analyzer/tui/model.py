@@ -115,6 +115,7 @@ class CaptureModel:
         self.loaded: list[Event] = []
         self._loaded_times: list[float] = []
         self.filter_history: list[str] = []
+        self.findings: list = []                 # the wiring doctor's, from the capture thread
         self.done = False                        # the capture has ended
 
     # --------------------------------------------------------------- input

@@ -1,0 +1,187 @@
+"""``gimbalscope doctor INPUT…|PORT…``: what is wrong with the link, in plain words
+with the fix to try (analyzer.doctor: swapped lines, wrong baud rate, echo, silent
+devices, noise, controller timing, slow answers, the device map). From any capture,
+or live from one or two ports (``--seconds``, findings printed as they appear).
+
+``--scan-baud PORT…`` listens (never transmits) at each standard rate of §1.5.1
+in turn and says which one decodes cleanly.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import stat
+import sys
+import threading
+from dataclasses import replace
+
+from ..capture import Capture, open as open_capture, open_live
+from ..doctor import ERROR, INFO, WARNING, Finding, LiveDoctor, WiringDoctor
+from .common import STANDARD_BAUDS, UsageError, add_serial_args, options_from, warn
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("doctor", help="say what is wrong with the link, and what to try",
+                       description="Findings about the wiring and the devices from a capture (socat log, raw "
+                                   "dumps, MCAP) or live from one or two ports.")
+    p.add_argument("inputs", nargs="+", metavar="INPUT|PORT",
+                   help="capture files, or one or two serial ports (device names or pyserial URLs)")
+    add_serial_args(p)
+    p.add_argument("--format", choices=("text", "json"), default="text")
+    p.add_argument("--seconds", type=float, default=10.0,
+                   help="ports: how long to listen (default 10; 0 = until Ctrl-C)")
+    p.add_argument("--swap-lines", action="store_true", help="the two inputs are line B then line A")
+    p.add_argument("--scan-baud", action="store_true",
+                   help="listen at each standard rate (1200-115200) in turn and report which decodes cleanly")
+    p.add_argument("--dwell", type=float, default=2.0, metavar="S",
+                   help="with --scan-baud: seconds at each rate (default 2)")
+    p.set_defaults(run=run)
+
+
+def is_port(arg: str) -> bool:
+    if "://" in arg:
+        return True
+    try:
+        return stat.S_ISCHR(os.stat(arg).st_mode)
+    except OSError:
+        return False
+
+
+def run(args: argparse.Namespace) -> int:
+    options = options_from(args)
+    options.swap_lines = args.swap_lines
+    ports = [a for a in args.inputs if is_port(a)]
+    if ports and len(ports) != len(args.inputs):
+        raise UsageError("give capture files or serial ports, not both")
+    if args.scan_baud:
+        if not ports:
+            raise UsageError("--scan-baud listens on serial ports (files have no rate to change)")
+        return scan_baud(ports, options, args)
+    if ports:
+        if len(ports) > 2:
+            raise UsageError(f"{len(ports)} ports given: a tap reads one port or two (line A, line B)")
+        capture = open_live(ports, options, on_warning=warn)
+        if args.seconds < 0:
+            raise UsageError("--seconds must be 0 (until Ctrl-C) or more")
+        return diagnose(capture, args, live=True)
+    capture = open_capture(*args.inputs, options=options, on_warning=warn)
+    return diagnose(capture, args, live=False)
+
+
+def examine(capture: Capture, on_new=None) -> tuple[WiringDoctor, int]:
+    """Run a capture through the doctor; ``on_new(finding)`` hears each finding the
+    first time it shows (checked about once a second of capture time)."""
+    live = LiveDoctor(capture, on_new)
+    events = 0
+    for batch in capture.batches():
+        live.add_batch(batch)
+        events += len(batch)
+    return live.doctor, events
+
+
+def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
+    timer = None
+    old = {}
+    if live:
+        def stop(*_):
+            capture.source.stop()
+        old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
+        if args.seconds > 0:
+            timer = threading.Timer(args.seconds, capture.source.stop)
+            timer.daemon = True
+            timer.start()
+        print(f"gimbalscope doctor: listening on {capture.source.description} "
+              f"({'until Ctrl-C' if not args.seconds else f'{args.seconds:g} s'})", file=sys.stderr, flush=True)
+
+    def tell(f: Finding) -> None:   # live: each finding as it appears
+        if args.format == "text":
+            print(f"{f.severity.upper():8} {f.title}", flush=True)
+
+    try:
+        doctor, events = examine(capture, tell if live else (lambda _f: None))
+    finally:
+        if timer is not None:
+            timer.cancel()
+        for sig, handler in old.items():
+            signal.signal(sig, handler)
+        if live:
+            capture.source.close()
+    findings = doctor.findings()
+    span = doctor._span()
+    if args.format == "json":
+        print(json.dumps({"source": capture.source.description, "events": events, "seconds": round(span, 3),
+                          "findings": [f.to_dict() | {"after": _seconds_in(f, doctor)} for f in findings]},
+                         indent=2, ensure_ascii=False))
+        return 0
+    report(findings, doctor, events, span)
+    return 0
+
+
+def _seconds_in(f: Finding, doctor: WiringDoctor) -> float | None:
+    """Seconds of traffic it took to find."""
+    if f.first_seen is None or doctor.first_t is None:
+        return None
+    return round(f.first_seen - doctor.first_t, 3)
+
+
+def report(findings: list[Finding], doctor: WiringDoctor, events: int, span: float) -> None:
+    from rich.console import Console
+    from rich.text import Text
+
+    console = Console(highlight=False, soft_wrap=True)
+    problems = [f for f in findings if f.severity != INFO]
+    head = (f"{len(problems)} finding{'s' if len(problems) != 1 else ''}" if problems else "no problems found")
+    console.print(Text(f"gimbalscope doctor: {head} in {span:.1f} s of traffic ({events:,} events)", style="bold"))
+    colours = {ERROR: "bold red", WARNING: "yellow", INFO: "cyan"}
+    for f in findings:
+        after = _seconds_in(f, doctor)
+        line = Text(f"{f.severity.upper():8} ", style=colours[f.severity])
+        line.append(f.title, style="bold")
+        if after is not None and f.severity != INFO:
+            line.append(f"  [found after {after:.1f} s of traffic]", style="dim")
+        console.print(line)
+        for part in f.detail.splitlines():
+            console.print(Text("         " + part))
+        if f.fix:
+            console.print(Text("         try: " + f.fix, style="green"))
+        if f.evidence:
+            console.print(Text("         evidence: " + " ".join(f"#{n}" for n in f.evidence), style="dim"))
+
+
+def scan_baud(ports: list[str], options, args: argparse.Namespace) -> int:
+    """Listen at each standard rate; the one whose bytes decode is the line's rate."""
+    rows = []
+    for rate in STANDARD_BAUDS:
+        capture = open_live(ports, replace(options, baud=rate), on_warning=lambda _m: None)
+        timer = threading.Timer(args.dwell, capture.source.stop)
+        timer.daemon = True
+        timer.start()
+        try:
+            doctor, events = examine(capture)
+        finally:
+            timer.cancel()
+            capture.source.close()
+        total = sum(line.bytes for line in doctor.lines.values())
+        good = sum(line.good_bytes for line in doctor.lines.values())
+        frames = sum(line.frames - line.bad_frames for line in doctor.lines.values())
+        rows.append({"baud": rate, "bytes": total, "decoded": round(good / total, 3) if total else 0.0,
+                     "good_frames": frames})
+        if args.format == "text":
+            print(f"{rate:>7} baud: {total:6d} bytes, {good / total if total else 0:5.0%} decode, "
+                  f"{frames} good frames", flush=True)
+    heard = [r for r in rows if r["bytes"]]
+    best = max(heard, key=lambda r: (r["decoded"], r["good_frames"])) if heard else None
+    clean = best is not None and best["decoded"] >= 0.9 and best["good_frames"] >= 3
+    if args.format == "json":
+        print(json.dumps({"ports": ports, "rates": rows, "best": best["baud"] if clean else None}, indent=2))
+    elif not heard:
+        print("nothing heard at any rate: is anything talking on the line (and the tap on the right pins)?")
+    elif clean:
+        print(f"the line runs at {best['baud']} baud ({best['decoded']:.0%} of bytes decode); "
+              f"use --baud {best['baud']}")
+    else:
+        print("no rate decodes cleanly: check data bits, parity and stop bits, then the wiring")
+    return 0

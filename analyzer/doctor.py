@@ -1,0 +1,483 @@
+"""The wiring doctor: what is wrong with the link, from the traffic alone.
+
+Pure: ``WiringDoctor.add(event)`` takes paired events in wire order (and
+``echoed(command)`` for echoes the capture stripped); ``findings()`` says what
+the traffic shows so far, each finding with a severity, its evidence (event
+numbers) and the fix to try. Thresholds ask for several pieces of evidence, so a
+clean link gives no warning (tested on clean demo runs).
+
+What each finding rests on (spec §1.4.2: a device answers a command on its own
+line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
+- lines swapped: answer bytes (ACK/NAK/NIC) on line A, command frames on line B;
+- wrong baud rate: bytes arrive but almost nothing decodes on a line;
+- echo: line B repeats line A's frames byte for byte;
+- silent device / dead link: commands to an address, no answer ever;
+- noisy link: checksum errors, noise runs, NAKs per line and per minute, and
+  whether long frames fail more often than short ones (a clock or baud mismatch);
+- controller: commands before the previous ACK, retries sooner than the device
+  answers, giving up on IX before it ends (it takes up to a minute);
+- slow answers: a device's ACK latency drifting up;
+- device map: who answers, what each NICs (its firmware), D? identity.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, defaultdict, deque
+from dataclasses import dataclass, field
+from statistics import median
+
+from dissectors import dissect_command
+from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+
+from .output import device_address
+
+ERROR, WARNING, INFO = "error", "warning", "info"
+SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
+_ANSWER_BYTES = {0x06, 0x15, 0x3F}
+_MAX_EVIDENCE = 20
+
+
+@dataclass
+class Finding:
+    code: str                  # lines_swapped, wrong_baud, echo, silent_device, dead_link, noisy_link, ...
+    severity: str
+    title: str                 # one line, plain words
+    detail: str                # what the traffic shows
+    fix: str                   # what to try
+    evidence: list[int] = field(default_factory=list)   # event numbers
+    subject: str = ""          # the line or device it is about
+    first_seen: float | None = None   # capture time it was first found
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return self.code, self.subject
+
+    def to_dict(self) -> dict:
+        return {"code": self.code, "severity": self.severity, "subject": self.subject, "title": self.title,
+                "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen}
+
+
+class _Line:
+    """Per line: bytes, and what they turned into."""
+
+    def __init__(self) -> None:
+        self.bytes = 0
+        self.good_bytes = 0        # in frames whose checksum holds, and answer bytes where they belong
+        self.noise_bytes = 0
+        self.frames = 0
+        self.bad_frames = 0
+        self.noise_runs = 0
+        self.errors: deque[tuple[float, int]] = deque()   # (t, event number) of checksum errors and noise
+        self.by_length: Counter[tuple[bool, bool]] = Counter()   # (long frame, bad) -> count
+        self.evidence: list[int] = []
+
+
+class _Device:
+    def __init__(self) -> None:
+        self.commands = 0
+        self.answers = 0
+        self.lines: set[str] = set()
+        self.nic: set[str] = set()
+        self.identity: str | None = None
+        self.acks: list[tuple[float, float]] = []   # (t, ACK latency)
+        self.unanswered: list[int] = []
+
+
+class WiringDoctor:
+    def __init__(self, lines: tuple[str, ...] = ("A", "B"), ack_timeout: float = 0.5) -> None:
+        self.two_lines = tuple(lines) == ("A", "B")
+        self.ack_timeout = ack_timeout
+        self.lines = {line: _Line() for line in lines}
+        self.devices: dict[str, _Device] = defaultdict(_Device)
+        self.first_t: float | None = None
+        self.last_t: float | None = None
+        # lines swapped
+        self.answer_bytes_on_a: list[int] = []
+        self.commands_on_b: list[int] = []
+        self.ok_transactions = 0
+        # echo
+        self.echoes: list[int] = []
+        # controller
+        self.next_gaps: list[tuple[int, float]] = []   # (unanswered command, seconds until the next one)
+        self._prev_cmd: Event | None = None
+        self._prev_failed: Event | None = None     # the previous command, if it failed (retry gaps)
+        self.retry_gaps: list[tuple[int, float]] = []   # (retransmission, seconds after the failed command)
+        self.failed: dict[int, Event] = {}          # NAK'd / unanswered commands not yet retried
+        self.never_retried: list[int] = []
+        self.ix_given_up: list[int] = []
+        self.naks: list[tuple[float, int]] = []
+        self._addr_of: dict[int, str] = {}         # command number -> device, for its answers
+        self._first_seen: dict[tuple[str, str], float | None] = {}
+
+    # ------------------------------------------------------------------ input
+    def add(self, ev: Event) -> None:
+        t = ev.t
+        if t is not None:
+            if self.first_t is None:
+                self.first_t = t
+            self.last_t = ev.t_end if ev.t_end is not None else t
+        line = self.lines.get(ev.line)
+        if line is None:
+            line = self.lines[ev.line] = _Line()
+        n = len(ev.raw)
+        line.bytes += n
+        kind = ev.kind
+        if kind == NOISE:
+            line.noise_bytes += n
+            line.noise_runs += 1
+            line.errors.append((t or 0.0, ev.number))
+            if ev.line == "A" and all(b in _ANSWER_BYTES for b in ev.raw):
+                self.answer_bytes_on_a.append(ev.number)
+            return
+        if kind in (COMMAND, RESULT) or ev.checksum_ok is not None:
+            line.frames += 1
+            long = len(ev.payload or b"") >= 8
+            bad = ev.checksum_ok is False
+            line.by_length[(long, bad)] += 1
+            if bad:
+                line.bad_frames += 1
+                line.errors.append((t or 0.0, ev.number))
+            else:
+                line.good_bytes += n
+        else:
+            line.good_bytes += n      # ACK/NAK/NIC where they belong
+        if kind == COMMAND:
+            self._command(ev)
+        elif kind in (ACK, NAK, NIC, RESULT):
+            self._answer(ev)
+
+    def echoed(self, command: Event) -> None:
+        """The capture stripped line B's copy of this command (an echo)."""
+        self.echoes.append(command.number)
+
+    def _command(self, ev: Event) -> None:
+        addr = device_address(ev)
+        self._addr_of[ev.number] = addr
+        if len(self._addr_of) > 4096:    # answers follow their command closely: keep memory flat
+            for k in list(self._addr_of)[:2048]:
+                del self._addr_of[k]
+        dev = self.devices[addr]
+        dev.commands += 1
+        status = ev.status
+        prev = self._prev_cmd
+        prev_failed = self._prev_failed
+        if prev is not None and prev.status == "no_ack" and prev.t_end is not None and ev.t is not None \
+                and any("before the next command" in p for p in prev.problems):
+            # how long the controller waited for an ACK that did not come
+            self.next_gaps.append((prev.number, ev.t - prev.t_end))
+        self._prev_cmd = ev
+        self._prev_failed = ev if status in ("nak", "no_ack") else None
+        if status == "no_ack":
+            dev.unanswered.append(ev.number)
+        elif status in ("ok", "nic", "no_result"):
+            self.ok_transactions += 1
+        if status == "nic" and ev.command:
+            dev.nic.add(ev.command)
+        if status == "nak":
+            self.naks.append((ev.t or 0.0, ev.number))
+        if ev.command == "IX" and status == "no_result" and any("sent again" in p for p in ev.problems):
+            self.ix_given_up.append(ev.number)
+        # retries: a retransmission repeats a failed command; the gap says how patient
+        # the controller is
+        if ev.retransmission:
+            if prev_failed is not None and prev_failed.t_end is not None and ev.t is not None \
+                    and prev_failed.status == "no_ack":
+                self.retry_gaps.append((ev.number, ev.t - prev_failed.t_end))
+            for num, first in list(self.failed.items()):
+                if first.command == ev.command and first.dst == ev.dst:
+                    del self.failed[num]
+                    break
+        if status in ("nak", "no_ack") and not ev.retransmission:
+            self.failed[ev.number] = ev     # a first attempt that failed: will it be sent again?
+        # failed commands the controller moved on from without resending
+        for num, prev in list(self.failed.items()):
+            if num != ev.number and ev.t is not None and prev.t is not None \
+                    and ev.t - prev.t > 3 * self.ack_timeout:
+                self.never_retried.append(num)
+                del self.failed[num]
+
+    def _answer(self, ev: Event) -> None:
+        if ev.kind == RESULT and ev.request is None and ev.line == "B" and ev.payload is not None \
+                and dissect_command(ev.payload).entry is not None:
+            self.commands_on_b.append(ev.number)    # a command frame travelling device→controller
+            return
+        addr = self._addr_of.get(ev.request) if ev.request is not None else None
+        if addr is None:
+            return
+        dev = self.devices[addr]
+        dev.answers += 1
+        dev.lines.add(ev.line)
+        if ev.kind == ACK and ev.latency is not None and ev.t is not None:
+            dev.acks.append((ev.t, ev.latency))
+        if ev.kind == RESULT and ev.command == "D?" and ev.fields:
+            f = ev.fields
+            dev.identity = f"{f.get('name', '?')} rev {f.get('revision', '?')} s/n {f.get('serial', '?')}"
+
+    # --------------------------------------------------------------- findings
+    def findings(self) -> list[Finding]:
+        """What the traffic shows so far, most severe first."""
+        out: list[Finding] = []
+        for rule in (self._swapped, self._garbled, self._echo, self._silent, self._noisy, self._controller,
+                     self._slow, self._device_map):
+            found = rule()
+            # a root cause explains its consequences: swapped or garbled lines leave
+            # every command unanswered and look like a controller in trouble
+            if out and any(f.code in ("lines_swapped", "wrong_baud") for f in out):
+                found = [f for f in found if f.code not in ("dead_link", "silent_device", "nak_burst", "noisy_link")
+                         and not f.code.startswith("controller_")]
+            if any(f.code == "dead_link" for f in out):
+                found = [f for f in found if not f.code.startswith("controller_")]
+            out.extend(found)
+        for f in out:
+            key = f.key
+            if key not in self._first_seen:
+                self._first_seen[key] = self.last_t
+            f.first_seen = self._first_seen[key]
+            f.evidence = f.evidence[:_MAX_EVIDENCE]
+        out.sort(key=lambda f: (SEVERITY_ORDER[f.severity], f.code, f.subject))
+        return out
+
+    def _span(self) -> float:
+        if self.first_t is None or self.last_t is None:
+            return 0.0
+        return max(0.0, self.last_t - self.first_t)
+
+    def _swapped(self) -> list[Finding]:
+        if not self.two_lines:
+            return []
+        a, b = len(self.answer_bytes_on_a), len(self.commands_on_b)
+        if a + b < 6 or a + b <= 2 * self.ok_transactions:
+            return []
+        return [Finding(
+            "lines_swapped", ERROR, "lines swapped: the tap's line A carries the device's answers",
+            f"{a} ACK/NAK/NIC bytes arrived on line A and {b} command frames on line B; "
+            f"{self.ok_transactions} commands were answered as wired",
+            "swap the two ports (gimbalscope live PORT_B PORT_A), or --swap-lines, or press x in the TUI",
+            (self.answer_bytes_on_a[:10] + self.commands_on_b[:10]), "A,B")]
+
+    def _garbled(self) -> list[Finding]:
+        out = []
+        for name, line in self.lines.items():
+            if line.bytes < 100:
+                continue
+            share = line.good_bytes / line.bytes
+            if share >= 0.3:
+                continue
+            out.append(Finding(
+                "wrong_baud", ERROR, f"line {name}: bytes arrive but almost nothing decodes (wrong baud rate?)",
+                f"{line.bytes} bytes, {share:.0%} in valid frames or answers, {line.noise_bytes} bytes of noise, "
+                f"{line.bad_frames} frames with bad checksums",
+                "find the rate: gimbalscope doctor --scan-baud PORT (listens at each standard rate); "
+                "check the data bits, parity and stop bits too",
+                [num for _t, num in list(line.errors)[:_MAX_EVIDENCE]], name))
+        return out
+
+    def _echo(self) -> list[Finding]:
+        if len(self.echoes) < 3:
+            return []
+        return [Finding(
+            "echo", WARNING, "line B repeats line A (echo): stripped from decoding",
+            f"{len(self.echoes)} commands came back on line B byte for byte while they were being sent",
+            "a half-duplex adapter or RS-485 converter echoes what it sends: disable its echo (or local "
+            "loopback) if the controller is confused by it; decoding already ignores the copies",
+            self.echoes, "B")]
+
+    def _silent(self) -> list[Finding]:
+        out = []
+        answering = [a for a, d in self.devices.items() if d.answers >= 3]
+        total_commands = sum(d.commands for d in self.devices.values())
+        total_answers = sum(d.answers for d in self.devices.values())
+        if total_commands >= 5 and total_answers == 0:
+            b = self.lines.get("B") if self.two_lines else self.lines.get("AB")
+            if b is None or b.bytes == 0:
+                where = "line B is silent: no byte came back" if self.two_lines else "no device answered"
+                fix = ("check the device→controller wire and the tap on it (RX/TX swapped, a loose pin, "
+                       "the adapter), then the devices' power")
+            else:
+                where = f"line B carries {b.bytes} bytes but none answers a command"
+                fix = "check the baud rate and the devices' addresses"
+            cmds = [n for d in self.devices.values() for n in d.unanswered][:_MAX_EVIDENCE]
+            out.append(Finding("dead_link", ERROR, "no device answers at all",
+                               f"{total_commands} commands, no ACK or NAK; {where}", fix, cmds, "B"))
+            return out
+        if not answering:
+            return out
+        for addr, d in sorted(self.devices.items()):
+            if d.commands >= 3 and d.answers == 0 and "255" not in addr.split("."):
+                out.append(Finding(
+                    "silent_device", WARNING, f"device {addr} never answers",
+                    f"{d.commands} commands to {addr}, no ACK or NAK, while {', '.join(answering)} answer",
+                    f"check {addr}'s power and address setting, and its drop on the bus",
+                    d.unanswered, addr))
+        return out
+
+    def _noisy(self) -> list[Finding]:
+        out = []
+        span = max(self._span(), 1e-9)
+        for name, line in self.lines.items():
+            errors = len(line.errors)
+            if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
+                continue   # too little to say; garbled lines are wrong_baud
+            per_min = errors / span * 60
+            frames = max(line.frames, 1)
+            if line.bad_frames / frames < 0.01 and line.noise_runs < 3:
+                continue
+            # the trend: the last minute against the whole capture
+            last_t = self.last_t or 0.0
+            recent = sum(1 for t, _n in line.errors if t >= last_t - 60)
+            recent_span = min(60.0, span)
+            trend = ""
+            if span > 90 and recent_span:
+                recent_rate = recent / recent_span * 60
+                if recent_rate > 2 * per_min:
+                    trend = f"; rising: {recent_rate:.0f}/min in the last minute"
+                elif recent_rate < per_min / 2:
+                    trend = f"; falling: {recent_rate:.0f}/min in the last minute"
+            bl = line.by_length
+            long_n, short_n = bl[(True, False)] + bl[(True, True)], bl[(False, False)] + bl[(False, True)]
+            length_note, fix = "", "check the cable (shielding, length, grounding) and the connectors"
+            if long_n >= 10 and short_n >= 10:
+                long_rate, short_rate = bl[(True, True)] / long_n, bl[(False, True)] / short_n
+                if bl[(True, True)] >= 3 and long_rate > 2 * max(short_rate, 0.005):
+                    length_note = (f"; long frames fail {long_rate:.0%}, short ones {short_rate:.0%}: errors grow "
+                                   f"with length, like a clock (baud) mismatch or timing problem")
+                    fix = "check both ends run the same baud rate (a slightly off clock), then the cable"
+            out.append(Finding(
+                "noisy_link", WARNING, f"line {name} is noisy",
+                f"{line.bad_frames} checksum errors and {line.noise_runs} noise runs in {self._span():.0f} s "
+                f"({per_min:.1f}/min){trend}{length_note}", fix,
+                [n for _t, n in list(line.errors)[-_MAX_EVIDENCE:]], name))
+        naks = self.naks
+        if len(naks) >= 5:
+            # a burst: five NAKs within ten seconds
+            times = [t for t, _n in naks]
+            burst = max(sum(1 for u in times if t <= u < t + 10) for t in times)
+            if burst >= 5:
+                out.append(Finding(
+                    "nak_burst", WARNING, "NAK bursts: devices reject commands in runs",
+                    f"{len(naks)} NAKs, up to {burst} within 10 s",
+                    "devices NAK what they receive corrupted: check the controller→device wire (line A)",
+                    [n for _t, n in naks[-_MAX_EVIDENCE:]], "A"))
+        return out
+
+    def _controller(self) -> list[Finding]:
+        out = []
+        p95 = self._ack_p95()
+        # the next command came sooner than devices answer: the controller did not wait
+        hasty = [(n, g) for n, g in self.next_gaps if p95 and g < p95]
+        if len(hasty) >= 3:
+            out.append(Finding(
+                "controller_no_wait", WARNING, "the controller sends before the previous ACK",
+                f"{len(hasty)} commands were followed by the next one after {median(g for _n, g in hasty) * 1000:.1f} ms "
+                f"(median), before any ACK/NAK; devices take up to {p95 * 1000:.0f} ms to answer",
+                "the controller must wait for ACK/NAK (or its timeout) before the next command (§1.4.2)",
+                [n for n, _g in hasty], "controller"))
+        fast = self._fast_retries()
+        if len(fast) >= 3:
+            out.append(Finding(
+                "controller_fast_retry", WARNING, "the controller retries sooner than devices answer",
+                f"{len(fast)} retries came {median(g for _n, g in fast) * 1000:.0f} ms (median) after the command, "
+                f"while devices' ACKs take up to {self._ack_p95() * 1000:.0f} ms",
+                "raise the controller's ACK timeout above the devices' answer time", [n for n, _g in fast],
+                "controller"))
+        if len(self.never_retried) >= 3:
+            out.append(Finding(
+                "controller_no_retry", WARNING, "the controller never retries a failed command",
+                f"{len(self.never_retried)} commands NAK'd or unanswered were not sent again",
+                "retransmit after NAK or an ACK timeout (the spec's handshake expects it)",
+                self.never_retried, "controller"))
+        if self.ix_given_up:
+            out.append(Finding(
+                "controller_ix_timeout", WARNING, "the controller gives up on IX before it ends",
+                f"{len(self.ix_given_up)} IX commands were sent again before their result came; "
+                f"initialisation takes seconds (up to a minute)",
+                "wait for IX's result (60 s is safe) before resending or moving on", self.ix_given_up,
+                "controller"))
+        return out
+
+    def _ack_p95(self) -> float:
+        lat = sorted(x for d in self.devices.values() for _t, x in d.acks)
+        return lat[int(0.95 * (len(lat) - 1))] if lat else 0.0
+
+    def _fast_retries(self) -> list[tuple[int, float]]:
+        p95 = self._ack_p95()
+        if not p95:
+            return []
+        return [(n, g) for n, g in self.retry_gaps if g < p95]
+
+    def _slow(self) -> list[Finding]:
+        out = []
+        for addr, d in sorted(self.devices.items()):
+            acks = d.acks
+            if len(acks) < 12:
+                continue
+            third = len(acks) // 3
+            before = median(x for _t, x in acks[:third])
+            after = median(x for _t, x in acks[-third:])
+            if after > 2 * before and after - before > 0.005:
+                out.append(Finding(
+                    "slow_answers", WARNING, f"device {addr} answers slower and slower",
+                    f"median ACK latency {before * 1000:.1f} ms at first, {after * 1000:.1f} ms lately "
+                    f"({len(acks)} ACKs)",
+                    f"a device slowing down is busy or failing: check {addr}'s load, power and temperature",
+                    [], addr))
+        return out
+
+    def _device_map(self) -> list[Finding]:
+        if not self.devices:
+            return []
+        parts = []
+        for addr, d in sorted(self.devices.items()):
+            state = f"answers on {','.join(sorted(d.lines))}" if d.answers else "never answered"
+            extra = f"; NIC to {', '.join(sorted(d.nic))}" if d.nic else ""
+            ident = f"; {d.identity}" if d.identity else ""
+            parts.append(f"{addr}: {d.commands} commands, {state}{extra}{ident}")
+        return [Finding("device_map", INFO, f"{len(self.devices)} device address(es) addressed",
+                        "\n".join(parts), "", [], "map")]
+
+
+class LiveDoctor:
+    """The doctor alongside a running capture (live printing, the TUI's capture
+    thread): fed every event, it checks about once a second of capture time and
+    hands each new finding (not the device map) to ``on_new`` once, e.g. to print
+    it and put it on a recording's /log topic."""
+
+    def __init__(self, capture, on_new=None, every: float = 1.0) -> None:
+        self.capture = capture
+        self.doctor = WiringDoctor(capture.lines, capture.options.timeouts.ack)
+        self.on_new = on_new
+        self.every = every
+        self.findings: list[Finding] = []
+        self._told: set[tuple[str, str]] = set()
+        self._next: float | None = None
+
+    def add_batch(self, batch: list[Event]) -> bool:
+        """Feed a batch; True when the findings were re-checked."""
+        add = self.doctor.add
+        for ev in batch:
+            add(ev)
+        echo = self.capture.echo
+        if echo is not None:
+            for cmd in echo.take_echoed():
+                self.doctor.echoed(cmd)
+        t = self.doctor.last_t
+        if t is None or (self._next is not None and t < self._next):
+            return False
+        self._next = t + self.every
+        self.findings = self.doctor.findings()
+        for f in self.findings:
+            if f.severity != INFO and f.key not in self._told:
+                self._told.add(f.key)
+                if self.on_new is not None:
+                    self.on_new(f)
+        return True
+
+
+def log_level(f: Finding) -> int:
+    """foxglove.Log level of a finding (recording.schemas)."""
+    return {ERROR: 4, WARNING: 3}.get(f.severity, 2)
+
+
+def one_line(f: Finding) -> str:
+    return f"doctor: {f.severity}: {f.title}: {f.detail.splitlines()[0] if f.detail else ''}" + (
+        f" (try: {f.fix})" if f.fix else "")

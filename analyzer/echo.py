@@ -1,0 +1,54 @@
+"""Echo on a two-line tap: line B repeating line A's bytes (half-duplex adapters
+and RS-485 converters hear themselves). A frame on line B identical to a command
+on line A that overlaps it in time is a copy, not an answer: a real result never
+equals its command (Table 3 swaps the groups, and result payloads are values).
+
+Pure: ``strip(batch)`` drops the copies from a batch of events in wire order,
+before pairing, and remembers which commands were echoed (for the doctor). The
+bytes stay in recordings' raw topics: nothing is lost, only not decoded twice.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+from dissectors.event import COMMAND, RESULT, Event
+
+
+class EchoStripper:
+    def __init__(self, window: float = 0.1) -> None:
+        self.window = window        # seconds between a command and its copy, at most
+        self._recent: dict[bytes, Event] = {}   # the latest A command per bytes
+        self._order: deque[bytes] = deque()
+        self.count = 0              # copies dropped
+        self._echoed: list[Event] = []  # A commands whose copies were dropped, not yet taken
+
+    def strip(self, batch: list[Event]) -> list[Event]:
+        recent = self._recent
+        # commands first: a copy can be stamped a little before its original
+        for ev in batch:
+            if ev.kind == COMMAND and ev.line == "A" and ev.t is not None:
+                recent[ev.raw] = ev
+                self._order.append(ev.raw)
+                if len(self._order) > 256:
+                    old = self._order.popleft()
+                    if old not in self._order:
+                        recent.pop(old, None)
+        if not recent:
+            return batch
+        out = []
+        for ev in batch:
+            if ev.kind == RESULT and ev.line == "B" and ev.t is not None:
+                cmd = recent.get(ev.raw)
+                if cmd is not None and abs(cmd.t - ev.t) < self.window:
+                    self.count += 1
+                    if len(self._echoed) < 10_000:   # nobody taking them: keep memory flat
+                        self._echoed.append(cmd)
+                    continue
+            out.append(ev)
+        return out
+
+    def take_echoed(self) -> list[Event]:
+        """The commands whose copies were dropped since the last call (the doctor's evidence)."""
+        out, self._echoed = self._echoed, []
+        return out
