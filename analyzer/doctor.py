@@ -227,6 +227,10 @@ class WiringDoctor:
                          and not f.code.startswith("controller_")]
             if any(f.code == "dead_link" for f in out):
                 found = [f for f in found if not f.code.startswith("controller_")]
+            if any(f.code == "controller_no_wait" for f in out):
+                # answers cannot be matched to commands sent on top of each other:
+                # their latencies say nothing about the devices
+                found = [f for f in found if f.code != "slow_answers"]
             out.extend(found)
         for f in out:
             key = f.key

@@ -18,33 +18,33 @@ from dissectors.event import COMMAND, RESULT, Event
 class EchoStripper:
     def __init__(self, window: float = 0.1) -> None:
         self.window = window        # seconds between a command and its copy, at most
-        self._recent: dict[bytes, Event] = {}   # the latest A command per bytes
-        self._order: deque[bytes] = deque()
+        self._recent: deque[Event] = deque(maxlen=64)   # A commands of recent batches
         self.count = 0              # copies dropped
         self._echoed: list[Event] = []  # A commands whose copies were dropped, not yet taken
 
     def strip(self, batch: list[Event]) -> list[Event]:
-        recent = self._recent
-        # commands first: a copy can be stamped a little before its original
-        for ev in batch:
-            if ev.kind == COMMAND and ev.line == "A" and ev.t is not None:
-                recent[ev.raw] = ev
-                self._order.append(ev.raw)
-                if len(self._order) > 256:
-                    old = self._order.popleft()
-                    if old not in self._order:
-                        recent.pop(old, None)
-        if not recent:
+        # commands of this batch and the last ones before it, by their bytes (a copy
+        # can be stamped a little before its original, so both ways round)
+        commands = [ev for ev in batch if ev.kind == COMMAND and ev.line == "A" and ev.t is not None]
+        if not commands and not self._recent:
             return batch
+        by_raw: dict[bytes, list[Event]] = {}
+        for ev in (*self._recent, *commands):
+            by_raw.setdefault(ev.raw, []).append(ev)
+        self._recent.extend(commands)
         out = []
+        window = self.window
         for ev in batch:
             if ev.kind == RESULT and ev.line == "B" and ev.t is not None:
-                cmd = recent.get(ev.raw)
-                if cmd is not None and abs(cmd.t - ev.t) < self.window:
-                    self.count += 1
-                    if len(self._echoed) < 10_000:   # nobody taking them: keep memory flat
-                        self._echoed.append(cmd)
-                    continue
+                originals = by_raw.get(ev.raw)
+                if originals:
+                    match = next((c for c in originals if abs(c.t - ev.t) < window), None)
+                    if match is not None:
+                        originals.remove(match)    # one copy per command
+                        self.count += 1
+                        if len(self._echoed) < 10_000:   # nobody taking them: keep memory flat
+                            self._echoed.append(match)
+                        continue
             out.append(ev)
         return out
 

@@ -30,6 +30,8 @@ def add_serial_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--data-bits", type=int, default=8, choices=(5, 6, 7, 8))
     g.add_argument("--parity", default="N", choices=("N", "E", "O", "M", "S"))
     g.add_argument("--stop-bits", type=float, default=1, choices=(1, 1.5, 2))
+    g.add_argument("--swap-lines", action="store_true",
+                   help="the two ports/inputs were given the other way round: read the first as line B")
     t = p.add_argument_group("pairing")
     t.add_argument("--ack-timeout", type=float, default=0.5, metavar="S",
                    help="seconds a command waits for its ACK/NAK (default 0.5)")
@@ -76,7 +78,7 @@ def options_from(args: argparse.Namespace) -> Options:
         per_command[cmd] = value
     timeouts = Timeouts(ack=args.ack_timeout, result=args.result_timeout, result_by_command=per_command)
     return Options(baud=args.baud, data_bits=args.data_bits, parity=args.parity, stop_bits=args.stop_bits,
-                   frame_gap=args.frame_gap, timeouts=timeouts)
+                   frame_gap=args.frame_gap, timeouts=timeouts, swap_lines=getattr(args, "swap_lines", False))
 
 
 def warn(msg: str) -> None:

@@ -33,7 +33,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--seconds", type=float, default=10.0,
                    help="ports: how long to listen (default 10; 0 = until Ctrl-C)")
-    p.add_argument("--swap-lines", action="store_true", help="the two inputs are line B then line A")
     p.add_argument("--scan-baud", action="store_true",
                    help="listen at each standard rate (1200-115200) in turn and report which decodes cleanly")
     p.add_argument("--dwell", type=float, default=2.0, metavar="S",
@@ -52,7 +51,6 @@ def is_port(arg: str) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     options = options_from(args)
-    options.swap_lines = args.swap_lines
     ports = [a for a in args.inputs if is_port(a)]
     if ports and len(ports) != len(args.inputs):
         raise UsageError("give capture files or serial ports, not both")

@@ -1,0 +1,103 @@
+"""The wiring doctor end to end: the simulated installation with one fault at a
+time on real ptys, ``gimbalscope doctor`` listening on its tap ports with pyserial.
+Each fault must be found, and nothing else raised; a clean run raises nothing."""
+
+import json
+import subprocess
+import sys
+import time
+
+import pytest
+
+from analyzer.simulation import scenario
+from tests.conftest import ROOT, run_cli
+
+# fault -> (the finding it must give, other warnings that are true consequences of it)
+EXPECTED = {
+    "swapped": ("lines_swapped", set()),
+    "echo": ("echo", set()),
+    "silent": ("silent_device", set()),
+    "dead-line-b": ("dead_link", set()),
+    "wrong-baud": ("wrong_baud", set()),
+    "noisy": ("noisy_link", {"nak_burst"}),
+    "impatient": ("controller_no_wait", {"controller_no_retry"}),      # it does not wait, nor retry
+    "fast-retry": ("controller_fast_retry", {"controller_no_wait", "controller_no_retry"}),
+    "no-retry": ("controller_no_retry", set()),
+    "ix-timeout": ("controller_ix_timeout", set()),
+    "slowing": ("slow_answers", set()),
+}
+
+
+def doctor_on(faults: set[str], seconds: float = 7.0, *extra: str) -> dict:
+    site = scenario.build(faults, clean=True)
+    a, b = site.link.tap_ports
+    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "doctor", a, b, "--seconds", str(seconds),
+                             "--format", "json", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, cwd=ROOT)
+    try:
+        time.sleep(0.5)          # the doctor has the ports open before traffic starts
+        site.start()
+        out, err = proc.communicate(timeout=seconds + 60)
+    finally:
+        site.stop()
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, err
+    return json.loads(out)
+
+
+@pytest.mark.parametrize("fault", sorted(EXPECTED))
+def test_each_fault_is_found_and_nothing_else(fault):
+    code, consequences = EXPECTED[fault]
+    report = doctor_on({fault})
+    raised = {f["code"] for f in report["findings"] if f["severity"] != "info"}
+    assert code in raised, report["findings"]
+    assert raised - {code} <= consequences, report["findings"]
+    found = next(f for f in report["findings"] if f["code"] == code)
+    assert found["fix"] and found["after"] is not None
+
+
+def test_a_clean_installation_raises_nothing():
+    report = doctor_on(set(), seconds=8.0)
+    assert [f for f in report["findings"] if f["severity"] != "info"] == []
+    device_map = next(f for f in report["findings"] if f["code"] == "device_map")
+    for addr in ("1.1.1", "1.1.2", "1.1.3"):
+        assert f"{addr}: " in device_map["detail"] and "answers on B" in device_map["detail"]
+    assert "NIC to FA" in device_map["detail"]        # auto-focus: not implemented by the simulated firmware
+
+
+def test_scan_baud_finds_the_line_rate():
+    site = scenario.build({"wrong-baud"}, clean=True)
+    a, b = site.link.tap_ports
+    site.start()
+    try:
+        r = run_cli("doctor", "--scan-baud", a, b, "--dwell", "1.0", "--format", "json", timeout=120)
+    finally:
+        site.stop()
+    assert r.returncode == 0, r.stderr
+    report = json.loads(r.stdout)
+    assert report["best"] == scenario.WIRE_BAUD
+    rates = {row["baud"]: row for row in report["rates"]}
+    assert rates[9600]["decoded"] < 0.5 <= rates[scenario.WIRE_BAUD]["decoded"]
+
+
+def test_findings_go_to_stderr_and_the_recording_log(tmp_path):
+    rec = tmp_path / "silent.mcap"
+    r = run_cli("demo", "--fault", "silent", "--no-tui", "--seconds", "5", "--record", rec, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert "doctor: warning: device 1.1.3 never answers" in r.stderr
+    from mcap.reader import make_reader
+    with open(rec, "rb") as f:
+        logs = [json.loads(m.data) for _s, _c, m in make_reader(f).iter_messages(topics=["/log"])]
+    found = [m for m in logs if "device 1.1.3 never answers" in m["message"]]
+    assert found and found[0]["level"] == 3        # foxglove.Log WARNING
+
+
+@pytest.mark.parametrize("args,message", [
+    (["doctor", "captures/demo-bus.bin", "/dev/null"], "give capture files or serial ports, not both"),
+    (["doctor", "--scan-baud", "captures/demo-bus.bin"], "--scan-baud listens on serial ports"),
+    (["doctor", "/nonexistent/tap.log"], "/nonexistent/tap.log"),
+])
+def test_bad_doctor_input_is_one_line(args, message):
+    r = run_cli(*args)
+    assert r.returncode == 2 and message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr

@@ -1,0 +1,128 @@
+"""The wiring doctor's rules on scripted traffic, and the echo stripper."""
+
+import analyzer
+from analyzer.doctor import WiringDoctor
+from analyzer.echo import EchoStripper
+from analyzer.traffic import Traffic, Write
+from dissectors.event import ACK, COMMAND, RESULT, Event
+from tests.conftest import frame
+from tests.tui_fixtures import conversation
+
+BT = 10 / 9600
+
+
+def findings_of(*paths, **kw):
+    cap = analyzer.open(*map(str, paths), **kw)
+    doctor = WiringDoctor(cap.lines)
+    for batch in cap.batches():
+        for ev in batch:
+            doctor.add(ev)
+        if cap.echo is not None:
+            for cmd in cap.echo.take_echoed():
+                doctor.echoed(cmd)
+    return {f.code: f for f in doctor.findings()}
+
+
+def polls(rounds=12, answer=lambda k: True, echo=False) -> Traffic:
+    """A controller polling 1.1.1 and 1.1.2 with P?; each answers ACK + result
+    unless ``answer(k)`` says not (then the controller moves on after 0.3 s)."""
+    tr = Traffic(baud=9600)
+    t = 0.0
+    for k in range(rounds):
+        dst = (1, 1, 1 + k % 2)
+        cmd = frame(dst, 0, "P?")
+        tr.writes.append(Write("A", cmd, t))
+        if echo:
+            tr.writes.append(Write("B", cmd, t + BT / 2))   # the adapter hears itself
+        t += len(cmd) * BT
+        if answer(k):
+            tr.writes.append(Write("B", b"\x06", t + 0.005))
+            res = frame((0, 1, dst[2]), 1, "03E8FE0C")
+            tr.writes.append(Write("B", res, t + 0.005 + BT + 0.001))
+            t += 0.005 + BT + 0.001 + len(res) * BT + 0.03
+        else:
+            t += 0.3
+    return tr
+
+
+def test_a_clean_conversation_has_no_warnings(tmp_path):
+    log = tmp_path / "tap.log"
+    log.write_text(polls().socat_log())
+    found = findings_of(log)
+    assert [f.severity for f in found.values()] == ["info"]      # the device map only
+    assert "1.1.1: 6 commands, answers on B" in found["device_map"].detail
+
+
+def test_lines_swapped_from_two_dumps_given_the_wrong_way_round(tmp_path):
+    tr = polls()
+    (tmp_path / "a.bin").write_bytes(tr.line_bytes("A"))
+    (tmp_path / "b.bin").write_bytes(tr.line_bytes("B"))
+    found = findings_of(tmp_path / "b.bin", tmp_path / "a.bin")
+    assert found["lines_swapped"].severity == "error"
+    # 12 ACKs arrive on "line A" and 12 P? commands on "line B"
+    assert "12 ACK/NAK/NIC bytes arrived on line A and 12 command frames on line B" in found["lines_swapped"].detail
+    assert "dead_link" not in found          # explained by the swap
+    fixed = findings_of(tmp_path / "b.bin", tmp_path / "a.bin", swap_lines=True)
+    assert "lines_swapped" not in fixed and not [f for f in fixed.values() if f.severity != "info"]
+
+
+def test_silent_device_among_answering_ones_and_dead_link(tmp_path):
+    log = tmp_path / "tap.log"
+    log.write_text(polls(answer=lambda k: k % 2 == 0).socat_log())     # 1.1.2 never answers
+    found = findings_of(log)
+    assert found["silent_device"].subject == "1.1.2" and "6 commands to 1.1.2" in found["silent_device"].detail
+    # 1.1.1's commands take 3 events (command, ACK, result), 1.1.2's one: #4, #8, ...;
+    # the sixth (#24) is still pending when the capture ends, so not yet evidence
+    assert found["silent_device"].evidence == [4, 8, 12, 16, 20]
+    log.write_text(polls(answer=lambda k: False).socat_log())
+    found = findings_of(log)
+    assert found["dead_link"].severity == "error" and "line B is silent" in found["dead_link"].detail
+    assert "silent_device" not in found
+
+
+def test_echo_is_found_and_stripped(tmp_path):
+    log = tmp_path / "tap.log"
+    log.write_text(polls(echo=True).socat_log())
+    events = list(analyzer.open(str(log)))
+    assert [e.kind for e in events[:3]] == ["command", "ack", "result"]     # no copy of the command
+    assert all(e.status == "ok" for e in events if e.kind == COMMAND)
+    found = findings_of(log)
+    assert found["echo"].severity == "warning" and "12 commands came back" in found["echo"].detail
+
+
+def test_echo_stripper_keeps_real_results():
+    cmd = Event("A", 0, COMMAND, frame((1, 1, 1), 0, "P?"), 0.0, 0.009)
+    copy = Event("B", 0, RESULT, frame((1, 1, 1), 0, "P?"), 0.0005, 0.0095)
+    ack = Event("B", 9, ACK, b"\x06", 0.015, 0.016)
+    result = Event("B", 10, RESULT, frame((0, 1, 1), 1, "03E8FE0C"), 0.017, 0.031)
+    late_copy = Event("B", 24, RESULT, frame((1, 1, 1), 0, "P?"), 0.5, 0.509)   # not overlapping: kept
+    s = EchoStripper()
+    assert s.strip([copy, cmd, ack, result, late_copy]) == [cmd, ack, result, late_copy]
+    assert s.count == 1 and s.take_echoed() == [cmd] and s.take_echoed() == []
+
+
+def test_noisy_line_and_length_correlation(tmp_path):
+    tr = Traffic(baud=9600)
+    t = 0.0
+    for k in range(40):
+        cmd = frame((1, 1, 1), 0, "P0FA0FC18" if k % 2 else "P?")   # long and short commands
+        if k % 2 and k % 6 == 1:
+            cmd = cmd[:-1] + bytes([cmd[-1] ^ 0x01])                  # every third long one corrupted
+        tr.writes.append(Write("A", cmd, t))
+        t += len(cmd) * BT + 0.005
+        tr.writes.append(Write("B", b"\x06" if cmd[-1] == frame((1, 1, 1), 0, cmd[6:-1].decode())[-1]
+                               else b"\x15", t))
+        t += BT + 0.03
+    log = tmp_path / "tap.log"
+    log.write_text(tr.socat_log())
+    found = findings_of(log)
+    noisy = found["noisy_link"]
+    assert noisy.subject == "A" and "7 checksum errors" in noisy.detail
+    assert "errors grow with length" in noisy.detail          # 7 of 20 long frames, 0 of 20 short
+
+
+def test_fixture_conversation_is_below_every_threshold(tmp_path):
+    tr, _expected = conversation()
+    log = tmp_path / "tap.log"
+    log.write_text(tr.socat_log())
+    assert [f.code for f in findings_of(log).values() if f.severity != "info"] == []
