@@ -64,7 +64,9 @@ class Capture:
         self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
         self._pairer: Pairer | None = None
         # two lines: copies of line A's frames on line B are dropped (analyzer.echo)
-        self.echo = EchoStripper() if tuple(source.lines) == ("A", "B") and self.options.strip_echo else None
+        # (timed input only: a copy is told from a real frame by overlapping its original)
+        self.echo = (EchoStripper() if tuple(source.lines) == ("A", "B") and source.timed and self.options.strip_echo
+                     else None)
         # the tap's lines were wired the other way round: read A as B and B as A
         # (settable while a live capture runs: the TUI's swap key)
         self.swap_lines = self.options.swap_lines

@@ -57,6 +57,10 @@ class Finding:
                 "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen}
 
 
+def _n(count: int, noun: str) -> str:
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 class _Line:
     """Per line: bytes, and what they turned into."""
 
@@ -348,7 +352,7 @@ class WiringDoctor:
                     fix = "check both ends run the same baud rate (a slightly off clock), then the cable"
             out.append(Finding(
                 "noisy_link", WARNING, f"line {name} is noisy",
-                f"{line.bad_frames} checksum errors and {line.noise_runs} noise runs in {self._span():.0f} s "
+                f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} in {self._span():.0f} s "
                 f"({per_min:.1f}/min){trend}{length_note}", fix,
                 [n for _t, n in list(line.errors)[-_MAX_EVIDENCE:]], name))
         naks = self.naks
@@ -483,5 +487,6 @@ def log_level(f: Finding) -> int:
 
 
 def one_line(f: Finding) -> str:
+    """``doctor: warning: title: detail (try: fix)``: stderr and the /log topic."""
     return f"doctor: {f.severity}: {f.title}: {f.detail.splitlines()[0] if f.detail else ''}" + (
         f" (try: {f.fix})" if f.fix else "")

@@ -125,7 +125,7 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
     switch = sys.getswitchinterval()
     sys.setswitchinterval(0.0002)
     def found(f) -> None:   # the wiring doctor runs alongside: new findings are said once
-        warn(one_line(f))
+        print(f"gimbalscope: {one_line(f)}", file=sys.stderr, flush=True)
         if recorder is not None:
             recorder.note(one_line(f), capture.latest, log_level(f))
     doctor = LiveDoctor(capture, found)

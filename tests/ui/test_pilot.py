@@ -214,3 +214,41 @@ def test_command_palette_runs_actions_and_mode_hides_others(tmp_path):
         stop_feed(app)
 
     run(drive())
+
+
+def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
+    """Live on the simulated installation with the tap's ports swapped: the doctor's
+    finding shows in the status bar and the panel (w); Enter on its evidence goes to
+    that event; x swaps the lines and commands decode as commands again."""
+    from analyzer.simulation import scenario
+    from analyzer.tui.screens import FindingsScreen
+
+    site = scenario.build({"swapped"}, clean=True)
+    ports = list(site.link.tap_ports)
+    app = make_app(open_live(ports), mode="live", ports=ports)
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            site.start()
+            await settle(pilot, app, lambda a: any(f.code == "lines_swapped" for f in a.model.findings), 10)
+            await settle(pilot, app, lambda a: "lines swapped" in str(a.status_bar.render()))
+            await pilot.press("w")
+            assert isinstance(app.screen, FindingsScreen)
+            tree = app.screen.query_one("#findings")
+            for _ in range(60):                      # down to the first evidence line
+                if isinstance(tree.cursor_node.data, int) if tree.cursor_node else False:
+                    break
+                await pilot.press("down")
+            target = tree.cursor_node.data
+            await pilot.press("enter")
+            assert not isinstance(app.screen, FindingsScreen)
+            assert selected(app) == target and not app.model.follow
+            await pilot.press("x")                   # swap: line A is read as line B
+            start = len(app.model.events)
+            await settle(pilot, app, lambda a: sum(1 for e in a.model.events[start:]
+                                                   if e.kind == "command" and e.status == "ok") >= 5, 10)
+            assert app.feed.capture.swap_lines
+        stop_feed(app)
+        site.stop()
+
+    run(drive())
