@@ -241,7 +241,7 @@ class WiringDoctor:
             if key not in self._first_seen:
                 self._first_seen[key] = self.last_t
             f.first_seen = self._first_seen[key]
-            f.evidence = f.evidence[:_MAX_EVIDENCE]
+            f.evidence = sorted(f.evidence)[:_MAX_EVIDENCE]
         out.sort(key=lambda f: (SEVERITY_ORDER[f.severity], f.code, f.subject))
         return out
 
@@ -458,9 +458,17 @@ class LiveDoctor:
         self.findings: list[Finding] = []
         self._told: set[tuple[str, str]] = set()
         self._next: float | None = None
+        self._swapped = capture.swap_lines
 
     def add_batch(self, batch: list[Event]) -> bool:
         """Feed a batch; True when the findings were re-checked."""
+        if self.capture.swap_lines != self._swapped:
+            # the lines were swapped while capturing (the TUI's key): a new wiring,
+            # so start again rather than mix evidence from both
+            self._swapped = self.capture.swap_lines
+            self.doctor = WiringDoctor(self.capture.lines, self.capture.options.timeouts.ack)
+            self._told.clear()
+            self._next = None
         add = self.doctor.add
         for ev in batch:
             add(ev)

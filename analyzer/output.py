@@ -94,7 +94,8 @@ def summary(ev: Event) -> str:
     if kind in (ACK, NAK, NIC):
         return kind.upper()
     preview = ev.raw[:12].hex(" ")
-    return f"{len(ev.raw)} bytes: {preview}{' …' if len(ev.raw) > 12 else ''}"
+    n = len(ev.raw)
+    return f"{n} byte{'' if n == 1 else 's'}: {preview}{' …' if n > 12 else ''}"
 
 
 def fmt_seconds(s: float | None) -> str:
