@@ -30,6 +30,7 @@ from dissectors import dissect_command
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
 
 from .output import device_address
+from .stats import Latency
 
 ERROR, WARNING, INFO = "error", "warning", "info"
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
@@ -57,6 +58,33 @@ class Finding:
                 "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen}
 
 
+class _Tally:
+    """A count and some evidence (the first and the latest event numbers): memory
+    stays flat however long the capture, and re-checking costs the same."""
+
+    __slots__ = ("n", "first", "last")
+
+    def __init__(self) -> None:
+        self.n = 0
+        self.first: list[int] = []
+        self.last: deque[int] = deque(maxlen=_MAX_EVIDENCE)
+
+    def add(self, number: int) -> None:
+        self.n += 1
+        if len(self.first) < _MAX_EVIDENCE:
+            self.first.append(number)
+        self.last.append(number)
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __iter__(self):
+        return iter(self.evidence())
+
+    def evidence(self) -> list[int]:
+        return sorted(set(self.first[:_MAX_EVIDENCE // 2]) | set(list(self.last)[-_MAX_EVIDENCE // 2:]))
+
+
 def _n(count: int, noun: str) -> str:
     return f"{count} {noun}{'' if count == 1 else 's'}"
 
@@ -71,9 +99,18 @@ class _Line:
         self.frames = 0
         self.bad_frames = 0
         self.noise_runs = 0
-        self.errors: deque[tuple[float, int]] = deque()   # (t, event number) of checksum errors and noise
+        self.error_count = 0       # checksum errors and noise runs
+        self.errors: deque[tuple[float, int]] = deque()   # (t, event number) of the last minute's
         self.by_length: Counter[tuple[bool, bool]] = Counter()   # (long frame, bad) -> count
         self.evidence: list[int] = []
+
+
+def _error(line: _Line, t: float, number: int) -> None:
+    errors = line.errors
+    line.error_count += 1
+    errors.append((t, number))
+    while len(errors) > _MAX_EVIDENCE and errors[0][0] < t - 60:
+        errors.popleft()            # the last minute (for the trend) and some evidence
 
 
 class _Device:
@@ -83,8 +120,10 @@ class _Device:
         self.lines: set[str] = set()
         self.nic: set[str] = set()
         self.identity: str | None = None
-        self.acks: list[tuple[float, float]] = []   # (t, ACK latency)
-        self.unanswered: list[int] = []
+        self.ack_count = 0
+        self.first_acks: list[float] = []                  # the first ACK latencies (up to 200)
+        self.last_acks: deque[float] = deque(maxlen=200)   # and the latest
+        self.unanswered = _Tally()
 
 
 class WiringDoctor:
@@ -96,20 +135,22 @@ class WiringDoctor:
         self.first_t: float | None = None
         self.last_t: float | None = None
         # lines swapped
-        self.answer_bytes_on_a: list[int] = []
-        self.commands_on_b: list[int] = []
+        self.answer_bytes_on_a = _Tally()
+        self.commands_on_b = _Tally()
         self.ok_transactions = 0
         # echo
-        self.echoes: list[int] = []
+        self.echoes = _Tally()
         # controller
-        self.next_gaps: list[tuple[int, float]] = []   # (unanswered command, seconds until the next one)
+        self.next_gaps: deque[tuple[int, float]] = deque(maxlen=500)   # (unanswered command, s to the next)
         self._prev_cmd: Event | None = None
         self._prev_failed: Event | None = None     # the previous command, if it failed (retry gaps)
-        self.retry_gaps: list[tuple[int, float]] = []   # (retransmission, seconds after the failed command)
+        self.retry_gaps: deque[tuple[int, float]] = deque(maxlen=500)  # (retransmission, s after the failure)
         self.failed: dict[int, Event] = {}          # NAK'd / unanswered commands not yet retried
-        self.never_retried: list[int] = []
-        self.ix_given_up: list[int] = []
-        self.naks: list[tuple[float, int]] = []
+        self.never_retried = _Tally()
+        self.ix_given_up = _Tally()
+        self.nak_count = 0
+        self.naks: deque[tuple[float, int]] = deque(maxlen=200)
+        self.ack_latency = Latency()               # every device's ACKs: the 95th percentile
         self._addr_of: dict[int, str] = {}         # command number -> device, for its answers
         self._first_seen: dict[tuple[str, str], float | None] = {}
 
@@ -129,9 +170,9 @@ class WiringDoctor:
         if kind == NOISE:
             line.noise_bytes += n
             line.noise_runs += 1
-            line.errors.append((t or 0.0, ev.number))
+            _error(line, t or 0.0, ev.number)
             if ev.line == "A" and all(b in _ANSWER_BYTES for b in ev.raw):
-                self.answer_bytes_on_a.append(ev.number)
+                self.answer_bytes_on_a.add(ev.number)
             return
         if kind in (COMMAND, RESULT) or ev.checksum_ok is not None:
             line.frames += 1
@@ -140,7 +181,7 @@ class WiringDoctor:
             line.by_length[(long, bad)] += 1
             if bad:
                 line.bad_frames += 1
-                line.errors.append((t or 0.0, ev.number))
+                _error(line, t or 0.0, ev.number)
             else:
                 line.good_bytes += n
         else:
@@ -152,7 +193,7 @@ class WiringDoctor:
 
     def echoed(self, command: Event) -> None:
         """The capture stripped line B's copy of this command (an echo)."""
-        self.echoes.append(command.number)
+        self.echoes.add(command.number)
 
     def _command(self, ev: Event) -> None:
         addr = device_address(ev)
@@ -172,15 +213,16 @@ class WiringDoctor:
         self._prev_cmd = ev
         self._prev_failed = ev if status in ("nak", "no_ack") else None
         if status == "no_ack":
-            dev.unanswered.append(ev.number)
+            dev.unanswered.add(ev.number)
         elif status in ("ok", "nic", "no_result"):
             self.ok_transactions += 1
         if status == "nic" and ev.command:
             dev.nic.add(ev.command)
         if status == "nak":
+            self.nak_count += 1
             self.naks.append((ev.t or 0.0, ev.number))
         if ev.command == "IX" and status == "no_result" and any("sent again" in p for p in ev.problems):
-            self.ix_given_up.append(ev.number)
+            self.ix_given_up.add(ev.number)
         # retries: a retransmission repeats a failed command; the gap says how patient
         # the controller is
         if ev.retransmission:
@@ -197,13 +239,13 @@ class WiringDoctor:
         for num, prev in list(self.failed.items()):
             if num != ev.number and ev.t is not None and prev.t is not None \
                     and ev.t - prev.t > 3 * self.ack_timeout:
-                self.never_retried.append(num)
+                self.never_retried.add(num)
                 del self.failed[num]
 
     def _answer(self, ev: Event) -> None:
         if ev.kind == RESULT and ev.request is None and ev.line == "B" and ev.payload is not None \
                 and dissect_command(ev.payload).entry is not None:
-            self.commands_on_b.append(ev.number)    # a command frame travelling device→controller
+            self.commands_on_b.add(ev.number)    # a command frame travelling device→controller
             return
         addr = self._addr_of.get(ev.request) if ev.request is not None else None
         if addr is None:
@@ -212,7 +254,11 @@ class WiringDoctor:
         dev.answers += 1
         dev.lines.add(ev.line)
         if ev.kind == ACK and ev.latency is not None and ev.t is not None:
-            dev.acks.append((ev.t, ev.latency))
+            dev.ack_count += 1
+            if len(dev.first_acks) < 200:
+                dev.first_acks.append(ev.latency)
+            dev.last_acks.append(ev.latency)
+            self.ack_latency.add(ev.latency)
         if ev.kind == RESULT and ev.command == "D?" and ev.fields:
             f = ev.fields
             dev.identity = f"{f.get('name', '?')} rev {f.get('revision', '?')} s/n {f.get('serial', '?')}"
@@ -261,7 +307,7 @@ class WiringDoctor:
             f"{a} ACK/NAK/NIC bytes arrived on line A and {b} command frames on line B; "
             f"{self.ok_transactions} commands were answered as wired",
             "swap the two ports (gimbalscope live PORT_B PORT_A), or --swap-lines, or press x in the TUI",
-            (self.answer_bytes_on_a[:10] + self.commands_on_b[:10]), "A,B")]
+            self.answer_bytes_on_a.evidence()[:10] + self.commands_on_b.evidence()[:10], "A,B")]
 
     def _garbled(self) -> list[Finding]:
         out = []
@@ -288,7 +334,7 @@ class WiringDoctor:
             f"{len(self.echoes)} commands came back on line B byte for byte while they were being sent",
             "a half-duplex adapter or RS-485 converter echoes what it sends: disable its echo (or local "
             "loopback) if the controller is confused by it; decoding already ignores the copies",
-            self.echoes, "B")]
+            self.echoes.evidence(), "B")]
 
     def _silent(self) -> list[Finding]:
         out = []
@@ -304,7 +350,7 @@ class WiringDoctor:
             else:
                 where = f"line B carries {b.bytes} bytes but none answers a command"
                 fix = "check the baud rate and the devices' addresses"
-            cmds = [n for d in self.devices.values() for n in d.unanswered][:_MAX_EVIDENCE]
+            cmds = sorted(n for d in self.devices.values() for n in d.unanswered)[:_MAX_EVIDENCE]
             out.append(Finding("dead_link", ERROR, "no device answers at all",
                                f"{total_commands} commands, no ACK or NAK; {where}", fix, cmds, "B"))
             return out
@@ -316,14 +362,14 @@ class WiringDoctor:
                     "silent_device", WARNING, f"device {addr} never answers",
                     f"{d.commands} commands to {addr}, no ACK or NAK, while {', '.join(answering)} answer",
                     f"check {addr}'s power and address setting, and its drop on the bus",
-                    d.unanswered, addr))
+                    d.unanswered.evidence(), addr))
         return out
 
     def _noisy(self) -> list[Finding]:
         out = []
         span = max(self._span(), 1e-9)
         for name, line in self.lines.items():
-            errors = len(line.errors)
+            errors = line.error_count
             if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
                 continue   # too little to say; garbled lines are wrong_baud
             per_min = errors / span * 60
@@ -355,15 +401,17 @@ class WiringDoctor:
                 f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} in {self._span():.0f} s "
                 f"({per_min:.1f}/min){trend}{length_note}", fix,
                 [n for _t, n in list(line.errors)[-_MAX_EVIDENCE:]], name))
-        naks = self.naks
+        naks = list(self.naks)
         if len(naks) >= 5:
             # a burst: five NAKs within ten seconds
             times = [t for t, _n in naks]
             burst = max(sum(1 for u in times if t <= u < t + 10) for t in times)
-            if burst >= 5:
+            # a burst stands out from the capture's usual rate (busy links NAK more often)
+            usual = self.nak_count / max(self._span(), 10.0) * 10
+            if burst >= max(5, 3 * usual):
                 out.append(Finding(
                     "nak_burst", WARNING, "NAK bursts: devices reject commands in runs",
-                    f"{len(naks)} NAKs, up to {burst} within 10 s",
+                    f"{self.nak_count} NAKs, up to {burst} within 10 s",
                     "devices NAK what they receive corrupted: check the controller→device wire (line A)",
                     [n for _t, n in naks[-_MAX_EVIDENCE:]], "A"))
         return out
@@ -393,19 +441,18 @@ class WiringDoctor:
                 "controller_no_retry", WARNING, "the controller never retries a failed command",
                 f"{len(self.never_retried)} commands NAK'd or unanswered were not sent again",
                 "retransmit after NAK or an ACK timeout (the spec's handshake expects it)",
-                self.never_retried, "controller"))
+                self.never_retried.evidence(), "controller"))
         if self.ix_given_up:
             out.append(Finding(
                 "controller_ix_timeout", WARNING, "the controller gives up on IX before it ends",
                 f"{len(self.ix_given_up)} IX commands were sent again before their result came; "
                 f"initialisation takes seconds (up to a minute)",
-                "wait for IX's result (60 s is safe) before resending or moving on", self.ix_given_up,
+                "wait for IX's result (60 s is safe) before resending or moving on", self.ix_given_up.evidence(),
                 "controller"))
         return out
 
     def _ack_p95(self) -> float:
-        lat = sorted(x for d in self.devices.values() for _t, x in d.acks)
-        return lat[int(0.95 * (len(lat) - 1))] if lat else 0.0
+        return self.ack_latency.quantile(0.95) or 0.0
 
     def _fast_retries(self) -> list[tuple[int, float]]:
         p95 = self._ack_p95()
@@ -416,17 +463,17 @@ class WiringDoctor:
     def _slow(self) -> list[Finding]:
         out = []
         for addr, d in sorted(self.devices.items()):
-            acks = d.acks
-            if len(acks) < 12:
+            n = d.ack_count
+            if n < 12:
                 continue
-            third = len(acks) // 3
-            before = median(x for _t, x in acks[:third])
-            after = median(x for _t, x in acks[-third:])
+            k = min(n // 3, 200)
+            before = median(d.first_acks[:k])
+            after = median(list(d.last_acks)[-k:])
             if after > 2 * before and after - before > 0.005:
                 out.append(Finding(
                     "slow_answers", WARNING, f"device {addr} answers slower and slower",
                     f"median ACK latency {before * 1000:.1f} ms at first, {after * 1000:.1f} ms lately "
-                    f"({len(acks)} ACKs)",
+                    f"({n} ACKs)",
                     f"a device slowing down is busy or failing: check {addr}'s load, power and temperature",
                     [], addr))
         return out
