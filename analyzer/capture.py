@@ -138,7 +138,7 @@ class Capture:
         came after it), numbered and linked so far; their status may change. Call
         between steps of ``batches()``, from the thread iterating it."""
         pairer = self._pairer
-        return list(pairer._held) if pairer is not None else []
+        return pairer.held() if pairer is not None else []
 
     def events(self) -> Iterator[Event]:
         return iter(self)

@@ -291,7 +291,9 @@ class WiringDoctor:
         out.sort(key=lambda f: (SEVERITY_ORDER[f.severity], f.code, f.subject))
         return out
 
-    def _span(self) -> float:
+    @property
+    def span(self) -> float:
+        """Seconds of traffic seen so far."""
         if self.first_t is None or self.last_t is None:
             return 0.0
         return max(0.0, self.last_t - self.first_t)
@@ -367,7 +369,7 @@ class WiringDoctor:
 
     def _noisy(self) -> list[Finding]:
         out = []
-        span = max(self._span(), 1e-9)
+        span = max(self.span, 1e-9)
         for name, line in self.lines.items():
             errors = line.error_count
             if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
@@ -398,7 +400,7 @@ class WiringDoctor:
                     fix = "check both ends run the same baud rate (a slightly off clock), then the cable"
             out.append(Finding(
                 "noisy_link", WARNING, f"line {name} is noisy",
-                f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} in {self._span():.0f} s "
+                f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} in {self.span:.0f} s "
                 f"({per_min:.1f}/min){trend}{length_note}", fix,
                 [n for _t, n in list(line.errors)[-_MAX_EVIDENCE:]], name))
         naks = list(self.naks)
@@ -407,7 +409,7 @@ class WiringDoctor:
             times = [t for t, _n in naks]
             burst = max(sum(1 for u in times if t <= u < t + 10) for t in times)
             # a burst stands out from the capture's usual rate (busy links NAK more often)
-            usual = self.nak_count / max(self._span(), 10.0) * 10
+            usual = self.nak_count / max(self.span, 10.0) * 10
             if burst >= max(5, 3 * usual):
                 out.append(Finding(
                     "nak_burst", WARNING, "NAK bursts: devices reject commands in runs",

@@ -154,6 +154,11 @@ class Pairer:
         self._expire(now)
         return self._release()
 
+    def held(self) -> list[Event]:
+        """The events not released yet (a command whose status is not final, and
+        what came after it), numbered and linked so far: a live view shows them."""
+        return list(self._held)
+
     def finish(self) -> list[Event]:
         """End of capture: whatever still waits is ``pending``."""
         if self._provisional is not None:

@@ -108,7 +108,7 @@ def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
         if live:
             capture.source.close()
     findings = doctor.findings()
-    span = doctor._span()
+    span = doctor.span
     if args.format == "json":
         print(json.dumps({"source": capture.source.description, "events": events, "seconds": round(span, 3),
                           "findings": [f.to_dict() | {"after": _seconds_in(f, doctor)} for f in findings]},
