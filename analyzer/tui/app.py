@@ -9,6 +9,7 @@ Keys have ids (``Binding(id=...)``) so a keymap file can rebind them
 from __future__ import annotations
 
 import time
+from collections import deque
 from datetime import datetime
 
 from rich.text import Text
@@ -100,7 +101,7 @@ class GimbalscopeApp(App):
         self.record_path = record_path   # where the record key writes
         self._keymap = keymap or {}
         self.last: FeedBatch | None = None
-        self.messages: list[str] = []    # the feed's warnings, newest last
+        self.messages: deque[str] = deque(maxlen=100)   # the feed's warnings, newest last (the last shows)
         self.started = time.monotonic()
         self._search_text = ""
         self._history_pos: int | None = None

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import os
 import queue
+from collections import deque
 import threading
 import time
 from dataclasses import dataclass, field
@@ -60,14 +61,13 @@ class Feed(threading.Thread):
         self._metadata = metadata or (lambda: {})
         names = ports or [capture.source.description] * len(capture.lines)
         self.lines = {line: LineStatus(line, port) for line, port in zip(capture.lines, names)}
-        self._window: dict[str, list[tuple[float, int]]] = {line: [] for line in capture.lines}
+        self._window: dict[str, deque[tuple[float, int]]] = {line: deque() for line in capture.lines}
         self._requests: queue.Queue = queue.Queue()
         self._stopped = threading.Event()   # a file source has no stop of its own
         self._sent_any = False
         self._warnings: list[str] = []
         self.recorder: McapRecorder | None = recorder   # --record: made (and checked) before the screen opens
         self.recording: str | None = recording
-        self.events_seen = 0
         self.notes: list[str] = []   # what to say when the screen has closed (recordings written)
         capture.on_chunk = self._chunk
         capture.on_warning = self._warn
@@ -142,7 +142,7 @@ class Feed(threading.Thread):
         for line, st in self.lines.items():
             win = self._window[line]
             while win and win[0][0] < now - 1.0:
-                win.pop(0)
+                win.popleft()
             st.rate = float(sum(n for _t, n in win))
             if state is not None:
                 st.state = state.get(line, st.state)
@@ -172,7 +172,6 @@ class Feed(threading.Thread):
                         for ev in batch:
                             rec.event(ev)
                     pending.extend(batch)
-                    self.events_seen += len(batch)
                 if self.doctor.add_batch(batch):
                     self._findings = self.doctor.findings
                 now = time.monotonic()
