@@ -34,14 +34,23 @@ def selected(app) -> int | None:
     return app.query_one(EventList).selected
 
 
-def test_view_keys_errors_pairs_filter(tmp_path):
+def view_of_fixture(tmp_path, **kw):
+    """The TUI on the scripted conversation (tests/tui_fixtures.py): (app, expected)."""
     path = tmp_path / "tap.log"
     expected = write_capture(path)
-    app = make_app(analyzer.open(str(path)), mode="view")
+    return make_app(analyzer.open(str(path)), mode="view", **kw), expected
+
+
+async def all_loaded(pilot, app):
+    await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+
+
+def test_view_keys_errors_pairs_filter(tmp_path):
+    app, expected = view_of_fixture(tmp_path)
 
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            await all_loaded(pilot, app)
             assert selected(app) == 1 and not app.model.follow     # a file opens at its start
             await pilot.press("e")
             assert selected(app) == expected["errors"][0] == 4
@@ -73,13 +82,11 @@ def test_view_keys_errors_pairs_filter(tmp_path):
 
 
 def test_detail_enter_jumps_and_hex_highlights_field(tmp_path):
-    path = tmp_path / "tap.log"
-    write_capture(path)
-    app = make_app(analyzer.open(str(path)), mode="view")
+    app, _expected = view_of_fixture(tmp_path)
 
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            await all_loaded(pilot, app)
             await pilot.press("down", "down")          # #3, the P? result
             assert selected(app) == 3
             tree = app.query_one("#detail")
@@ -177,13 +184,11 @@ def test_replay_controls(tmp_path):
 
 
 def test_keymap_rebinds_by_id(tmp_path):
-    path = tmp_path / "tap.log"
-    expected = write_capture(path)
-    app = make_app(analyzer.open(str(path)), mode="view", keymap={"app.next_error": "x"})
+    app, expected = view_of_fixture(tmp_path, keymap={"app.next_error": "x"})
 
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            await all_loaded(pilot, app)
             await pilot.press("e")                 # no longer bound
             assert selected(app) == 1
             await pilot.press("x")
@@ -194,13 +199,11 @@ def test_keymap_rebinds_by_id(tmp_path):
 
 
 def test_command_palette_runs_actions_and_mode_hides_others(tmp_path):
-    path = tmp_path / "tap.log"
-    expected = write_capture(path)
-    app = make_app(analyzer.open(str(path)), mode="view")
+    app, expected = view_of_fixture(tmp_path)
 
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done and a.model.row_count == 13)
+            await all_loaded(pilot, app)
             titles = [c.title for c in app.get_system_commands(app.screen)]
             assert "Next error" in titles and "Record" not in titles and "Play/pause" not in titles
             await pilot.press("ctrl+p")

@@ -28,29 +28,24 @@ async def loaded(pilot):
     await pilot.pause(0.3)
 
 
-def test_main_screen_80x24_on_first_error(snap_compare):
+def snapshot_after(snap_compare, size: tuple[int, int], *keys: str) -> bool:
+    """The sample loaded, ``keys`` pressed, compared with the stored snapshot."""
     app = sample_app()
 
-    async def first_error(pilot):
+    async def run_before(pilot):
         await loaded(pilot)
-        await pilot.press("e")
-        await pilot.pause(0.1)
-
-    try:
-        assert snap_compare(app, terminal_size=(80, 24), run_before=first_error)
-    finally:
-        stop_feed(app)
-
-
-def test_statistics_screen(snap_compare):
-    app = sample_app()
-
-    async def stats(pilot):
-        await loaded(pilot)
-        await pilot.press("S")
+        await pilot.press(*keys)
         await pilot.pause(0.2)
 
     try:
-        assert snap_compare(app, terminal_size=(120, 40), run_before=stats)
+        return snap_compare(app, terminal_size=size, run_before=run_before)
     finally:
         stop_feed(app)
+
+
+def test_main_screen_80x24_on_first_error(snap_compare):
+    assert snapshot_after(snap_compare, (80, 24), "e")
+
+
+def test_statistics_screen(snap_compare):
+    assert snapshot_after(snap_compare, (120, 40), "S")
