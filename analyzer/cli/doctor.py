@@ -55,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
     if ports and len(ports) != len(args.inputs):
         raise UsageError("give capture files or serial ports, not both")
     if args.scan_baud:
+        missing = [a for a in args.inputs if not is_port(a) and not os.path.exists(a)]
+        if missing:
+            raise UsageError(f"{missing[0]}: no such serial port")
         if not ports:
             raise UsageError("--scan-baud listens on serial ports (files have no rate to change)")
         return scan_baud(ports, options, args)

@@ -24,6 +24,10 @@ def detect(paths: list[str], byte_time: float) -> Source:
                 heads.append(f.read(65536))
             except OSError as e:
                 raise CaptureError(f"{p}: cannot read: {e.strerror or e}") from None
+    for p, head in zip(paths, heads):
+        if p.lower().endswith(".mcap") and not head.startswith(MCAP_MAGIC):
+            # named a recording but not one: a damaged file, not a raw dump to decode as noise
+            raise CaptureError(f"{p}: not an MCAP file (it does not start with the MCAP magic bytes)")
     mcaps = [p for p, head in zip(paths, heads) if head.startswith(MCAP_MAGIC)]
     if mcaps:
         if len(paths) != 1:

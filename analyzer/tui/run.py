@@ -36,10 +36,20 @@ def load_keymap(path: str | None) -> dict[str, str]:
         raise KeymapError(f"{path}: cannot read keymap: {e.strerror or e}") from None
     except tomllib.TOMLDecodeError as e:
         raise KeymapError(f"{path}: not a TOML keymap: {e}") from None
-    bad = [k for k, v in data.items() if not isinstance(v, str)]
+    # ids have dots: `app.filter = "ctrl+l"` is a table in TOML, `"app.filter" = ...` a key
+    flat: dict[str, object] = {}
+
+    def walk(prefix: str, table: dict) -> None:
+        for k, v in table.items():
+            if isinstance(v, dict):
+                walk(f"{prefix}{k}.", v)
+            else:
+                flat[f"{prefix}{k}"] = v
+    walk("", data)
+    bad = [k for k, v in flat.items() if not isinstance(v, str)]
     if bad:
         raise KeymapError(f"{path}: keymap values must be key strings: {', '.join(bad)}")
-    return data
+    return flat
 
 
 def settings_text(capture: Capture) -> str:

@@ -97,6 +97,7 @@ def test_findings_go_to_stderr_and_the_recording_log(tmp_path):
     (["doctor", "captures/demo-bus.bin", "/dev/null"], "give capture files or serial ports, not both"),
     (["doctor", "--scan-baud", "captures/demo-bus.bin"], "--scan-baud listens on serial ports"),
     (["doctor", "/nonexistent/tap.log"], "/nonexistent/tap.log"),
+    (["doctor", "--scan-baud", "/dev/ttyNOPE"], "/dev/ttyNOPE: no such serial port"),
 ])
 def test_bad_doctor_input_is_one_line(args, message):
     r = run_cli(*args)

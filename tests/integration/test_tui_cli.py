@@ -13,6 +13,9 @@ def test_view_without_a_terminal_is_one_line():
 def test_bad_keymap_is_one_line(tmp_path):
     from analyzer.tui.run import KeymapError, load_keymap
 
+    good = tmp_path / "good.toml"
+    good.write_text('app.filter = "ctrl+l"\n"app.next_error" = "x"\n')   # a dotted key, a quoted one
+    assert load_keymap(str(good)) == {"app.filter": "ctrl+l", "app.next_error": "x"}
     bad = tmp_path / "keys.toml"
     bad.write_text("app.filter = [1]\n")
     try:
@@ -35,3 +38,12 @@ def test_replay_piped_prints_events(tmp_path):
     assert run_cli("convert", "captures/demo-socat.log", "-o", out).returncode == 0
     r = run_cli("replay", out, "--speed", "max")
     assert r.returncode == 0 and len(r.stdout.splitlines()) == 474
+
+
+def test_a_damaged_mcap_is_one_line_not_noise(tmp_path):
+    bad = tmp_path / "cut.mcap"
+    bad.write_bytes(bytes(range(256)) * 8)
+    for cmd in ("decode", "stats", "doctor"):
+        r = run_cli(cmd, bad)
+        assert r.returncode == 2 and r.stderr.strip() == \
+            f"gimbalscope: error: {bad}: not an MCAP file (it does not start with the MCAP magic bytes)"
