@@ -1,0 +1,155 @@
+"""Writing output files so that nothing is lost: never over an input, never
+half-written, and every failure one line saying what and where.
+
+- ``check_output(path, inputs, force)`` runs before any work: the output must not
+  be a folder, its folder must exist and be writable, it must not be (through a
+  symlink or a hard link: the same inode) any of the inputs, and it may replace an
+  existing file only with ``--force``.
+- ``AtomicOutput(path)`` writes into a hidden temporary file beside the target
+  (same folder, so the final rename is atomic) and renames it over the target only
+  on ``commit()``; ``discard()`` (or an exception in a ``with`` block) removes it,
+  so a failed run leaves no partial file and the old file, if any, intact.
+- ``show(path)`` gives a file name as text that can always be printed: names are
+  kept as the OS gives them (``os.fsdecode``: undecodable bytes become surrogate
+  escapes), and only shown with those bytes as ``\\xNN``.
+
+Live recordings are the exception (analyzer/recording): they are written in
+place and flushed every second, because a killed tap must leave its capture
+under the name the user gave.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import tempfile
+from typing import BinaryIO, Iterable
+
+
+class OutputError(Exception):
+    """An output that cannot be written; the message is one line naming it."""
+
+
+def show(path: str | bytes | os.PathLike) -> str:
+    """``path`` as printable text: undecodable bytes as ``\\xNN`` escapes."""
+    name = os.fsdecode(path)
+    return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
+def reason(e: OSError) -> str:
+    """An OS error in a few words (ENOSPC: "no space left on device")."""
+    if e.errno == errno.ENOSPC:
+        return "no space left on device"
+    if e.errno == errno.EDQUOT:
+        return "disk quota exceeded"
+    text = e.strerror or str(e) or type(e).__name__
+    return text[:1].lower() + text[1:]
+
+
+def write_error(path: str | os.PathLike, e: OSError) -> OutputError:
+    return OutputError(f"{show(path)}: cannot write: {reason(e)}")
+
+
+def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except (OSError, ValueError):
+        return False
+
+
+def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (), *,
+                 force: bool = False) -> None:
+    """Refuse an output that cannot or must not be written (see module doc)."""
+    name = show(path)
+    if os.path.isdir(path):
+        raise OutputError(f"{name}: is a directory; give a file name")
+    for inp in inputs:
+        if _same_file(path, inp):
+            same = "is" if os.path.abspath(path) == os.path.abspath(inp) else "is the same file as"
+            raise OutputError(f"{name}: {same} the input {show(inp)}; write the output to another file")
+    folder = os.path.dirname(os.path.realpath(path)) or "."
+    if not os.path.isdir(folder):
+        raise OutputError(f"{name}: no such folder {show(folder)}")
+    if os.path.lexists(path) and not force:
+        raise OutputError(f"{name}: exists (use --force to overwrite)")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise OutputError(f"{name}: cannot write in {show(folder)}: permission denied")
+
+
+def _default_mode() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+_MODE = _default_mode()
+
+
+class AtomicOutput:
+    """A file written beside ``path`` and renamed onto it on ``commit()``.
+
+    ``file`` is the open binary file. Write errors raised through this class's
+    methods become ``OutputError``; code writing to ``file`` directly can turn an
+    ``OSError`` into one with ``write_error(path, e)``.
+    """
+
+    def __init__(self, path: str | os.PathLike) -> None:
+        self.path = path
+        # a symlinked output is written through: its target gets the new content
+        self.target = os.path.realpath(path)
+        folder, base = os.path.split(self.target)
+        try:
+            fd, self.tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".part", dir=folder or ".")
+        except OSError as e:
+            raise write_error(path, e) from None
+        try:
+            mode = os.stat(self.target).st_mode & 0o7777   # replacing a file keeps its mode
+        except OSError:
+            mode = _MODE
+        os.fchmod(fd, mode)
+        self.file: BinaryIO = os.fdopen(fd, "wb")
+        self.done = False
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.file.write(data)
+        except OSError as e:
+            raise write_error(self.path, e) from None
+
+    def commit(self) -> None:
+        """Flush, sync and rename onto the target; on failure the temporary file is
+        removed and the target left as it was."""
+        if self.done:
+            return
+        try:
+            self.file.flush()
+            os.fsync(self.file.fileno())
+            self.file.close()
+            os.replace(self.tmp, self.target)
+        except OSError as e:
+            self.discard()
+            raise write_error(self.path, e) from None
+        self.done = True
+
+    def discard(self) -> None:
+        """Remove the temporary file; the target is untouched."""
+        if self.done:
+            return
+        self.done = True
+        try:
+            self.file.close()
+        except OSError:
+            pass   # a full disk fails the final flush too: the file goes anyway
+        try:
+            os.unlink(self.tmp)
+        except FileNotFoundError:
+            pass
+
+    def __enter__(self) -> "AtomicOutput":
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
