@@ -4,6 +4,10 @@ pair. This is what ``analyzer.open`` returns and what every CLI command reads.
 - timed two-line input (socat logs): events of both lines merged by wire time;
 - untimed two-line input (two raw dumps): the lines aligned by ``align``;
 - a single-line tap: one stream, frames classified by pairing.
+
+A live source that falls behind marks chunks as not to be decoded (``undecoded``):
+they still reach ``on_chunk`` (the recording), the deframer is told of the gap,
+and the bytes are counted and said (``Capture.undecoded``).
 """
 
 from __future__ import annotations
@@ -62,6 +66,9 @@ class Capture:
         self._tick = False               # an idle tick arrived: time passed with no bytes
         self._latest: float | None = None  # the latest time any chunk or tick showed
         self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
+        # line B events from this (corrected) time on carry the current correction;
+        # earlier ones an older one: latencies are comparable only on one side of it
+        self.skew_from: float | None = None
         self._pairer: Pairer | None = None
         # two lines: copies of line A's frames on line B are dropped (analyzer.echo)
         # (timed input only: a copy is told from a real frame by overlapping its original)
@@ -70,6 +77,15 @@ class Capture:
         # the tap's lines were wired the other way round: read A as B and B as A
         # (settable while a live capture runs: the TUI's swap key)
         self.swap_lines = self.options.swap_lines
+        # the files or ports as given, and the subcommand reading them (when a CLI
+        # command set it): advice names what works there (analyzer.doctor)
+        self.inputs: tuple[str, ...] = ()
+        self.command: str | None = None
+        # bytes per line passed on to on_chunk (the recording) but not decoded: a
+        # live source fell behind, or they were still queued when it stopped
+        self.undecoded: dict[str, int] = {}
+        self._undecoded_said: float | None = None   # capture time of the last word on it
+        self._undecoded_at_stop = 0                   # of which: still queued when the tap stopped
         source.warn = self._warn
 
     def _warn(self, msg: str) -> None:
@@ -186,8 +202,12 @@ class Capture:
                 tap(chunk, d.offset)
             if chunk.t is not None:
                 self._seen(chunk.t + len(chunk.data) * self.options.byte_time)
+            if getattr(chunk, "undecoded", False):
+                yield self._skip(d, chunk)
+                continue
             yield d.feed(chunk.data, chunk.t)
         yield d.finish()
+        self._say_undecoded(final=True)
         yield self._at_end()
 
     def _merged(self) -> Iterator[list[Event]]:
@@ -223,11 +243,18 @@ class Capture:
                 if ev.kind in _SKEW_KINDS and observe(ev):   # sees the times as read
                     delta = estimator.skew - self.skew
                     self.skew = estimator.skew
-                    for other in held:   # line B events still held move with the estimate
-                        if other.line == "B":
+                    # Line B events held back move with the estimate, but only those
+                    # near the pair that taught it (the estimator pairs within
+                    # ``near``): a live tap has released anything older already, and
+                    # decoding its recording, which holds events longer, must give
+                    # the same times (live output equals decode of the recording).
+                    horizon = ev.t - estimator.near
+                    for other in held:
+                        if other.line == "B" and other.t is not None and other.t >= horizon:
                             _shift(other, delta)
                     if abs(self.skew - reported) >= 0.001:
                         reported = self.skew
+                        self.skew_from = horizon + self.skew
                         self._warn(f"line B reads about {self.skew * 1000:.1f} ms ahead of line A (adapter "
                                    f"delays): its times are moved later by that much")
                 if self.skew and ev.line == "B":
@@ -252,7 +279,10 @@ class Capture:
                 end = chunk.t + len(data) * byte_time
                 if self._latest is None or end > self._latest:
                     self._latest = end
-                arrived(d.feed(data, chunk.t))
+                if getattr(chunk, "undecoded", False):
+                    arrived(self._skip(d, chunk))
+                else:
+                    arrived(d.feed(data, chunk.t))
             since_release += 1
             if not self._tick and since_release < release_every:
                 continue
@@ -276,14 +306,58 @@ class Capture:
                 yield held[:0]
         for d in deframers.values():
             arrived(d.finish())
+        self._say_undecoded(final=True)
         held.sort(key=_time)
         yield held
         yield self._at_end()
 
+    # ------------------------------------------------------ undecoded bytes
+    def _skip(self, d: Deframer, chunk: Chunk) -> list[Event]:
+        """A chunk the source could not wait to decode (``chunk.undecoded`` says why:
+        ``behind``, or ``stopped``): it reached the recording (``on_chunk``); the
+        deframer closes what is pending and moves its offsets past it, so no frame
+        is stitched across the gap."""
+        n = len(chunk.data)
+        self.undecoded[chunk.line] = self.undecoded.get(chunk.line, 0) + n
+        if chunk.undecoded == "stopped":
+            self._undecoded_at_stop += n
+        else:
+            self._say_undecoded(final=False, t=chunk.t)
+        return d.skip(n)
+
+    def _say_undecoded(self, final: bool, t: float | None = None) -> None:
+        """One warning when decoding first falls behind, a running count at most
+        every UNDECODED_EVERY seconds of capture while it stays behind, and the
+        total at the end."""
+        total = sum(self.undecoded.values())
+        said = self._undecoded_said
+        if not total or (not final and said is not None and (t is None or t - said < UNDECODED_EVERY)):
+            return
+        per_line = ", ".join(f"line {line}: {_bytes(n)}" for line, n in sorted(self.undecoded.items()))
+        if final:
+            why = []
+            if total > self._undecoded_at_stop:
+                why.append(f"{total - self._undecoded_at_stop:,} while decoding was behind the line")
+            if self._undecoded_at_stop:
+                why.append(f"{self._undecoded_at_stop:,} still waiting when the capture stopped")
+            self._warn(f"{_bytes(total)} not decoded ({'; '.join(why)}; {per_line}); a recording keeps "
+                       f"every byte read: decode it to see them")
+        elif said is None:
+            self._warn(f"decoding fell behind the line: bytes are passed over (a recording still keeps them) "
+                       f"until it catches up (so far {per_line})")
+        else:
+            self._warn(f"decoding still behind: {_bytes(total)} not decoded so far ({per_line})")
+        self._undecoded_said = t if t is not None else (said or 0.0)
+
 
 _time = attrgetter("t")
+UNDECODED_EVERY = 10.0   # capture seconds between updates of the undecoded count
 _SWAP = {"A": "B", "B": "A"}
 _SKEW_KINDS = frozenset((COMMAND, ACK, NAK))
+
+
+def _bytes(n: int) -> str:
+    return f"{n:,} byte{'' if n == 1 else 's'}"
 
 
 def _shift(ev: Event, delta: float) -> None:
@@ -323,7 +397,9 @@ def open_live(ports: list[str], options: Options | None = None,
     tap = SerialTap(ports, baud=options.baud, data_bits=options.data_bits, parity=options.parity,
                     stop_bits=options.stop_bits)
     tap.byte_time = options.byte_time
-    return Capture(tap, options, on_warning)
+    capture = Capture(tap, options, on_warning)
+    capture.inputs = tuple(ports)
+    return capture
 
 
 def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,
@@ -335,4 +411,6 @@ def open(*paths: str, options: Options | None = None, on_warning: Callable[[str]
         timeouts = kw.pop("timeouts", None) or Timeouts()
         options = Options(timeouts=timeouts, **kw)
     source = detect(list(paths), options.byte_time)
-    return Capture(source, options, on_warning)
+    capture = Capture(source, options, on_warning)
+    capture.inputs = tuple(paths)
+    return capture

@@ -22,7 +22,7 @@ line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 
 from __future__ import annotations
 
-from collections import Counter, defaultdict, deque
+from collections import Counter, deque
 from dataclasses import dataclass, field
 from statistics import median
 
@@ -36,6 +36,65 @@ ERROR, WARNING, INFO = "error", "warning", "info"
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
 _ANSWER_BYTES = {0x06, 0x15, 0x3F}
 _MAX_EVIDENCE = 20
+# Without time (raw dumps) a failed command the controller has not sent again
+# within this many later commands was never retried (with time: 3 ACK timeouts).
+RETRY_WINDOW = 8
+_MAX_FAILED = 1024       # failed first attempts watched at once; the oldest is decided first
+_MAX_DEVICES = 256       # addresses tracked one by one; random bytes can name thousands
+_MAX_NIC = 64            # NIC'd command ids kept per device
+UNTIMED_CHECK_EVERY = 2000   # events between checks when the capture has no time
+
+
+@dataclass(frozen=True)
+class Invocation:
+    """How the traffic is being read, so that a fix names what works there: the
+    files or ports as given, whether they are live ports, the subcommand reading
+    them, and whether a TUI (with its swap key) is on screen."""
+    inputs: tuple[str, ...] = ()
+    live: bool = False
+    command: str | None = None    # "decode", "live", "demo", "doctor"...; None: not known
+    tui: bool = False
+
+    @classmethod
+    def of(cls, capture, tui: bool = False) -> "Invocation":
+        live = bool(getattr(capture.source, "live", False))
+        return cls(tuple(getattr(capture, "inputs", ()) or ()), live, getattr(capture, "command", None), tui)
+
+    def swap_fix(self) -> str:
+        """How to read the two lines the other way round, here."""
+        ins = self.inputs
+        if self.live:
+            fixes = []
+            if self.command == "demo":
+                # the demo picks its own ports and has no --swap-lines
+                fixes.append("the tap's two ports are the other way round (line A must carry the "
+                             "controller's commands)")
+            elif len(ins) == 2:
+                fixes.append(f"give the ports the other way round: gimbalscope live {ins[1]} {ins[0]} "
+                             f"(or add --swap-lines)")
+            else:
+                fixes.append("give the two ports the other way round, or add --swap-lines")
+            if self.tui:
+                fixes.append("press x here to swap them now")
+            return "; ".join(fixes)
+        if len(ins) == 2:
+            return (f"give the dumps the other way round: gimbalscope decode {ins[1]} {ins[0]} "
+                    f"(or gimbalscope decode {ins[0]} {ins[1]} --swap-lines)")
+        if len(ins) == 1:
+            return f"read its lines the other way round: gimbalscope decode {ins[0]} --swap-lines"
+        return "read the lines the other way round (--swap-lines; Options(swap_lines=True) in the API)"
+
+    def baud_fix(self) -> str:
+        """How to find the line's rate, here."""
+        if self.live and self.command != "demo":
+            port = " ".join(self.inputs) if self.inputs else "PORT"
+            return (f"find the rate: stop the tap, then gimbalscope doctor --scan-baud {port} (listens at each "
+                    f"standard rate); check the data bits, parity and stop bits too")
+        if not self.live and self.inputs:
+            return (f"decode it at the line's rate: gimbalscope decode {' '.join(self.inputs)} --baud RATE "
+                    f"(the rates of §1.5.1: 1200 to 115200); check the data bits, parity and stop bits too")
+        return ("find the rate: gimbalscope doctor --scan-baud PORT listens at each standard rate; "
+                "check the data bits, parity and stop bits too")
 
 
 @dataclass
@@ -47,7 +106,8 @@ class Finding:
     fix: str                   # what to try
     evidence: list[int] = field(default_factory=list)   # event numbers
     subject: str = ""          # the line or device it is about
-    first_seen: float | None = None   # capture time it was first found
+    first_seen: float | None = None   # capture time it was first found (None without time)
+    first_seen_event: int | None = None   # events seen when it was first found
 
     @property
     def key(self) -> tuple[str, str]:
@@ -55,7 +115,8 @@ class Finding:
 
     def to_dict(self) -> dict:
         return {"code": self.code, "severity": self.severity, "subject": self.subject, "title": self.title,
-                "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen}
+                "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen,
+                "first_seen_event": self.first_seen_event}
 
 
 class _Tally:
@@ -89,6 +150,16 @@ def _n(count: int, noun: str) -> str:
     return f"{count} {noun}{'' if count == 1 else 's'}"
 
 
+def _densest(times: list[float], window: float) -> int:
+    """The most of ``times`` (ascending) within any ``window`` seconds: one pass."""
+    best = lo = 0
+    for hi, t in enumerate(times):
+        while times[lo] <= t - window:
+            lo += 1
+        best = max(best, hi - lo + 1)
+    return best
+
+
 class _Line:
     """Per line: bytes, and what they turned into."""
 
@@ -99,18 +170,32 @@ class _Line:
         self.frames = 0
         self.bad_frames = 0
         self.noise_runs = 0
-        self.error_count = 0       # checksum errors and noise runs
-        self.errors: deque[tuple[float, int]] = deque()   # (t, event number) of the last minute's
+        self.errors = _Tally()     # checksum errors and noise runs: count and evidence
+        self.per_second: deque[list[int]] = deque()   # [second, errors] of the last minute (timed)
         self.by_length: Counter[tuple[bool, bool]] = Counter()   # (long frame, bad) -> count
-        self.evidence: list[int] = []
+
+    @property
+    def error_count(self) -> int:
+        return self.errors.n
+
+    def recent_errors(self, since: float) -> int:
+        """Errors from capture time ``since`` on (the last minute is kept)."""
+        return sum(n for sec, n in self.per_second if sec + 1 > since)
 
 
-def _error(line: _Line, t: float, number: int) -> None:
-    errors = line.errors
-    line.error_count += 1
-    errors.append((t, number))
-    while len(errors) > _MAX_EVIDENCE and errors[0][0] < t - 60:
-        errors.popleft()            # the last minute (for the trend) and some evidence
+def _error(line: _Line, t: float | None, number: int) -> None:
+    line.errors.add(number)
+    if t is None:
+        return                      # no time, no trend
+    # one bucket per second of capture time: a flood of errors costs no memory
+    sec = int(t)
+    buckets = line.per_second
+    if buckets and buckets[-1][0] == sec:
+        buckets[-1][1] += 1
+    else:
+        buckets.append([sec, 1])
+    while buckets and buckets[0][0] < sec - 61:
+        buckets.popleft()
 
 
 class _Device:
@@ -118,7 +203,7 @@ class _Device:
         self.commands = 0
         self.answers = 0
         self.lines: set[str] = set()
-        self.nic: set[str] = set()
+        self.nic: set[str] = set()             # up to _MAX_NIC command ids
         self.identity: str | None = None
         self.ack_count = 0
         self.first_acks: list[float] = []                  # the first ACK latencies (up to 200)
@@ -127,11 +212,20 @@ class _Device:
 
 
 class WiringDoctor:
-    def __init__(self, lines: tuple[str, ...] = ("A", "B"), ack_timeout: float = 0.5) -> None:
+    """Every structure is bounded (tallies, windows, capped maps) and each event
+    costs the same however long the capture: time and memory stay linear and flat."""
+
+    def __init__(self, lines: tuple[str, ...] = ("A", "B"), ack_timeout: float = 0.5,
+                 invocation: Invocation | None = None) -> None:
         self.two_lines = tuple(lines) == ("A", "B")
         self.ack_timeout = ack_timeout
+        self.invocation = invocation or Invocation()
         self.lines = {line: _Line() for line in lines}
-        self.devices: dict[str, _Device] = defaultdict(_Device)
+        self.devices: dict[str, _Device] = {}
+        self.other_addresses = _Tally()   # commands to addresses beyond the first _MAX_DEVICES
+        self.events = 0
+        self.commands = 0
+        self.answers = 0          # answers paired with a command
         self.first_t: float | None = None
         self.last_t: float | None = None
         # lines swapped
@@ -145,17 +239,22 @@ class WiringDoctor:
         self._prev_cmd: Event | None = None
         self._prev_failed: Event | None = None     # the previous command, if it failed (retry gaps)
         self.retry_gaps: deque[tuple[int, float]] = deque(maxlen=500)  # (retransmission, s after the failure)
-        self.failed: dict[int, Event] = {}          # NAK'd / unanswered commands not yet retried
+        # NAK'd / unanswered first attempts not yet retried, oldest first:
+        # number -> (event, how many commands had come by then)
+        self.failed: dict[int, tuple[Event, int]] = {}
         self.never_retried = _Tally()
+        self.retried = 0                            # failed first attempts sent again
         self.ix_given_up = _Tally()
         self.nak_count = 0
         self.naks: deque[tuple[float, int]] = deque(maxlen=200)
         self.ack_latency = Latency()               # every device's ACKs: the 95th percentile
+        self.trend_from = float("-inf")            # ACKs before this time are left out of the trend
         self._addr_of: dict[int, str] = {}         # command number -> device, for its answers
-        self._first_seen: dict[tuple[str, str], float | None] = {}
+        self._first_seen: dict[tuple[str, str], tuple[float | None, int]] = {}   # (time, events seen)
 
     # ------------------------------------------------------------------ input
     def add(self, ev: Event) -> None:
+        self.events += 1
         t = ev.t
         if t is not None:
             if self.first_t is None:
@@ -170,7 +269,7 @@ class WiringDoctor:
         if kind == NOISE:
             line.noise_bytes += n
             line.noise_runs += 1
-            _error(line, t or 0.0, ev.number)
+            _error(line, t, ev.number)
             if ev.line == "A" and all(b in _ANSWER_BYTES for b in ev.raw):
                 self.answer_bytes_on_a.add(ev.number)
             return
@@ -181,7 +280,7 @@ class WiringDoctor:
             line.by_length[(long, bad)] += 1
             if bad:
                 line.bad_frames += 1
-                _error(line, t or 0.0, ev.number)
+                _error(line, t, ev.number)
             else:
                 line.good_bytes += n
         else:
@@ -195,52 +294,95 @@ class WiringDoctor:
         """The capture stripped line B's copy of this command (an echo)."""
         self.echoes.add(command.number)
 
+    def _device(self, addr: str) -> _Device | None:
+        """The device at an address, tracked from its first command; past
+        _MAX_DEVICES addresses (garbled input) new ones are only counted."""
+        dev = self.devices.get(addr)
+        if dev is None and len(self.devices) < _MAX_DEVICES:
+            dev = self.devices[addr] = _Device()
+        return dev
+
     def _command(self, ev: Event) -> None:
+        self.commands += 1
         addr = device_address(ev)
         self._addr_of[ev.number] = addr
         if len(self._addr_of) > 4096:    # answers follow their command closely: keep memory flat
             for k in list(self._addr_of)[:2048]:
                 del self._addr_of[k]
-        dev = self.devices[addr]
+        dev = self._device(addr)
+        if dev is None:
+            self.other_addresses.add(ev.number)
+        else:
+            self._count(dev, ev)
+        prev, prev_failed = self._prev_cmd, self._prev_failed
+        self._prev_cmd = ev
+        self._prev_failed = ev if ev.status in ("nak", "no_ack") else None
+        self._patience(ev, prev)
+        if ev.status in ("ok", "nic", "no_result"):
+            self.ok_transactions += 1
+        if ev.status == "nak":
+            self.nak_count += 1
+            if ev.t is not None:     # bursts need time
+                self.naks.append((ev.t, ev.number))
+        if ev.command == "IX" and ev.status == "no_result" and any("sent again" in p for p in ev.problems):
+            self.ix_given_up.add(ev.number)
+        self._retries(ev, prev, prev_failed)
+
+    def _count(self, dev: _Device, ev: Event) -> None:
         dev.commands += 1
-        status = ev.status
-        prev = self._prev_cmd
-        prev_failed = self._prev_failed
+        if ev.status == "no_ack":
+            dev.unanswered.add(ev.number)
+        elif ev.status == "nic" and ev.command and len(dev.nic) < _MAX_NIC:
+            dev.nic.add(ev.command)
+
+    def _patience(self, ev: Event, prev: Event | None) -> None:
+        """How long the controller waited for an ACK that did not come."""
         if prev is not None and prev.status == "no_ack" and prev.t_end is not None and ev.t is not None \
                 and any("before the next command" in p for p in prev.problems):
-            # how long the controller waited for an ACK that did not come
             self.next_gaps.append((prev.number, ev.t - prev.t_end))
-        self._prev_cmd = ev
-        self._prev_failed = ev if status in ("nak", "no_ack") else None
-        if status == "no_ack":
-            dev.unanswered.add(ev.number)
-        elif status in ("ok", "nic", "no_result"):
-            self.ok_transactions += 1
-        if status == "nic" and ev.command:
-            dev.nic.add(ev.command)
-        if status == "nak":
-            self.nak_count += 1
-            self.naks.append((ev.t or 0.0, ev.number))
-        if ev.command == "IX" and status == "no_result" and any("sent again" in p for p in ev.problems):
-            self.ix_given_up.add(ev.number)
-        # retries: a retransmission repeats a failed command; the gap says how patient
-        # the controller is
+
+    def _retries(self, ev: Event, prev: Event | None, prev_failed: Event | None) -> None:
+        """A retransmission repeats a failed command (the gap says how patient the
+        controller is); a failed first attempt is watched: will it be sent again?"""
         if ev.retransmission:
             if prev_failed is not None and prev_failed.t_end is not None and ev.t is not None \
                     and prev_failed.status == "no_ack":
                 self.retry_gaps.append((ev.number, ev.t - prev_failed.t_end))
-            for num, first in list(self.failed.items()):
-                if first.command == ev.command and first.dst == ev.dst:
-                    del self.failed[num]
-                    break
-        if status in ("nak", "no_ack") and not ev.retransmission:
-            self.failed[ev.number] = ev     # a first attempt that failed: will it be sent again?
-        # failed commands the controller moved on from without resending
-        for num, prev in list(self.failed.items()):
-            if num != ev.number and ev.t is not None and prev.t is not None \
-                    and ev.t - prev.t > 3 * self.ack_timeout:
-                self.never_retried.add(num)
-                del self.failed[num]
+            # pairing marks a retransmission of the command just before it (even
+            # when a bit error had changed that one's address)
+            if prev is not None and self.failed.pop(prev.number, None) is not None:
+                self.retried += 1
+        self._expire_failed(ev)
+        if ev.status in ("nak", "no_ack") and not ev.retransmission:
+            self._watch_failed(ev)
+
+    def _watch_failed(self, ev: Event) -> None:
+        self.failed[ev.number] = (ev, self.commands)
+        if len(self.failed) > _MAX_FAILED:
+            # so many failures in flight: the oldest has been passed over by a thousand
+            # commands since, so it was not retried
+            self._give_up_oldest_failed()
+
+    def _expire_failed(self, ev: Event) -> None:
+        """Failed commands the controller moved on from without resending: after 3
+        ACK timeouts with time, after RETRY_WINDOW later commands without. Commands
+        come in wire order, so the oldest expire first."""
+        while self.failed:
+            num = next(iter(self.failed))
+            first, count = self.failed[num]
+            if ev.t is not None and first.t is not None:
+                expired = ev.t - first.t > 3 * self.ack_timeout
+            else:
+                expired = self.commands - count > RETRY_WINDOW
+            if not expired:
+                return
+            self._give_up_oldest_failed()
+
+    def _give_up_oldest_failed(self) -> None:
+        """The oldest failed command was not sent again."""
+        num = next(iter(self.failed))
+        del self.failed[num]
+        self.never_retried.add(num)
 
     def _answer(self, ev: Event) -> None:
         if ev.kind == RESULT and ev.request is None and ev.line == "B" and ev.payload is not None \
@@ -250,14 +392,18 @@ class WiringDoctor:
         addr = self._addr_of.get(ev.request) if ev.request is not None else None
         if addr is None:
             return
-        dev = self.devices[addr]
+        self.answers += 1
+        dev = self.devices.get(addr)
+        if dev is None:
+            return     # an address past _MAX_DEVICES
         dev.answers += 1
         dev.lines.add(ev.line)
         if ev.kind == ACK and ev.latency is not None and ev.t is not None:
-            dev.ack_count += 1
-            if len(dev.first_acks) < 200:
-                dev.first_acks.append(ev.latency)
-            dev.last_acks.append(ev.latency)
+            if ev.t >= self.trend_from:   # measured under the current skew correction
+                dev.ack_count += 1
+                if len(dev.first_acks) < 200:
+                    dev.first_acks.append(ev.latency)
+                dev.last_acks.append(ev.latency)
             self.ack_latency.add(ev.latency)
         if ev.kind == RESULT and ev.command == "D?" and ev.fields:
             f = ev.fields
@@ -285,15 +431,20 @@ class WiringDoctor:
         for f in out:
             key = f.key
             if key not in self._first_seen:
-                self._first_seen[key] = self.last_t
-            f.first_seen = self._first_seen[key]
+                self._first_seen[key] = (self.last_t, self.events)
+            f.first_seen, f.first_seen_event = self._first_seen[key]
             f.evidence = sorted(f.evidence)[:_MAX_EVIDENCE]
         out.sort(key=lambda f: (SEVERITY_ORDER[f.severity], f.code, f.subject))
         return out
 
     @property
+    def timed(self) -> bool:
+        """Whether the traffic carries time (raw dumps do not)."""
+        return self.first_t is not None
+
+    @property
     def span(self) -> float:
-        """Seconds of traffic seen so far."""
+        """Seconds of traffic seen so far (0 without time: count ``events`` then)."""
         if self.first_t is None or self.last_t is None:
             return 0.0
         return max(0.0, self.last_t - self.first_t)
@@ -308,7 +459,7 @@ class WiringDoctor:
             "lines_swapped", ERROR, "lines swapped: the tap's line A carries the device's answers",
             f"{a} ACK/NAK/NIC bytes arrived on line A and {b} command frames on line B; "
             f"{self.ok_transactions} commands were answered as wired",
-            "swap the two ports (gimbalscope live PORT_B PORT_A), or --swap-lines, or press x in the TUI",
+            self.invocation.swap_fix(),
             self.answer_bytes_on_a.evidence()[:10] + self.commands_on_b.evidence()[:10], "A,B")]
 
     def _garbled(self) -> list[Finding]:
@@ -323,9 +474,7 @@ class WiringDoctor:
                 "wrong_baud", ERROR, f"line {name}: bytes arrive but almost nothing decodes (wrong baud rate?)",
                 f"{line.bytes} bytes, {share:.0%} in valid frames or answers, {line.noise_bytes} bytes of noise, "
                 f"{line.bad_frames} frames with bad checksums",
-                "find the rate: gimbalscope doctor --scan-baud PORT (listens at each standard rate); "
-                "check the data bits, parity and stop bits too",
-                [num for _t, num in list(line.errors)[:_MAX_EVIDENCE]], name))
+                self.invocation.baud_fix(), line.errors.evidence(), name))
         return out
 
     def _echo(self) -> list[Finding]:
@@ -341,16 +490,16 @@ class WiringDoctor:
     def _silent(self) -> list[Finding]:
         out = []
         answering = [a for a, d in self.devices.items() if d.answers >= 3]
-        total_commands = sum(d.commands for d in self.devices.values())
-        total_answers = sum(d.answers for d in self.devices.values())
-        if total_commands >= 5 and total_answers == 0:
+        total_commands = self.commands
+        if total_commands >= 5 and self.answers == 0:
             b = self.lines.get("B") if self.two_lines else self.lines.get("AB")
             if b is None or b.bytes == 0:
                 where = "line B is silent: no byte came back" if self.two_lines else "no device answered"
                 fix = ("check the device→controller wire and the tap on it (RX/TX swapped, a loose pin, "
                        "the adapter), then the devices' power")
             else:
-                where = f"line B carries {b.bytes} bytes but none answers a command"
+                where = (f"{'line B' if self.two_lines else 'the line'} carries {b.bytes} bytes "
+                         f"but none answers a command")
                 fix = "check the baud rate and the devices' addresses"
             cmds = sorted(n for d in self.devices.values() for n in d.unanswered)[:_MAX_EVIDENCE]
             out.append(Finding("dead_link", ERROR, "no device answers at all",
@@ -374,16 +523,16 @@ class WiringDoctor:
             errors = line.error_count
             if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
                 continue   # too little to say; garbled lines are wrong_baud
-            per_min = errors / span * 60
+            per_min = errors / span * 60 if self.timed else 0.0
             frames = max(line.frames, 1)
             if line.bad_frames / frames < 0.01 and line.noise_runs < 3:
                 continue
             # the trend: the last minute against the whole capture
             last_t = self.last_t or 0.0
-            recent = sum(1 for t, _n in line.errors if t >= last_t - 60)
+            recent = line.recent_errors(last_t - 60)
             recent_span = min(60.0, span)
             trend = ""
-            if span > 90 and recent_span:
+            if self.timed and span > 90 and recent_span:
                 recent_rate = recent / recent_span * 60
                 if recent_rate > 2 * per_min:
                     trend = f"; rising: {recent_rate:.0f}/min in the last minute"
@@ -398,16 +547,15 @@ class WiringDoctor:
                     length_note = (f"; long frames fail {long_rate:.0%}, short ones {short_rate:.0%}: errors grow "
                                    f"with length, like a clock (baud) mismatch or timing problem")
                     fix = "check both ends run the same baud rate (a slightly off clock), then the cable"
+            rate = f"in {self.span:.0f} s ({per_min:.1f}/min)" if self.timed else f"in {_n(self.events, 'event')}"
             out.append(Finding(
                 "noisy_link", WARNING, f"line {name} is noisy",
-                f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} in {self.span:.0f} s "
-                f"({per_min:.1f}/min){trend}{length_note}", fix,
-                [n for _t, n in list(line.errors)[-_MAX_EVIDENCE:]], name))
-        naks = list(self.naks)
+                f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} {rate}"
+                f"{trend}{length_note}", fix, list(line.errors.last), name))
+        naks = list(self.naks)    # timed NAKs only: a burst is a matter of time
         if len(naks) >= 5:
             # a burst: five NAKs within ten seconds
-            times = [t for t, _n in naks]
-            burst = max(sum(1 for u in times if t <= u < t + 10) for t in times)
+            burst = _densest([t for t, _n in naks], 10.0)
             # a burst stands out from the capture's usual rate (busy links NAK more often)
             usual = self.nak_count / max(self.span, 10.0) * 10
             if burst >= max(5, 3 * usual):
@@ -438,10 +586,15 @@ class WiringDoctor:
                 f"while devices' ACKs take up to {self._ack_p95() * 1000:.0f} ms",
                 "raise the controller's ACK timeout above the devices' answer time", [n for n, _g in fast],
                 "controller"))
-        if len(self.never_retried) >= 3:
+        # most failures left alone: a controller that gives up after a few attempts
+        # (or an untimed capture's alignment guessing which command went unanswered)
+        # leaves some, but retries most
+        given_up = len(self.never_retried)
+        if given_up >= 3 and given_up > self.retried:
             out.append(Finding(
                 "controller_no_retry", WARNING, "the controller never retries a failed command",
-                f"{len(self.never_retried)} commands NAK'd or unanswered were not sent again",
+                f"{given_up} commands NAK'd or unanswered were not sent again"
+                f"{'' if not self.retried else f' ({self.retried} were)'}",
                 "retransmit after NAK or an ACK timeout (the spec's handshake expects it)",
                 self.never_retried.evidence(), "controller"))
         if self.ix_given_up:
@@ -461,6 +614,16 @@ class WiringDoctor:
         if not p95:
             return []
         return [(n, g) for n, g in self.retry_gaps if g < p95]
+
+    def restart_ack_trend(self, since: float) -> None:
+        """The capture's skew correction changed for line B events from ``since`` on:
+        latencies before and after it are not comparable (a correction switching on
+        would look like every device slowing down), so the trend starts again."""
+        self.trend_from = since
+        for d in self.devices.values():
+            d.ack_count = 0
+            d.first_acks.clear()
+            d.last_acks.clear()
 
     def _slow(self) -> list[Finding]:
         out = []
@@ -489,25 +652,37 @@ class WiringDoctor:
             extra = f"; NIC to {', '.join(sorted(d.nic))}" if d.nic else ""
             ident = f"; {d.identity}" if d.identity else ""
             parts.append(f"{addr}: {d.commands} commands, {state}{extra}{ident}")
-        return [Finding("device_map", INFO, f"{len(self.devices)} device address(es) addressed",
-                        "\n".join(parts), "", [], "map")]
+        title = f"{len(self.devices)} device address(es) addressed"
+        if self.other_addresses:
+            # garbled input names many addresses: past the first ones, only counted
+            title += f", and more (past {_MAX_DEVICES})"
+            parts.append(f"{_n(len(self.other_addresses), 'command')} to further addresses, not tracked one by one")
+        return [Finding("device_map", INFO, title, "\n".join(parts), "", [], "map")]
 
 
 class LiveDoctor:
     """The doctor alongside a running capture (live printing, the TUI's capture
-    thread): fed every event, it checks about once a second of capture time and
-    hands each new finding (not the device map) to ``on_new`` once, e.g. to print
-    it and put it on a recording's /log topic."""
+    thread, ``gimbalscope doctor``): fed every event, it checks about once a second
+    of capture time (every UNTIMED_CHECK_EVERY events when the capture has no time)
+    and hands each new finding (not the device map) to ``on_new`` once, e.g. to
+    print it and put it on a recording's /log topic.
 
-    def __init__(self, capture, on_new=None, every: float = 1.0) -> None:
+    ``tui``: findings are read in the TUI, whose swap key a fix may mention."""
+
+    def __init__(self, capture, on_new=None, every: float = 1.0, *, tui: bool = False) -> None:
         self.capture = capture
-        self.doctor = WiringDoctor(capture.lines, capture.options.timeouts.ack)
+        self.invocation = Invocation.of(capture, tui)
+        self.doctor = self._new_doctor()
         self.on_new = on_new
         self.every = every
         self.findings: list[Finding] = []
         self._told: set[tuple[str, str]] = set()
         self._next: float | None = None
+        self._next_event = UNTIMED_CHECK_EVERY
         self._swapped = capture.swap_lines
+
+    def _new_doctor(self) -> WiringDoctor:
+        return WiringDoctor(self.capture.lines, self.capture.options.timeouts.ack, self.invocation)
 
     def add_batch(self, batch: list[Event]) -> bool:
         """Feed a batch; True when the findings were re-checked."""
@@ -515,27 +690,42 @@ class LiveDoctor:
             # the lines were swapped while capturing (the TUI's key): a new wiring,
             # so start again rather than mix evidence from both
             self._swapped = self.capture.swap_lines
-            self.doctor = WiringDoctor(self.capture.lines, self.capture.options.timeouts.ack)
+            self.doctor = self._new_doctor()
             self._told.clear()
             self._next = None
-        add = self.doctor.add
+            self._next_event = UNTIMED_CHECK_EVERY
+        doctor = self.doctor
+        skew_from = getattr(self.capture, "skew_from", None)
+        if skew_from is not None and skew_from != doctor.trend_from:
+            doctor.restart_ack_trend(skew_from)
+        add = doctor.add
+        checked = False
         for ev in batch:
             add(ev)
+            # without time, check by event count, inside the batch: an untimed
+            # capture's batches can be tens of thousands of events long
+            if ev.t is None and doctor.events >= self._next_event:
+                self._next_event = doctor.events + UNTIMED_CHECK_EVERY
+                self._check()
+                checked = True
         echo = self.capture.echo
         if echo is not None:
             for cmd in echo.take_echoed():
-                self.doctor.echoed(cmd)
-        t = self.doctor.last_t
+                doctor.echoed(cmd)
+        t = doctor.last_t
         if t is None or (self._next is not None and t < self._next):
-            return False
+            return checked
         self._next = t + self.every
+        self._check()
+        return True
+
+    def _check(self) -> None:
         self.findings = self.doctor.findings()
         for f in self.findings:
             if f.severity != INFO and f.key not in self._told:
                 self._told.add(f.key)
                 if self.on_new is not None:
                     self.on_new(f)
-        return True
 
 
 def log_level(f: Finding) -> int:

@@ -1,4 +1,4 @@
-"""The filter language of ``decode --filter`` (and later the TUI's filter bar).
+"""The filter language of ``decode --filter`` and the TUI's filter bar.
 
 A small, safe expression language over the JSON Lines names; it is parsed into
 closures, never ``eval``-ed::
@@ -7,17 +7,44 @@ closures, never ``eval``-ed::
     command in ["P?", "P"] and latency > 0.05
     kind == "result" and azimuth_deg < -10
     dst[2] == 3 and not checksum_ok
+    device == "1.1.2"
     "bad checksum" in problems
 
 Names are the event's JSON keys, or a decoded field's name (``azimuth_deg`` is
-``fields.azimuth_deg``). ``x in list`` on a list of strings also matches an
-element that starts with ``x:``, so a problem category matches its detailed
-problems. Comparisons between mismatched types are false, never errors.
+``fields.azimuth_deg``). A name the event does not have (an ACK's ``status``,
+a command's ``latency``) is absent: its value is ``null``.
+
+Comparisons between values of different types are false, never errors. The
+types are null, booleans, numbers, strings, lists and objects; ``true`` is not
+the number 1. Like Wireshark's for absent fields, this holds for ``!=`` too:
+
+- ``x == y`` and ``x != y`` are true only when both are present, of the same
+  type, and equal (``==``) or different (``!=``). So ``status != "ok"`` selects
+  the commands whose status is something else, not the ACKs and results that
+  have no status; ``not status == "ok"`` selects those too.
+- Against the literal ``null`` they test presence: ``x == null`` is true where
+  x is absent, ``x != null`` where it is present; ``null == null`` is true and
+  ``null != null`` false.
+- ``<`` ``>`` ``<=`` ``>=`` compare two numbers or two strings.
+- ``x in list`` is true when an element equals x by the rules above; on a list of
+  strings it also matches an element that starts with ``x:``, so a problem
+  category matches its detailed problems. ``x in "text"`` is a substring test,
+  ``x in fields`` a key test. ``x not in y`` is ``not (x in y)``, so it also
+  holds where x is absent.
+
+Limits, so that no expression can exhaust the stack or the CPU: parentheses,
+``not`` and list brackets nest at most 64 levels; a number has at most 30
+digits and must be finite. ``and``/``or`` chains are flat (one closure over
+all operands, short-circuiting), so a thousand ``or``s are as safe as two, and
+a list of constants is built once, at compile time, into a set.
 """
 
 from __future__ import annotations
 
+import math
+import operator
 import re
+from operator import attrgetter
 from typing import Any, Callable
 
 from dissectors.commands import COMMANDS, DERIVED_FIELDS
@@ -25,9 +52,12 @@ from dissectors.event import Event
 
 Predicate = Callable[[Event], bool]
 
+MAX_NESTING = 64     # parentheses, 'not' and list brackets, counted together
+MAX_DIGITS = 30      # beyond any value on the wire; int() of thousands of digits is refused by Python
+
 TOP_LEVEL = ("number", "t", "t_end", "line", "offset", "kind", "command", "dst", "src", "payload",
              "checksum_ok", "fields", "problems", "txn", "status", "latency", "retransmission",
-             "request", "raw")
+             "request", "raw", "device")
 ENUMS = {
     "kind": {"command", "result", "ack", "nak", "nic", "noise"},
     "status": {"ok", "nak", "nic", "no_ack", "no_result", "pending"},
@@ -52,20 +82,54 @@ class FilterError(ValueError):
         self.source = source
         super().__init__(f"column {column}: {message}")
 
-    def pointer(self) -> str:
-        """The expression with the bad spot marked, for one-line error messages."""
+    def pointer(self, context: int = 60) -> str:
+        """The expression with the bad spot marked, for one-line error messages:
+        control characters (a newline typed into the filter) are shown escaped so
+        the message stays one line, and a long expression is cut to ``context``
+        characters either side of the spot."""
         c = self.column - 1
-        return f"{self.source[:c]}>>>{self.source[c:]}"
+        before, after = self.source[:c], self.source[c:]
+        if len(before) > context:
+            before = "…" + before[-context:]
+        if len(after) > context:
+            after = after[:context] + "…"
+        return f"{_one_line(before)}>>>{_one_line(after)}"
 
 
+def _one_line(text: str) -> str:
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
+def _clip(text: str, most: int = 40) -> str:
+    return text if len(text) <= most else text[:most] + "…"
+
+
+# [0-9], not \d: Python's int() would also take other scripts' digits.
 _TOKEN = re.compile(r"""
     (?P<ws>\s+)
-  | (?P<num>-?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?)
+  | (?P<num>-?[0-9]+(?:\.[0-9]+)?(?:[eE][-+]?[0-9]+)?)
   | (?P<str>"(?:[^"\\]|\\.)*"|'(?:[^'\\]|\\.)*')
   | (?P<op>==|!=|<=|>=|<|>|\(|\)|\[|\]|,|\.)
   | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
 """, re.VERBOSE)
 KEYWORDS = {"and", "or", "not", "in", "true", "false", "null"}
+_ESCAPE = re.compile(r"\\(.)")
+
+
+def _number(text: str, col: int, src: str) -> int | float:
+    """A number literal, refused when it has more digits than any value could
+    need (Python's int() raises beyond 4300 digits) or overflows to infinity."""
+    mantissa = re.split("[eE]", text)[0]
+    if sum(c.isdigit() for c in mantissa) > MAX_DIGITS:
+        raise FilterError(f"number {_clip(text, 20)} has more than {MAX_DIGITS} digits", col, src)
+    if any(c in text for c in ".eE"):
+        value = float(text)
+        if math.isinf(value):
+            raise FilterError(f"number {_clip(text, 20)} is out of range", col, src)
+        return value
+    return int(text)
 
 
 def _tokenize(src: str) -> list[tuple[str, Any, int]]:
@@ -78,10 +142,12 @@ def _tokenize(src: str) -> list[tuple[str, Any, int]]:
         kind = m.lastgroup
         text = m.group()
         if kind == "num":
-            out.append(("num", float(text) if any(c in text for c in ".eE") else int(text), pos + 1))
+            out.append(("num", _number(text, pos + 1, src), pos + 1))
         elif kind == "str":
             body = text[1:-1]
-            out.append(("str", re.sub(r"\\(.)", r"\1", body), pos + 1))
+            if "\\" in body:
+                body = _ESCAPE.sub(r"\1", body)
+            out.append(("str", body, pos + 1))
         elif kind == "op":
             out.append(("op", text, pos + 1))
         elif kind == "name":
@@ -91,55 +157,240 @@ def _tokenize(src: str) -> list[tuple[str, Any, int]]:
     return out
 
 
-def _truthy(v: Any) -> bool:
-    return bool(v)
+# ------------------------------------------------------------------ values
+def _kind(v: Any) -> str | None:
+    """The filter type of a value; None for null (and anything no literal can be)."""
+    if isinstance(v, bool):      # before int: True is an int to Python, not here
+        return "bool"
+    if isinstance(v, (int, float)):
+        return "number"
+    if isinstance(v, str):
+        return "string"
+    if isinstance(v, (list, tuple)):
+        return "list"
+    if isinstance(v, dict):
+        return "object"
+    return None
+
+
+_SCALAR_TYPES = (str, int, float, bool)
+
+
+def _equal(a: Any, b: Any) -> bool:
+    """Both present, the same type, equal; lists element by element."""
+    t = type(a)
+    if t is type(b) and t in _SCALAR_TYPES:   # the usual case, without classifying
+        return a == b
+    k = _kind(a)
+    if k is None or k != _kind(b):
+        return False
+    if k == "list":
+        return len(a) == len(b) and all(_element_equal(x, y) for x, y in zip(a, b))
+    return a == b
+
+
+def _element_equal(x: Any, y: Any) -> bool:
+    return (x is None and y is None) or _equal(x, y)
+
+
+def _differ(a: Any, b: Any) -> bool:
+    """Both present, the same type, different (module docstring)."""
+    k = _kind(a)
+    return k is not None and k == _kind(b) and not _equal(a, b)
+
+
+def _num(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def _ordered(a: Any, b: Any) -> bool:
+    return (_num(a) and _num(b)) or (isinstance(a, str) and isinstance(b, str))
 
 
 def _contains(container: Any, item: Any) -> bool:
+    """``item in container`` for a container known only when evaluating."""
     if isinstance(container, str):
         return isinstance(item, str) and item in container
     if isinstance(container, (list, tuple)):
-        if item in container:
-            return True
         if isinstance(item, str):
+            # str == only matches str, so Python's own membership is exact here
+            if item in container:
+                return True
             prefix = item + ":"
             return any(isinstance(x, str) and x.startswith(prefix) for x in container)
-        return False
+        return any(_element_equal(item, x) for x in container)
     if isinstance(container, dict):
-        return item in container
+        return isinstance(item, str) and item in container
     return False
 
 
-def _compare(op: str) -> Callable[[Any, Any], bool]:
-    def num(v: Any) -> bool:
-        return isinstance(v, (int, float)) and not isinstance(v, bool)
-
-    def ordered(a: Any, b: Any) -> bool:
-        return (num(a) and num(b)) or (isinstance(a, str) and isinstance(b, str))
-
-    def eq(a: Any, b: Any) -> bool:
-        if isinstance(a, tuple):
-            a = list(a)
-        if isinstance(b, tuple):
-            b = list(b)
-        return a == b
-
-    return {
-        "==": eq,
-        "!=": lambda a, b: not eq(a, b),
-        "<": lambda a, b: ordered(a, b) and a < b,
-        ">": lambda a, b: ordered(a, b) and a > b,
-        "<=": lambda a, b: ordered(a, b) and a <= b,
-        ">=": lambda a, b: ordered(a, b) and a >= b,
-        "in": lambda a, b: _contains(b, a),
-    }[op]
+_NO_KEY = object()
 
 
+def _key(v: Any) -> Any:
+    """A hashable key equal exactly when the filter's equality holds (the type
+    is part of it: True and 1 differ); _NO_KEY for what no constant equals."""
+    k = _kind(v)
+    if k == "list":
+        keys = tuple(_key(x) for x in v)
+        return _NO_KEY if _NO_KEY in keys else ("list", keys)
+    if k == "object":
+        return _NO_KEY
+    try:
+        hash(v)
+    except TypeError:
+        return _NO_KEY
+    return (k, v)
+
+
+class _Members:
+    """A constant list on the right of ``in``, built once: a set of keys for
+    exact matches and the set of ``category`` prefixes its ``category: detail``
+    strings have, so a lookup costs the same for three elements or 30 000."""
+    __slots__ = ("keys", "prefixes")
+
+    def __init__(self, items: list) -> None:
+        self.keys = frozenset(_key(x) for x in items)
+        prefixes = set()
+        for s in items:
+            if isinstance(s, str):
+                prefixes.update(s[:i] for i, c in enumerate(s) if c == ":")
+        self.prefixes = frozenset(prefixes)
+
+    def has(self, item: Any) -> bool:
+        if isinstance(item, str):   # the usual case: command in ["P?", "HO"]
+            return ("string", item) in self.keys or item in self.prefixes
+        key = _key(item)
+        return key is not _NO_KEY and key in self.keys
+
+
+class _Const:
+    """A constant operand. A class (not a closure) so the parser can see that
+    an operand is constant and fold it at compile time."""
+    __slots__ = ("value",)
+
+    def __init__(self, value: Any) -> None:
+        self.value = value
+
+    def __call__(self, ev: Event) -> Any:
+        return self.value
+
+
+def _is_null(f: Callable) -> bool:
+    return isinstance(f, _Const) and f.value is None
+
+
+_ORDER = {
+    "<": lambda a, b: _ordered(a, b) and a < b,
+    ">": lambda a, b: _ordered(a, b) and a > b,
+    "<=": lambda a, b: _ordered(a, b) and a <= b,
+    ">=": lambda a, b: _ordered(a, b) and a >= b,
+}
+
+
+def _comparison(op: str, left: Callable, right: Callable, negate: bool) -> Callable[[Event], bool]:
+    """One comparison as a closure, with constant operands taken out of the loop."""
+    if op in ("==", "!=") and (_is_null(left) or _is_null(right)):
+        other = right if _is_null(left) else left
+        if op == "==":
+            return lambda ev: other(ev) is None
+        return lambda ev: other(ev) is not None
+    if op == "in":
+        if isinstance(right, _Const) and _kind(right.value) == "list":
+            has = _Members(right.value).has
+            if negate:
+                return lambda ev: not has(left(ev))
+            return lambda ev: has(left(ev))
+        test = lambda a, b: _contains(b, a)   # noqa: E731
+        if negate:
+            return lambda ev: not test(left(ev), right(ev))
+    elif isinstance(right, _Const) and _kind(right.value) in ("string", "number"):
+        return _against_scalar(op, left, right.value)
+    else:
+        test = {"==": _equal, "!=": _differ}.get(op) or _ORDER[op]
+    if isinstance(right, _Const):
+        value = right.value
+        return lambda ev: test(left(ev), value)
+    return lambda ev: test(left(ev), right(ev))
+
+
+_NUMBER_TYPES = (int, float)   # exact types, checked first because it is quick (bool is not one)
+_OPERATORS = {"==": operator.eq, "!=": operator.ne, "<": operator.lt, ">": operator.gt,
+              "<=": operator.le, ">=": operator.ge}
+
+
+def _against_scalar(op: str, left: Callable, c: Any) -> Callable[[Event], bool]:
+    """``x op "text"`` or ``x op 12.5``: the common case, one closure with the
+    type check inlined (a filter runs once per event of a capture)."""
+    if isinstance(c, str) and op == "==":
+        return lambda ev: left(ev) == c    # a str equals only a str: no check needed
+    compare = _OPERATORS[op]
+    if isinstance(c, str):
+        def test(ev: Event) -> bool:
+            v = left(ev)
+            return isinstance(v, str) and compare(v, c)
+    else:
+        def test(ev: Event) -> bool:
+            v = left(ev)
+            return (type(v) in _NUMBER_TYPES or _kind(v) == "number") and compare(v, c)
+    return test
+
+
+def _any_of(operands: tuple) -> Callable[[Event], bool]:
+    """``a or b or …`` as one closure: short-circuits, never recurses per operand."""
+    if len(operands) == 2:
+        a, b = operands
+        return lambda ev: True if a(ev) or b(ev) else False
+
+    def any_of(ev: Event) -> bool:
+        for f in operands:
+            if f(ev):
+                return True
+        return False
+    return any_of
+
+
+def _all_of(operands: tuple) -> Callable[[Event], bool]:
+    """``a and b and …`` as one closure (see ``_any_of``)."""
+    if len(operands) == 2:
+        a, b = operands
+        return lambda ev: True if a(ev) and b(ev) else False
+
+    def all_of(ev: Event) -> bool:
+        for f in operands:
+            if not f(ev):
+                return False
+        return True
+    return all_of
+
+
+def _path(base: Callable, keys: tuple) -> Callable[[Event], Any]:
+    """``name.key[2]…`` as one closure, walking the keys in a loop."""
+    def get(ev: Event) -> Any:
+        v = base(ev)
+        for k in keys:
+            if v is None:
+                return None
+            v = _get(v, k)
+        return v
+    return get
+
+
+def _get(obj: Any, key: Any) -> Any:
+    if isinstance(obj, dict):
+        return obj.get(key) if isinstance(key, (str, int)) else None
+    if isinstance(obj, (list, tuple)) and isinstance(key, int) and not isinstance(key, bool):
+        return obj[key] if -len(obj) <= key < len(obj) else None
+    return None
+
+
+# ------------------------------------------------------------------ parser
 class _Parser:
     def __init__(self, src: str) -> None:
         self.src = src
         self.toks = _tokenize(src)
         self.i = 0
+        self.depth = 0
 
     def peek(self) -> tuple[str, Any, int]:
         return self.toks[self.i]
@@ -151,13 +402,27 @@ class _Parser:
 
     def error(self, what: str, tok: tuple[str, Any, int] | None = None) -> FilterError:
         tok = tok or self.peek()
-        got = "end of filter" if tok[0] == "end" else repr(tok[1] if tok[0] != "str" else f'"{tok[1]}"')
+        if tok[0] == "end":
+            got = "end of filter"
+        else:
+            got = repr(_clip(f'"{tok[1]}"' if tok[0] == "str" else str(tok[1])))
         return FilterError(f"{what}, got {got}", tok[2], self.src)
 
     def expect(self, kind: str, value: Any) -> None:
         tok = self.take()
         if tok[0] != kind or tok[1] != value:
             raise self.error(f"expected {value!r}", tok)
+
+    def enter(self, tok: tuple[str, Any, int]) -> None:
+        """One level deeper (parenthesis, 'not', list): bounded, so the parser's
+        recursion and the closures' depth stay far from Python's stack limit."""
+        self.depth += 1
+        if self.depth > MAX_NESTING:
+            raise FilterError(f"nested more than {MAX_NESTING} levels deep "
+                              f"(parentheses, 'not' and lists together)", tok[2], self.src)
+
+    def leave(self, levels: int = 1) -> None:
+        self.depth -= levels
 
     # expr := or
     def parse(self) -> Callable[[Event], Any]:
@@ -169,27 +434,35 @@ class _Parser:
         return fn
 
     def _chain(self, word: str, operand, combine):
-        """operand (word operand)*, folded left with ``combine``."""
-        left = operand()
+        """operand (word operand)*: a single operand as it is, more as one closure."""
+        operands = [operand()]
         while self.peek()[:2] == ("kw", word):
             self.take()
-            left = combine(left, operand())
-        return left
+            operands.append(operand())
+        return operands[0] if len(operands) == 1 else combine(tuple(operands))
 
     def parse_or(self):
-        return self._chain("or", self.parse_and,
-                           lambda l, r: lambda ev: _truthy(l(ev)) or _truthy(r(ev)))
+        return self._chain("or", self.parse_and, _any_of)
 
     def parse_and(self):
-        return self._chain("and", self.parse_not,
-                           lambda l, r: lambda ev: _truthy(l(ev)) and _truthy(r(ev)))
+        return self._chain("and", self.parse_not, _all_of)
+
+    def _at_not(self) -> bool:
+        return self.peek()[:2] == ("kw", "not") and self.toks[self.i + 1][:2] != ("kw", "in")
 
     def parse_not(self):
-        if self.peek()[:2] == ("kw", "not") and self.toks[self.i + 1][:2] != ("kw", "in"):
-            self.take()
-            inner = self.parse_not()
-            return lambda ev: not _truthy(inner(ev))
-        return self.parse_cmp()
+        """'not'* comparison, in a loop: an odd count negates, an even one tests truth."""
+        count = 0
+        while self._at_not():
+            self.enter(self.take())
+            count += 1
+        inner = self.parse_cmp()
+        self.leave(count)
+        if count == 0:
+            return inner
+        if count % 2:
+            return lambda ev: not inner(ev)
+        return lambda ev: bool(inner(ev))
 
     def parse_cmp(self):
         left_tok = self.peek()
@@ -205,10 +478,7 @@ class _Parser:
             right_tok = self.peek()
             right = self.parse_value()
             self._check_enum(left_tok, right_tok, tok[1])
-            cmp = _compare(tok[1])
-            if negate:
-                return lambda ev: not cmp(left(ev), right(ev))
-            return lambda ev: cmp(left(ev), right(ev))
+            return _comparison(tok[1], left, right, negate)
         if negate:
             raise self.error("expected a value after 'not in'")
         return left
@@ -219,38 +489,53 @@ class _Parser:
             return
         if right_tok[0] == "str" and right_tok[1] not in ENUMS[left_tok[1]]:
             allowed = ", ".join(sorted(ENUMS[left_tok[1]]))
-            raise FilterError(f"{left_tok[1]} is never {right_tok[1]!r} (it is one of: {allowed})",
+            raise FilterError(f"{left_tok[1]} is never {_clip(right_tok[1])!r} (it is one of: {allowed})",
                               right_tok[2], self.src)
 
     def parse_value(self):
         tok = self.take()
         kind, val, col = tok
         if kind in ("num", "str"):
-            return lambda ev, v=val: v
+            return _Const(val)
         if kind == "kw" and val in ("true", "false", "null"):
-            const = {"true": True, "false": False, "null": None}[val]
-            return lambda ev, v=const: v
+            return _Const({"true": True, "false": False, "null": None}[val])
         if kind == "op" and val == "(":
+            self.enter(tok)
             inner = self.parse_or()
             self.expect("op", ")")
+            self.leave()
             return inner
         if kind == "op" and val == "[":
-            items = []
-            if self.peek()[:2] != ("op", "]"):
-                while True:
-                    items.append(self.parse_value())
-                    if self.peek()[:2] == ("op", ","):
-                        self.take()
-                        continue
-                    break
-            self.expect("op", "]")
-            return lambda ev, its=tuple(items): [f(ev) for f in its]
+            self.enter(tok)
+            items = self.parse_items()
+            self.leave()
+            return self.list_value(items)
         if kind == "name":
             return self.parse_path(val, col)
         raise self.error("expected a value (a name, number, string, list or '(')", tok)
 
+    def parse_items(self) -> list:
+        items = []
+        if self.peek()[:2] != ("op", "]"):
+            while True:
+                items.append(self.parse_value())
+                if self.peek()[:2] != ("op", ","):
+                    break
+                self.take()
+        self.expect("op", "]")
+        return items
+
+    @staticmethod
+    def list_value(items: list):
+        """A list of constants is a constant, built here once (not per event)."""
+        if all(isinstance(f, _Const) for f in items):
+            return _Const([f.value for f in items])
+        its = tuple(items)
+        return lambda ev: [f(ev) for f in its]
+
     def parse_path(self, name: str, col: int):
-        getter = self.name_getter(name, col)
+        base = self.name_getter(name, col)
+        keys = []
         while True:
             tok = self.peek()
             if tok[:2] == ("op", "."):
@@ -258,16 +543,16 @@ class _Parser:
                 key = self.take()
                 if key[0] != "name":
                     raise self.error("expected a field name after '.'", key)
-                getter = (lambda g, k: lambda ev: _get(g(ev), k))(getter, key[1])
+                keys.append(key[1])
             elif tok[:2] == ("op", "["):
                 self.take()
                 idx = self.take()
                 if idx[0] != "num" or not isinstance(idx[1], int):
                     raise self.error("expected a whole number index", idx)
                 self.expect("op", "]")
-                getter = (lambda g, k: lambda ev: _get(g(ev), k))(getter, idx[1])
+                keys.append(idx[1])
             else:
-                return getter
+                return _path(base, tuple(keys)) if keys else base
 
     def name_getter(self, name: str, col: int):
         if name == "payload":
@@ -275,28 +560,15 @@ class _Parser:
             return lambda ev: payload_text(ev.payload) if ev.payload is not None else None
         if name == "raw":
             return lambda ev: ev.raw.hex()
-        if name == "dst":
-            return lambda ev: list(ev.dst) if ev.dst is not None else None
         if name in TOP_LEVEL:
-            return lambda ev, n=name: getattr(ev, n)
+            return attrgetter(name)
         if name in FIELD_NAMES:
             return lambda ev, n=name: ev.fields.get(n)
         raise FilterError(f"unknown name {name!r}: use an event key ({', '.join(TOP_LEVEL)}) "
                           f"or a field name (README, 'Event contract')", col, self.src)
 
 
-def _get(obj: Any, key: Any) -> Any:
-    try:
-        if isinstance(obj, dict):
-            return obj.get(key)
-        if isinstance(obj, (list, tuple)) and isinstance(key, int):
-            return obj[key] if -len(obj) <= key < len(obj) else None
-    except TypeError:
-        return None
-    return None
-
-
 def compile_filter(src: str) -> Predicate:
     """Compile a filter expression; raises ``FilterError`` pointing at the bad token."""
     fn = _Parser(src).parse()
-    return lambda ev: _truthy(fn(ev))
+    return lambda ev: bool(fn(ev))

@@ -13,6 +13,9 @@ half-written, and every failure one line saying what and where.
   kept as the OS gives them (``os.fsdecode``: undecodable bytes become surrogate
   escapes), and only shown with those bytes as ``\\xNN``.
 
+A refusal (``OutputRefused``, from ``check_output``) is a usage mistake: exit 2.
+A failure while writing (``OutputError``) is exit 1.
+
 Live recordings are the exception (analyzer/recording): they are written in
 place and flushed every second, because a killed tap must leave its capture
 under the name the user gave.
@@ -27,7 +30,17 @@ from typing import BinaryIO, Iterable
 
 
 class OutputError(Exception):
-    """An output that cannot be written; the message is one line naming it."""
+    """An output that cannot be written; the message is one line naming it.
+    ``exit_code``: 1, the run failed writing its output."""
+
+    exit_code = 1
+
+
+class OutputRefused(OutputError):
+    """An output refused before any work was done (``check_output``): a mistake
+    on the command line, so exit 2 like every other usage error."""
+
+    exit_code = 2
 
 
 def show(path: str | bytes | os.PathLike) -> str:
@@ -58,22 +71,23 @@ def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:
 
 
 def check_output(path: str | os.PathLike, inputs: Iterable[str | os.PathLike] = (), *,
-                 force: bool = False) -> None:
-    """Refuse an output that cannot or must not be written (see module doc)."""
+                 force: bool = False, role: str = "input") -> None:
+    """Refuse an output that cannot or must not be written (see module doc);
+    ``role`` names what ``inputs`` are in the message ("input", "port")."""
     name = show(path)
     if os.path.isdir(path):
-        raise OutputError(f"{name}: is a directory; give a file name")
+        raise OutputRefused(f"{name}: is a directory; give a file name")
     for inp in inputs:
         if _same_file(path, inp):
             same = "is" if os.path.abspath(path) == os.path.abspath(inp) else "is the same file as"
-            raise OutputError(f"{name}: {same} the input {show(inp)}; write the output to another file")
+            raise OutputRefused(f"{name}: {same} the {role} {show(inp)}; write the output to another file")
     folder = os.path.dirname(os.path.realpath(path)) or "."
     if not os.path.isdir(folder):
-        raise OutputError(f"{name}: no such folder {show(folder)}")
+        raise OutputRefused(f"{name}: cannot write: no such folder {show(folder)}")
     if os.path.lexists(path) and not force:
-        raise OutputError(f"{name}: exists (use --force to overwrite)")
+        raise OutputRefused(f"{name}: exists (use --force to overwrite)")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise OutputError(f"{name}: cannot write in {show(folder)}: permission denied")
+        raise OutputRefused(f"{name}: cannot write in {show(folder)}: permission denied")
 
 
 def _default_mode() -> int:

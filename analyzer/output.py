@@ -1,10 +1,18 @@
 """Sinks that print events: JSON Lines for scripts, a tshark-like text line for
-people (coloured on a terminal through Rich, plain when piped)."""
+people (coloured on a terminal through Rich, plain when piped).
+
+A sink that cannot write says where in one line: ``StdoutError`` for standard
+output (a full disk behind ``> file``, ``> /dev/full``, EIO), ``OutputError``
+naming the file otherwise. A reader that went away (``| head``) stays a
+``BrokenPipeError``: that is no error (``cli/main.py``).
+"""
 
 from __future__ import annotations
 
 import sys
 from typing import IO
+
+from .outfile import OutputError, reason, write_error
 
 from dissectors import summarize
 from dissectors.wire import payload_text
@@ -30,13 +38,73 @@ except ImportError:  # pragma: no cover - orjson is a dependency; keep working w
         return dumps(obj) + b"\n"
 
 
-class JsonLinesSink:
+STDOUT = "standard output"
+
+
+class StdoutError(OutputError):
+    """Standard output cannot be written (not a closed pipe: that is quiet)."""
+
+
+def stdout_error(e: OSError) -> StdoutError:
+    return StdoutError(f"{STDOUT}: cannot write: {reason(e)}")
+
+
+def output_error(name: str, e: OSError) -> OutputError:
+    """The one-line error for a failed write to ``name`` (STDOUT or a file name)."""
+    if name == STDOUT:
+        return stdout_error(e)
+    return write_error(name, e)
+
+
+def flush_stdout() -> None:
+    """Flush standard output now, so that a failure is ours to report rather than
+    the interpreter's at exit."""
+    if sys.stdout is None:
+        return
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        raise
+    except OSError as e:
+        raise stdout_error(e) from None
+
+
+def print_out(text: str) -> None:
+    """Print a line of a report (stats, doctor) to standard output; a failed
+    write is a ``StdoutError``, one line in ``cli/main.py``."""
+    try:
+        sys.stdout.write(text + "\n")
+    except BrokenPipeError:
+        raise
+    except OSError as e:
+        raise stdout_error(e) from None
+
+
+class _Sink:
+    """What both sinks share: where they write, and one error for a failed write
+    (after which they write nothing more, so closing does not fail again)."""
+
+    def __init__(self, out, name: str | None) -> None:
+        if name is None:
+            stdout = out is None or out is sys.stdout or out is getattr(sys.stdout, "buffer", None)
+            name = STDOUT if stdout else str(getattr(out, "name", "output"))
+        self.name = name
+        self.broken = False
+
+    def _failed(self, e: OSError) -> OutputError:
+        self.broken = True
+        return output_error(self.name, e)
+
+
+class JsonLinesSink(_Sink):
     """One JSON object per event (README, "Event contract"). Lines are written
-    in blocks; ``flush_each`` (live taps) writes and flushes every event."""
+    in blocks; ``flush_each`` (live taps) writes and flushes every event.
+    ``name`` names ``out`` in errors (default: standard output)."""
 
     BLOCK = 512
 
-    def __init__(self, out: IO[bytes] | None = None, flush_each: bool = False) -> None:
+    def __init__(self, out: IO[bytes] | None = None, flush_each: bool = False, name: str | None = None) -> None:
+        super().__init__(out, name)
         self.out = out or sys.stdout.buffer
         self.flush_each = flush_each
         self._lines: list[bytes] = []
@@ -45,26 +113,29 @@ class JsonLinesSink:
         lines = self._lines
         lines.append(dumps_line(ev.to_dict()))
         if self.flush_each or len(lines) >= self.BLOCK:
-            self.out.write(b"".join(lines))
-            lines.clear()
-            if self.flush_each:
-                self.out.flush()
+            self._write(self.flush_each)
 
-    def close(self) -> None:
-        if self._lines:
+    def _write(self, flush: bool) -> None:
+        if self.broken:
+            self._lines.clear()
+            return
+        try:
             self.out.write(b"".join(self._lines))
             self._lines.clear()
-        self.out.flush()
+            if flush:
+                self.out.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as e:
+            raise self._failed(e) from None
+
+    def close(self) -> None:
+        self._write(True)
 
 
 def device_address(ev: Event) -> str:
-    """The device's group.port.device: a command's destination, a result's source."""
-    if ev.dst is None:
-        return ""
-    g, p, d = ev.dst
-    if ev.kind == RESULT:
-        g = ev.src
-    return f"{g}.{p}.{d}"
+    """The device's group.port.device (``Event.device``: an answer's is its command's), or ""."""
+    return ev.device or ""
 
 
 def direction(ev: Event) -> str:
@@ -143,10 +214,13 @@ def style_of(ev: Event) -> str:
     return ""
 
 
-class TextSink:
-    """tshark-like lines; colour only when writing to a terminal (Rich decides)."""
+class TextSink(_Sink):
+    """tshark-like lines; colour only when writing to a terminal (Rich decides).
+    ``name`` names ``out`` in errors (default: standard output)."""
 
-    def __init__(self, out: IO[str] | None = None, color: bool | None = None, flush_each: bool = False) -> None:
+    def __init__(self, out: IO[str] | None = None, color: bool | None = None, flush_each: bool = False,
+                 name: str | None = None) -> None:
+        super().__init__(out, name)
         self.out = out or sys.stdout
         is_tty = hasattr(self.out, "isatty") and self.out.isatty()
         self.color = is_tty if color is None else color
@@ -157,14 +231,28 @@ class TextSink:
             self._console = Console(file=self.out, highlight=False, soft_wrap=True, force_terminal=True)
 
     def __call__(self, ev: Event) -> None:
+        if self.broken:
+            return
         text, style = text_line(ev)
-        if self._console is not None:
-            from rich.text import Text
-            self._console.print(Text(text, style=style or None))
-        else:
-            self.out.write(text + "\n")
-        if self.flush_each:
-            self.out.flush()
+        try:
+            if self._console is not None:
+                from rich.text import Text
+                self._console.print(Text(text, style=style or None))
+            else:
+                self.out.write(text + "\n")
+            if self.flush_each:
+                self.out.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as e:
+            raise self._failed(e) from None
 
     def close(self) -> None:
-        self.out.flush()
+        if self.broken:
+            return
+        try:
+            self.out.flush()
+        except BrokenPipeError:
+            raise
+        except OSError as e:
+            raise self._failed(e) from None

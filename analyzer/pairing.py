@@ -7,6 +7,9 @@ events whose pairing is settled, in the same order. A command is held back until
 its status is final, so every event leaves with its ``txn``/``status``/
 ``latency`` filled; the hold is bounded by the timeouts (timed input) or by a
 count of later commands (untimed input), so memory stays flat.
+
+Answers also get their device here: an ACK, NAK or NIC has no address of its
+own, so a linked one takes its command's (``Event.device``); an orphan has none.
 """
 
 from __future__ import annotations
@@ -276,6 +279,8 @@ class Pairer:
         cmd = txn.cmd
         ev.txn = txn.no
         ev.request = cmd.number
+        if ev.dst is None:   # an ACK/NAK/NIC names no device: it is its command's
+            ev.device = cmd.device
         if ev.t is not None and cmd.t_end is not None:
             ev.latency = round(ev.t - cmd.t_end, 9)
 

@@ -2,6 +2,13 @@
 command and per device. Memory is flat: latencies go into log-spaced buckets
 (1% wide), so medians and 95th percentiles are accurate to about 1%; minimum and
 maximum are exact.
+
+Errors have one source of truth, the events' problems: ``problems`` counts events
+per problem category, and ``checksum_errors`` is the events with a checksum
+problem (``bad checksum`` or ``bad length byte``). Some of those are not frames:
+the bytes of a frame broken beyond reading (a good frame starts inside it) are a
+noise event with a ``bad checksum`` problem, so ``broken_frames`` says how many,
+and ``noise`` breaks its events down the same way.
 """
 
 from __future__ import annotations
@@ -10,9 +17,20 @@ import math
 from collections import Counter
 from typing import Any
 
-from dissectors.event import ACK, COMMAND, NAK, NOISE, RESULT, Event
+from dissectors.event import ACK, COMMAND, NAK, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, RESULT, Event
 
 _LOG_STEP = math.log(1.01)
+_CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))
+
+
+def categories(ev: Event) -> list[str]:
+    """The event's problem categories, each once, in order."""
+    out: list[str] = []
+    for p in ev.problems:
+        cat = p.split(":", 1)[0]
+        if cat not in out:
+            out.append(cat)
+    return out
 
 
 class Latency:
@@ -100,7 +118,9 @@ class Stats:
         self.problems: Counter[str] = Counter()
         self.bytes: Counter[str] = Counter()
         self.noise_bytes = 0
-        self.checksum_errors = 0
+        self.noise_kinds: Counter[str] = Counter()   # noise events by what they are (their problem)
+        self.checksum_errors = 0     # events with a checksum problem (frames and broken frames)
+        self.broken_frames = 0       # of which: noise events, a frame broken beyond reading
         self.orphans = 0
         self.first_t: float | None = None
         self.last_t: float | None = None
@@ -117,12 +137,17 @@ class Stats:
             if self.first_t is None:
                 self.first_t = ev.t
             self.last_t = ev.t_end if ev.t_end is not None else ev.t
-        for p in ev.problems:
-            self.problems[p.split(":", 1)[0]] += 1
-        if ev.checksum_ok is False:
+        cats = categories(ev) if ev.problems else ()
+        checksum = False
+        for cat in cats:
+            self.problems[cat] += 1
+            checksum = checksum or cat in _CHECKSUM_PROBLEMS
+        if checksum:
             self.checksum_errors += 1
         if kind == NOISE:
             self.noise_bytes += len(ev.raw)
+            self.noise_kinds[cats[0] if cats else P_NOISE] += 1
+            self.broken_frames += checksum
             return
         if ev.txn is None:
             if kind != COMMAND:
@@ -178,7 +203,9 @@ class Stats:
             "timeouts": total.status.get("no_ack", 0) + total.status.get("no_result", 0),
             "retransmissions": total.retransmissions,
             "checksum_errors": self.checksum_errors,
-            "noise": {"events": self.kinds.get(NOISE, 0), "bytes": self.noise_bytes},
+            "broken_frames": self.broken_frames,
+            "noise": {"events": self.kinds.get(NOISE, 0), "bytes": self.noise_bytes,
+                      "by_problem": dict(self.noise_kinds.most_common())},
             "orphans": self.orphans,
             "problems": dict(self.problems.most_common()),
             "by_command": {k: v.to_dict() for k, v in sorted(self.by_command.items())},

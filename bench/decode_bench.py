@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import os
 import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -29,6 +28,7 @@ sys.path.insert(0, ROOT)
 
 import analyzer  # noqa: E402
 from analyzer.traffic import generate  # noqa: E402
+from bench.measure import run_measured  # noqa: E402
 
 EVENTS_PER_COMMAND = 2.55   # measured mix of the generator: command, ACK, often a result
 
@@ -64,19 +64,7 @@ def api_run(paths: list[str]) -> tuple[int, float]:
 
 def cli_run(paths: list[str]) -> tuple[float, float]:
     """Seconds and peak RSS (MB) of `gimbalscope decode --format jsonl > /dev/null`."""
-    # VmHWM, not ru_maxrss: Linux carries ru_maxrss over from the parent across fork
-    code = ("import sys; from analyzer.cli.main import main; rc = main(sys.argv[1:]); sys.stdout.flush(); "
-            "hwm = [l for l in open('/proc/self/status') if l.startswith('VmHWM')][0].split()[1]; "
-            "print(hwm, file=sys.stderr); sys.exit(rc)")
-    t = time.perf_counter()
-    with open(os.devnull, "wb") as null:
-        proc = subprocess.run([sys.executable, "-c", code, "decode", *paths, "--baud", "115200",
-                               "--format", "jsonl"], stdout=null, stderr=subprocess.PIPE, text=True, cwd=ROOT)
-    dt = time.perf_counter() - t
-    if proc.returncode != 0:
-        raise SystemExit(proc.stderr)
-    return dt, int(proc.stderr.strip().splitlines()[-1]) / 1024
-
+    return run_measured(["decode", *paths, "--baud", "115200", "--format", "jsonl"])
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)

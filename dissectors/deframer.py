@@ -7,8 +7,13 @@ It does no I/O and never raises on wire bytes: anything malformed becomes an
 event with problems attached.
 
 Decisions only ever depend on bytes already seen plus "no more bytes are coming
-before a silence" (``finish``/``idle`` or a timed gap), so feeding a stream in any
-split gives the same events.
+before a silence" (``finish``/``idle``/``skip`` or a timed gap), so feeding a stream
+in any split gives the same events.
+
+Memory is bounded: a noise run is emitted in pieces of at most ``NOISE_PIECE``
+bytes, cut every ``NOISE_PIECE`` bytes from the run's start (absolute offsets, so
+the cut does not depend on how the bytes were split), and no more than one piece
+plus one frame is ever held.
 
 How broken input is handled (spec/READING.md; docs/decoding.md):
 - A frame whose checksum fails is re-examined before it is reported: if a valid
@@ -24,6 +29,7 @@ How broken input is handled (spec/READING.md; docs/decoding.md):
 
 from __future__ import annotations
 
+import re
 from bisect import bisect_right
 
 from .event import (
@@ -35,6 +41,10 @@ from .wire import ACK, NAK, NIC, START
 _SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}
 _FRAME_KIND = {"A": COMMAND, "B": RESULT}
 _MAX_FRAME = 256 + 7
+NOISE_PIECE = 4096   # bytes: the longest noise event (a longer run comes in pieces)
+# bytes that can begin something other than noise: a frame, or a simple response
+_NOT_NOISE = re.compile(b"[" + re.escape(bytes([START, ACK, NAK, NIC])) + b"]")
+_START = re.compile(re.escape(bytes([START])))   # line A: only a frame
 
 
 def _suspect(buf: bytes, start: int, end: int) -> bool:
@@ -78,6 +88,7 @@ class Deframer:
         self._noise_start: int | None = None  # absolute offset of a pending noise run
         self._timed = False
         self._resume = 0             # absolute offset where scanning resumes
+        self._ends = "end of capture"   # what a frame cut at the end of the buffer met
 
     # ----------------------------------------------------------------- input
     @property
@@ -149,6 +160,26 @@ class Deframer:
     def finish(self) -> list[Event]:
         """End of stream: everything pending becomes events."""
         return self._parse(final=True)
+
+    def skip(self, n: int) -> list[Event]:
+        """The next ``n`` bytes of the line will not be fed (decoding fell behind):
+        everything pending becomes events, as before a silence, so no frame is
+        stitched across the gap; offsets advance by ``n``, so they stay the line's
+        absolute offsets."""
+        self._ends = "bytes not decoded"
+        try:
+            out = self._parse(final=True)
+        finally:
+            self._ends = "end of capture"
+        self._base += len(self._buf) + n
+        self._buf = b""
+        self._resume = self._base
+        self._noise_start = None
+        self._seg_off.clear()
+        self._seg_t.clear()
+        self._gaps.clear()
+        self._last_end = None   # the skipped bytes ended later; the next chunk's time stands
+        return out
 
     # ------------------------------------------------------------------ time
     def _time_at(self, off: int) -> float | None:
@@ -223,6 +254,7 @@ class Deframer:
         frame_kind = self.frame_kind
         timed = self._timed
         fast = not self._gaps   # no silence inside the buffer: frames cannot be cut
+        not_noise = (_NOT_NOISE if self.simple else _START).search
         i = self._resume - base
         while i < n:
             b = buf[i]
@@ -262,9 +294,12 @@ class Deframer:
                     append(Event(line, abs_i, kind, buf[i:i + 1]))
                 i += 1
                 continue
-            # noise: extend the pending run (or start one); a silence splits runs
-            self._as_noise(out, base + i)
-            i += 1
+            # noise up to the next byte that may begin something else: extend the
+            # pending run (or start one) at once; a silence splits runs
+            m = not_noise(buf, i)
+            j = m.start() if m is not None else n
+            self._noise(out, base + i, base + j)
+            i = j
         if final and i >= n:
             self._flush_noise(out, base + n)
         self._resume = base + i
@@ -379,7 +414,7 @@ class Deframer:
         if header_ok:
             return self._broken(out, p, stop,
                                 f"{P_TRUNCATED}: {stop - p} of {total} bytes"
-                                + (", then silence" if cut is not None else ", then end of capture"))
+                                + (", then silence" if cut is not None else f", then {self._ends}"))
         return self._as_noise(out, p)
 
     def _plausible_inside(self, rq: int, rend: int) -> bool:
@@ -393,13 +428,29 @@ class Deframer:
 
     def _as_noise(self, out: list[Event], p: int) -> int:
         """Treat the byte at p as noise and go on scanning after it."""
+        return self._noise(out, p, p + 1)
+
+    def _noise(self, out: list[Event], p: int, q: int) -> int:
+        """Bytes [p, q) are noise: extend the pending run (or start one). A run is
+        cut at a silence and ``NOISE_PIECE`` bytes after each piece's start, so the
+        pieces end at the same offsets however the stream was split, and a flood
+        of noise is never held whole."""
         ns = self._noise_start
         if ns is None:
-            self._noise_start = p
-        elif self._gaps and self._gap_in(ns, p + 1) is not None:
-            self._flush_noise(out, p)
-            self._noise_start = p
-        return p + 1
+            ns = p
+        while True:
+            cut = ns + NOISE_PIECE
+            if self._gaps:
+                g = self._gap_in(ns, cut)
+                if g is not None:
+                    cut = g
+            if cut >= q:
+                break
+            self._noise_start = ns
+            self._flush_noise(out, cut)
+            ns = cut
+        self._noise_start = ns
+        return q
 
     def _broken(self, out: list[Event], p: int, stop: int, problem: str) -> int:
         """Bytes [p, stop) are a frame that cannot be read: one noise event."""

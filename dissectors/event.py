@@ -7,6 +7,7 @@ language, the statistics and (later) MCAP and the TUI use the same names.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Any
 
 # Event kinds. A single-line tap first yields "frame" for every frame; pairing then
@@ -46,6 +47,23 @@ P_LATE = "late answer"
 P_WRONG_LINE = "wrong line"
 
 
+def format_address(address) -> str:
+    """A device address as people write it, "group.port.device" (``(1, 1, 2)`` ->
+    ``"1.1.2"``). The one place addresses become text."""
+    try:
+        return _address_text(address)
+    except TypeError:   # a list, not a tuple: unhashable for the cache
+        return _address_text(tuple(address))
+
+
+@lru_cache(maxsize=4096)
+def _address_text(address: tuple[int, int, int]) -> str:
+    # Cached: a capture has a handful of addresses, so every event of a device
+    # shares one string instead of holding its own (memory at a million events).
+    g, p, d = address
+    return f"{g}.{p}.{d}"
+
+
 # Shared, never mutated: most events have no fields and no problems.
 NO_FIELDS: dict = {}
 NO_PROBLEMS: tuple = ()
@@ -59,6 +77,12 @@ class Event:
     ``fields`` may be shared between events with identical payloads, and
     ``problems`` starts as a shared empty tuple: treat both as read-only and add
     problems with ``note``.
+
+    ``device`` is the gimbal the event belongs to, as text shows it ("1.1.2"):
+    a command's destination; a result's sender, which its header gives as the
+    source group with the port and device kept (Table 3); an ACK, NAK or NIC
+    carries no address, so pairing copies its command's. Orphan handshakes and
+    noise have none. ``dst`` stays the literal header.
     """
 
     __slots__ = (
@@ -66,7 +90,7 @@ class Event:
         "dst", "src", "payload", "checksum_ok",
         "command", "fields", "problems",
         "txn", "status", "latency", "retransmission", "request",
-        "entry",
+        "entry", "_device",
     )
 
     def __init__(self, line: str, offset: int, kind: str, raw: bytes,
@@ -93,6 +117,7 @@ class Event:
         self.retransmission = False
         self.request = None
         self.entry = None  # the command-table entry, for summaries (not serialised)
+        self._device = None  # an answer's device, set by pairing (answers have no header)
 
     @property
     def end(self) -> int:
@@ -102,6 +127,23 @@ class Event:
     @property
     def is_frame(self) -> bool:
         return self.dst is not None
+
+    @property
+    def device(self) -> str | None:
+        """The device's "group.port.device" (class docstring), or None."""
+        dst = self.dst
+        if self._device is not None or dst is None:
+            return self._device
+        kind = self.kind
+        if kind == COMMAND:
+            return format_address(dst)
+        if kind == RESULT:
+            return format_address((self.src, dst[1], dst[2]))
+        return None   # an unclassified single-line frame: its direction is not known yet
+
+    @device.setter
+    def device(self, value: str | None) -> None:
+        self._device = value
 
     def add_problem(self, category: str, detail: str = "") -> None:
         self.note(f"{category}: {detail}" if detail else category)
@@ -143,6 +185,7 @@ class Event:
             "retransmission": self.retransmission,
             "request": self.request,
             "raw": self.raw.hex(),
+            "device": self.device,   # last: the keys before it keep their places
         }
 
     def __repr__(self) -> str:

@@ -4,6 +4,7 @@ one-line error handling: bad input never shows a traceback."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from ..capture import Capture, Options, open as open_capture
@@ -17,6 +18,56 @@ class UsageError(Exception):
     """Bad command-line input; the message is shown as one line, exit 2."""
 
 
+# Numeric option types for argparse (``type=``): a bad value is refused while the
+# command line is parsed, as one line naming the option ("argument --frame-gap:
+# '-1': must be a finite number above 0"). float() takes "nan" and "inf", which
+# would pass every range check and hang or crash later, so each type says finite.
+
+def _number(text: str, kind: type, in_range, wanted: str):
+    """Parse ``text`` as ``kind``; refuse it unless finite and ``in_range``."""
+    try:
+        value = kind(text)
+    except ValueError:   # argparse's own wording for a plain type
+        raise argparse.ArgumentTypeError(f"invalid {kind.__name__} value: {text!r}") from None
+    if (kind is float and not math.isfinite(value)) or not in_range(value):
+        raise argparse.ArgumentTypeError(f"{text!r}: must be {wanted}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """Timeouts, frame gaps, rotation sizes, pace factors."""
+    return _number(text, float, lambda v: v > 0, "a finite number above 0")
+
+
+def non_negative_float(text: str) -> float:
+    """Durations where 0 means something (until stopped, at once)."""
+    return _number(text, float, lambda v: v >= 0, "a finite number, 0 or more")
+
+
+def probability(text: str) -> float:
+    return _number(text, float, lambda v: 0 <= v <= 1, "a probability from 0 to 1")
+
+
+def positive_int(text: str) -> int:
+    """Baud rates."""
+    return _number(text, int, lambda v: v > 0, "a whole number above 0")
+
+
+def non_negative_int(text: str) -> int:
+    return _number(text, int, lambda v: v >= 0, "a whole number, 0 or more")
+
+
+def command_timeout(text: str) -> tuple[str, float]:
+    """``--timeout IX=90``: a command id and its result timeout in seconds."""
+    cmd, sep, secs = text.partition("=")
+    try:
+        if sep and cmd:
+            return cmd, positive_float(secs)
+    except argparse.ArgumentTypeError:
+        pass
+    raise argparse.ArgumentTypeError(f"{text!r}: expected CMD=SECONDS, seconds a finite number above 0, e.g. IX=90")
+
+
 def add_input_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="a socat -x -v log, an MCAP recording, a raw single-line dump, or two raw dumps "
@@ -26,20 +77,20 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
 
 def add_serial_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("serial settings (byte timing; the port settings of a live tap)")
-    g.add_argument("--baud", type=int, default=9600, help="line rate in bit/s (default 9600, §1.5.1)")
+    g.add_argument("--baud", type=positive_int, default=9600, help="line rate in bit/s (default 9600, §1.5.1)")
     g.add_argument("--data-bits", type=int, default=8, choices=(5, 6, 7, 8))
     g.add_argument("--parity", default="N", choices=("N", "E", "O", "M", "S"))
     g.add_argument("--stop-bits", type=float, default=1, choices=(1, 1.5, 2))
     g.add_argument("--swap-lines", action="store_true",
                    help="the two ports/inputs were given the other way round: read the first as line B")
     t = p.add_argument_group("pairing")
-    t.add_argument("--ack-timeout", type=float, default=0.5, metavar="S",
+    t.add_argument("--ack-timeout", type=positive_float, default=0.5, metavar="S",
                    help="seconds a command waits for its ACK/NAK (default 0.5)")
-    t.add_argument("--result-timeout", type=float, default=2.0, metavar="S",
+    t.add_argument("--result-timeout", type=positive_float, default=2.0, metavar="S",
                    help="seconds an ACKed command waits for its result (default 2; IX 60)")
-    t.add_argument("--timeout", action="append", default=[], metavar="CMD=S",
+    t.add_argument("--timeout", action="append", type=command_timeout, default=[], metavar="CMD=S",
                    help="result timeout for one command id, e.g. --timeout IX=90 (repeatable)")
-    t.add_argument("--frame-gap", type=float, default=None, metavar="S",
+    t.add_argument("--frame-gap", type=positive_float, default=None, metavar="S",
                    help="silence that cuts a frame short (default max(50 ms, 20 characters))")
 
 
@@ -58,25 +109,11 @@ def build_filter(expr: str | None) -> Predicate | None:
 
 
 def options_from(args: argparse.Namespace) -> Options:
-    if args.baud <= 0:
-        raise UsageError(f"--baud {args.baud}: must be positive")
+    """The capture options; the numbers were checked by their argparse types."""
     if args.baud not in STANDARD_BAUDS:
         print(f"gimbalscope: warning: --baud {args.baud} is not a rate of §1.5.1 "
               f"({', '.join(map(str, STANDARD_BAUDS))})", file=sys.stderr)
-    for name in ("ack_timeout", "result_timeout"):
-        if getattr(args, name) <= 0:
-            raise UsageError(f"--{name.replace('_', '-')} must be positive")
-    per_command = {}
-    for item in args.timeout:
-        cmd, sep, secs = item.partition("=")
-        try:
-            value = float(secs)
-        except ValueError:
-            value = -1
-        if not sep or not cmd or value <= 0:
-            raise UsageError(f"--timeout {item!r}: expected CMD=SECONDS, e.g. IX=90")
-        per_command[cmd] = value
-    timeouts = Timeouts(ack=args.ack_timeout, result=args.result_timeout, result_by_command=per_command)
+    timeouts = Timeouts(ack=args.ack_timeout, result=args.result_timeout, result_by_command=dict(args.timeout))
     return Options(baud=args.baud, data_bits=args.data_bits, parity=args.parity, stop_bits=args.stop_bits,
                    frame_gap=args.frame_gap, timeouts=timeouts, swap_lines=getattr(args, "swap_lines", False))
 

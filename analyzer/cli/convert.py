@@ -1,8 +1,14 @@
-"""``gimbalscope convert``: raw dumps and socat logs to an MCAP recording.
+"""``gimbalscope convert``: captures to an MCAP recording or to JSON Lines, the
+format chosen by the output's suffix (``WRITERS``).
 
-Writes what a live recording holds (the MCAP topics of analyzer/recording):
+MCAP holds what a live recording holds (the MCAP topics of analyzer/recording):
 raw bytes per line, decoded events (Tables 4-18 via the command table),
-transactions and foxglove.Log anomalies, with a metadata record.
+transactions and foxglove.Log anomalies, with a metadata record. JSON Lines are
+the lines ``decode --format jsonl`` prints.
+
+The output is checked before any work (never over an input, ``--force`` to
+replace a file) and written beside the target, renamed onto it only when whole:
+a failed conversion leaves no file behind (analyzer/outfile.py).
 """
 
 from __future__ import annotations
@@ -11,18 +17,24 @@ import argparse
 import os
 import socket
 import time
+from typing import Callable
 
 from .. import __version__
-from ..recording import McapRecorder, RecordingError
-from .common import UsageError, add_input_args, open_inputs, warn_if_empty
+from ..capture import Capture
+from ..outfile import AtomicOutput, OutputRefused, check_output, show
+from ..output import JsonLinesSink
+from ..recording import McapRecorder
+from .common import add_input_args, open_inputs, warn_if_empty
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("convert", help="convert captures to an MCAP recording",
-                       description="Convert raw dumps or a socat log to MCAP (re-dissectable, Foxglove-readable).")
+    p = sub.add_parser("convert", help="convert captures to an MCAP recording or JSON Lines",
+                       description="Convert raw dumps, a socat log or a recording to MCAP (re-dissectable, "
+                                   "Foxglove-readable) or to JSON Lines; the output's suffix chooses: "
+                                   + ", ".join(WRITERS) + ".")
     add_input_args(p)
-    p.add_argument("-o", "--output", required=True, metavar="OUT.mcap")
-    p.add_argument("--force", action="store_true", help="overwrite OUT.mcap if it exists")
+    p.add_argument("-o", "--output", required=True, metavar="OUT.mcap|OUT.jsonl")
+    p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
     p.set_defaults(run=run)
 
 
@@ -42,22 +54,51 @@ def metadata_for(capture, args: argparse.Namespace) -> dict[str, str]:
     }
 
 
-def run(args: argparse.Namespace) -> int:
-    out = args.output
-    if os.path.exists(out) and not args.force:
-        raise UsageError(f"{out}: exists (use --force to overwrite)")
-    capture = open_inputs(args)
-    try:
-        recorder = McapRecorder(out, metadata={}, start_time=capture.source.start_time, lines=capture.lines)
-    except RecordingError as e:
-        raise UsageError(str(e)) from None
+def write_mcap(capture: Capture, args: argparse.Namespace, target: AtomicOutput) -> int:
+    recorder = McapRecorder(args.output, metadata={}, start_time=capture.source.start_time,
+                            lines=capture.lines, file=target.file)
     capture.on_chunk = recorder.raw
     seen = 0
-    try:
-        for ev in capture:
-            seen += 1
-            recorder.event(ev)
-    finally:
-        recorder.close(metadata_for(capture, args))
+    for ev in capture:
+        seen += 1
+        recorder.event(ev)
+    recorder.close(metadata_for(capture, args))
+    return seen
+
+
+def write_jsonl(capture: Capture, args: argparse.Namespace, target: AtomicOutput) -> int:
+    sink = JsonLinesSink(target.file, name=args.output)
+    seen = 0
+    for ev in capture:
+        seen += 1
+        sink(ev)
+    sink.close()
+    return seen
+
+
+# Output suffix -> writer(capture, args, target) -> events written.
+WRITERS: dict[str, Callable[[Capture, argparse.Namespace, AtomicOutput], int]] = {
+    ".mcap": write_mcap,
+    ".jsonl": write_jsonl,
+    ".ndjson": write_jsonl,
+}
+
+
+def writer_for(path: str) -> Callable[[Capture, argparse.Namespace, AtomicOutput], int]:
+    """The writer for ``path``'s suffix; any other suffix is refused, naming those there are."""
+    suffix = os.path.splitext(path)[1].lower()
+    writer = WRITERS.get(suffix)
+    if writer is None:
+        what = f"unknown output format {show(suffix)!r}" if suffix else "no suffix to choose the output format"
+        raise OutputRefused(f"{show(path)}: {what}; use one of {', '.join(WRITERS)}")
+    return writer
+
+
+def run(args: argparse.Namespace) -> int:
+    check_output(args.output, args.inputs, force=args.force)   # first: an output over an input is worst
+    write = writer_for(args.output)
+    capture = open_inputs(args)
+    with AtomicOutput(args.output) as target:   # a failure on the way removes it
+        seen = write(capture, args, target)
     warn_if_empty(capture, seen)
     return 0

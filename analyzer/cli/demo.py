@@ -10,15 +10,20 @@ import threading
 
 from ..capture import Options, open_live
 from ..simulation import scenario
-from .common import UsageError, add_filter_arg, warn
+from .common import UsageError, add_filter_arg, non_negative_float, non_negative_int, warn
 from .live import add_record_args, add_tui_args, tap, wants_tui
+
+
+def fault_help() -> str:
+    # argparse expands %-codes in help text: the descriptions' "1%" must be "1%%"
+    return "; ".join(f"{k}: {v}" for k, v in scenario.FAULTS.items()).replace("%", "%%")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="simulated controller and gimbals on virtual lines, tapped live",
                        description="Run a simulated controller and three gimbals over pseudo-terminals and tap "
                                    "both lines; no hardware needed.")
-    p.add_argument("--seconds", type=float, default=None,
+    p.add_argument("--seconds", type=non_negative_float, default=None,
                    help="how long to run (0 = until stopped); default: until you quit the TUI, "
                         "12 s when printing")
     add_record_args(p)
@@ -26,23 +31,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_filter_arg(p, "show only matching events")
     p.add_argument("--clean", action="store_true", help="no injected faults")
     p.add_argument("--fault", action="append", default=[], metavar="NAME", choices=sorted(scenario.FAULTS),
-                   help="a clean installation with this fault (repeatable): "
-                        + "; ".join(f"{k}: {v}" for k, v in scenario.FAULTS.items()))
+                   help="a clean installation with this fault (repeatable): " + fault_help())
     add_tui_args(p)
-    p.add_argument("--seed", type=int, default=5)
+    p.add_argument("--seed", type=non_negative_int, default=5, help="the faults' random seed (default 5)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     if args.seconds is None:
         args.seconds = 0.0 if wants_tui(args) else 12.0
-    if args.seconds < 0:
-        raise UsageError(f"--seconds {args.seconds:g}: must be 0 (until Ctrl-C) or more")
     try:
         site = scenario.build(set(args.fault), clean=args.clean, seed=args.seed)
     except ValueError as e:
         raise UsageError(f"--fault: {e}") from None
     capture = open_live(list(site.link.tap_ports), Options(), on_warning=warn)
+    capture.command = "demo"   # the doctor's advice names what this command takes
     site.start()
     timer = None
     if args.seconds > 0:

@@ -20,7 +20,7 @@ from dataclasses import replace
 
 from ..capture import Capture, open as open_capture, open_live
 from ..doctor import ERROR, INFO, WARNING, Finding, LiveDoctor, WiringDoctor
-from .common import STANDARD_BAUDS, UsageError, add_serial_args, options_from, warn
+from .common import STANDARD_BAUDS, UsageError, add_serial_args, non_negative_float, options_from, positive_float, warn
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,11 +31,11 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="capture files, or one or two serial ports (device names or pyserial URLs)")
     add_serial_args(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
-    p.add_argument("--seconds", type=float, default=10.0,
+    p.add_argument("--seconds", type=non_negative_float, default=10.0,
                    help="ports: how long to listen (default 10; 0 = until Ctrl-C)")
     p.add_argument("--scan-baud", action="store_true",
                    help="listen at each standard rate (1200-115200) in turn and report which decodes cleanly")
-    p.add_argument("--dwell", type=float, default=2.0, metavar="S",
+    p.add_argument("--dwell", type=positive_float, default=2.0, metavar="S",
                    help="with --scan-baud: seconds at each rate (default 2)")
     p.set_defaults(run=run)
 
@@ -65,10 +65,10 @@ def run(args: argparse.Namespace) -> int:
         if len(ports) > 2:
             raise UsageError(f"{len(ports)} ports given: a tap reads one port or two (line A, line B)")
         capture = open_live(ports, options, on_warning=warn)
-        if args.seconds < 0:
-            raise UsageError("--seconds must be 0 (until Ctrl-C) or more")
+        capture.command = "doctor"
         return diagnose(capture, args, live=True)
     capture = open_capture(*args.inputs, options=options, on_warning=warn)
+    capture.command = "doctor"
     return diagnose(capture, args, live=False)
 
 
@@ -111,38 +111,52 @@ def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
         if live:
             capture.source.close()
     findings = doctor.findings()
-    span = doctor.span
     if args.format == "json":
-        print(json.dumps({"source": capture.source.description, "events": events, "seconds": round(span, 3),
-                          "findings": [f.to_dict() | {"after": _seconds_in(f, doctor)} for f in findings]},
+        print(json.dumps({"source": capture.source.description, "events": events,
+                          "seconds": round(doctor.span, 3) if doctor.timed else None,
+                          "findings": [f.to_dict() | {"after": _seconds_in(f, doctor),
+                                                      "after_events": f.first_seen_event} for f in findings]},
                          indent=2, ensure_ascii=False))
         return 0
-    report(findings, doctor, events, span)
+    report(findings, doctor, events)
     return 0
 
 
 def _seconds_in(f: Finding, doctor: WiringDoctor) -> float | None:
-    """Seconds of traffic it took to find."""
+    """Seconds of traffic it took to find (None without time)."""
     if f.first_seen is None or doctor.first_t is None:
         return None
     return round(f.first_seen - doctor.first_t, 3)
 
 
-def report(findings: list[Finding], doctor: WiringDoctor, events: int, span: float) -> None:
+def _found_after(f: Finding, doctor: WiringDoctor) -> str | None:
+    """How much traffic it took to find: seconds, or events where there is no time."""
+    after = _seconds_in(f, doctor)
+    if after is not None:
+        return f"{after:.1f} s of traffic"
+    if f.first_seen_event is not None:
+        return f"{f.first_seen_event:,} events"
+    return None
+
+
+def report(findings: list[Finding], doctor: WiringDoctor, events: int) -> None:
     from rich.console import Console
     from rich.text import Text
 
     console = Console(highlight=False, soft_wrap=True)
     problems = [f for f in findings if f.severity != INFO]
     head = (f"{len(problems)} finding{'s' if len(problems) != 1 else ''}" if problems else "no problems found")
-    console.print(Text(f"gimbalscope doctor: {head} in {span:.1f} s of traffic ({events:,} events)", style="bold"))
+    # a capture without time (raw dumps) is measured in events, not "0.0 s"
+    amount = (f"{doctor.span:.1f} s of traffic ({events:,} events)" if doctor.timed
+              else f"{events:,} events (no time in this capture)")
+    console.print(Text(f"gimbalscope doctor: {head} in {amount}", style="bold"))
     colours = {ERROR: "bold red", WARNING: "yellow", INFO: "cyan"}
     for f in findings:
-        after = _seconds_in(f, doctor)
+        after = _found_after(f, doctor)
         line = Text(f"{f.severity.upper():8} ", style=colours[f.severity])
         line.append(f.title, style="bold")
         if after is not None and f.severity != INFO:
-            line.append(f"  [found after {after:.1f} s of traffic]", style="dim")
+            line.append(f"  [found after {after}]", style="dim")
         console.print(line)
         for part in f.detail.splitlines():
             console.print(Text("         " + part))

@@ -3,6 +3,12 @@ decoded (text or JSON Lines, flushed per event), optionally recording to MCAP.
 
 Framing per Table 1, pairing per §1.4.2-1.4.3; the same decoding as ``decode``,
 so live output for the same bytes equals ``decode`` of the recording.
+
+``--record`` is written in place (not renamed at the end like other outputs), so
+a killed tap leaves its file under the name given; an existing file is replaced,
+but a folder, a missing folder or one of the ports is refused before the tap
+starts. A recording that fails (a full disk) is said once and stopped, and the
+tap goes on printing (analyzer/recording).
 """
 
 from __future__ import annotations
@@ -15,9 +21,10 @@ import sys
 from .. import __version__
 from ..capture import Capture, open_live
 from ..doctor import LiveDoctor, log_level, one_line
+from ..outfile import check_output, show
 from ..output import JsonLinesSink, TextSink
-from ..recording import McapRecorder, RecordingError, RotatingRecorder
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, warn
+from ..recording import McapRecorder, RotatingRecorder
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float, warn
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,8 +49,8 @@ def add_tui_args(p: argparse.ArgumentParser) -> None:
 
 def add_record_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
-    p.add_argument("--rotate-mb", type=float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
-    p.add_argument("--rotate-minutes", type=float, metavar="MIN", help="with --record: a new file every MIN minutes")
+    p.add_argument("--rotate-mb", type=positive_float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
+    p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
 
 
 def live_metadata(capture: Capture, ports: list[str]) -> dict[str, str]:
@@ -59,22 +66,36 @@ def live_metadata(capture: Capture, ports: list[str]) -> dict[str, str]:
     }
 
 
-def open_recorder(capture: Capture, args: argparse.Namespace, record: str | None):
+def status(msg: str) -> None:
+    """A plain status line on stderr (not a warning: nothing went wrong)."""
+    print(f"gimbalscope: {msg}", file=sys.stderr, flush=True)
+
+
+def open_recorder(capture: Capture, args: argparse.Namespace, record: str | None, on_error=warn):
     """The --record recorder (rotating with --rotate-*), or None; a path that cannot
-    be written is a one-line error before anything starts."""
+    be written is a one-line error before anything starts. A failure later goes
+    to ``on_error`` once (the recording stops, the tap goes on)."""
     if not record:
         return None
     kw = dict(metadata=live_metadata(capture, capture.source.ports), start_time=capture.source.start_time,
-              flush_interval=1.0, lines=capture.lines)
+              flush_interval=1.0, lines=capture.lines, on_error=on_error)
     mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
     try:
+        # replacing a file is the documented behaviour; a port, a folder or a missing folder is not
+        check_output(record, capture.source.ports, force=True, role="port")
         if mb or minutes:
             return RotatingRecorder(record, max_bytes=int(mb * 1e6) if mb else None,
                                     max_seconds=minutes * 60 if minutes else None, **kw)
         return McapRecorder(record, **kw)
-    except RecordingError as e:
+    except BaseException:
         capture.source.close()
-        raise UsageError(str(e)) from None
+        raise
+
+
+def recorded(recorder, record: str) -> str:
+    """What a finished recording says: how many messages, where."""
+    where = ", ".join(map(show, recorder.paths)) if isinstance(recorder, RotatingRecorder) else show(record)
+    return f"recorded {recorder.messages} messages to {where}"
 
 
 def wants_tui(args: argparse.Namespace) -> bool:
@@ -145,8 +166,8 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
         if recorder is not None:
             recorder.end_marker(capture.latest)
             recorder.close()
-            where = ", ".join(recorder.paths) if isinstance(recorder, RotatingRecorder) else record
-            warn(f"recorded {recorder.messages} messages to {where}")
+            if not recorder.failed:   # a failure was said when it happened
+                status(recorded(recorder, record))
         sink.close()
     return 0
 

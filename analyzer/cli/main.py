@@ -1,19 +1,29 @@
 """Entry point of the ``gimbalscope`` console command: dispatches subcommands and
-turns every expected failure into one line on stderr and a non-zero exit."""
+turns every expected failure into one line on stderr and a non-zero exit: 2 for
+bad input or usage, 1 for an output that could not be written."""
 
 from __future__ import annotations
 
 import argparse
+import errno
 import os
 import signal
 import sys
 
 from .. import __version__
+from ..outfile import OutputError, show
+from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
 from . import convert, decode, demo, doctor, live, recover, replay, sim, stats, view
 from .common import UsageError
 
 EXIT_INPUT = 2
+EXIT_OUTPUT = 1
+
+# Errors only a write can give. Every file gimbalscope writes turns them into an
+# OutputError naming it, so one escaping bare came from a report printed straight
+# to standard output.
+WRITE_ONLY_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -41,23 +51,58 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def error(message: str) -> None:
+    """The one line a failure prints (names shown with undecodable bytes as \\xNN)."""
+    if sys.stderr is None:   # with stderr closed there is nowhere to say it
+        return
+    try:
+        print(f"gimbalscope: error: {show(message)}", file=sys.stderr, flush=True)
+    except OSError:
+        pass   # nor with stderr on a full disk
+
+
+def quiet_stdout() -> None:
+    """Point standard output at /dev/null: what is still buffered for it (a reader
+    gone, a full disk) then goes nowhere, and the interpreter's final flush does
+    not report the failure a second time."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    os.close(devnull)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "run", None):
         parser.print_help()
         return EXIT_INPUT
+    if sys.stdout is None:   # started with `>&-`: say so before doing any work
+        error("standard output is closed")
+        return EXIT_OUTPUT
     try:
-        return args.run(args)
+        code = args.run(args)
+        flush_stdout()   # a full disk behind stdout is reported here, not at exit
+        return code
     except (CaptureError, UsageError) as e:
-        print(f"gimbalscope: error: {e}", file=sys.stderr)
+        error(str(e))
         return EXIT_INPUT
+    except StdoutError as e:
+        error(str(e))
+        quiet_stdout()
+        return EXIT_OUTPUT
+    except OutputError as e:
+        error(str(e))
+        return e.exit_code
     except BrokenPipeError:
-        # the reader went away (| head): not an error. Point stdout at /dev/null so
-        # the interpreter's final flush does not complain either.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
+        # the reader went away (| head): not an error
+        quiet_stdout()
         return 0
+    except OSError as e:
+        if e.filename is not None or e.errno not in WRITE_ONLY_ERRORS:
+            raise
+        error(str(stdout_error(e)))
+        quiet_stdout()
+        return EXIT_OUTPUT
     except KeyboardInterrupt:
         return 128 + signal.SIGINT
 

@@ -1,72 +1,281 @@
-"""``gimbalscope recover``: rewrite an MCAP file whose recording was cut short
-(killed tap, full disk) into a complete one: every record up to the last
-complete chunk, then a summary section and footer."""
+"""``gimbalscope recover``: rewrite an MCAP recording that was cut short (killed
+tap, full disk) or damaged into a complete file holding everything intact.
+
+The input is walked record by record without trusting its lengths
+(analyzer/sources/mcapscan.py). Every intact chunk and top-level record is kept;
+a damaged chunk is skipped by its length and the walk goes on with the next
+record; a chunk whose CRC fails but that decompresses is kept message by message
+up to its first record that does not read as written. Channels and schemas
+defined only in the summary (a complete file whose first chunk is damaged) are
+taken from there. What was kept and dropped is said, with byte offsets.
+
+The output is written beside its target and renamed at the end (analyzer/outfile):
+never over the input, never half-written. A file with nothing to keep is an
+error (exit 1) and leaves no output.
+"""
 
 from __future__ import annotations
 
 import argparse
 import os
+import stat
+import sys
 
-from mcap.records import Channel, Header, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Schema
 from mcap.writer import CompressionType, Writer
 
+from ..outfile import AtomicOutput, check_output, show, write_error
 from ..sources.files import open_input
+from ..sources.mcapscan import (MAGIC, OP_ATTACHMENT, OP_CHANNEL, OP_CHUNK, OP_HEADER, OP_MESSAGE, OP_METADATA,
+                                OP_SCHEMA, RECORD, RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse,
+                                read_chunk, read_cut_chunk, summary_records)
 from .common import UsageError, warn
+
+EXIT_NOTHING_KEPT = 1
+_TOP = frozenset((OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_METADATA, OP_ATTACHMENT))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("recover", help="rewrite a cut-short MCAP recording whole",
-                       description="Rewrite an MCAP recording that has no summary (a killed tap) into a complete file.")
+    p = sub.add_parser("recover", help="rewrite a cut-short or damaged MCAP recording whole",
+                       description="Rewrite an MCAP recording that has no summary (a killed tap) or a damaged "
+                                   "chunk into a complete file with everything intact.")
     p.add_argument("input", metavar="FILE.mcap")
     p.add_argument("-o", "--output", metavar="OUT.mcap", help="default: FILE.recovered.mcap")
     p.add_argument("--force", action="store_true", help="overwrite OUT.mcap if it exists")
     p.set_defaults(run=run)
 
 
+def default_output(src: str) -> str:
+    return (src[:-5] if src.endswith(".mcap") else src) + ".recovered.mcap"
+
+
 def run(args: argparse.Namespace) -> int:
     src = args.input
-    out = args.output or (src[:-5] if src.endswith(".mcap") else src) + ".recovered.mcap"
-    if os.path.exists(out) and not args.force:
-        raise UsageError(f"{out}: exists (use --force to overwrite)")
-    with open_input(src) as f:
-        if f.read(5) != b"\x89MCAP":
-            raise UsageError(f"{src}: not an MCAP file")
-    messages = 0
-    cut = None
-    with open_input(src) as f, open(out, "wb") as g:
-        writer = Writer(g, compression=CompressionType.ZSTD)
-        reader = StreamReader(f, record_size_limit=1 << 30)   # chunks are opened record by record
-        schemas: dict[int, int] = {}
-        channels: dict[int, int] = {}
-        started = False
+    out = args.output or default_output(src)
+    _check_input(src)
+    check_output(out, [src], force=args.force)
+    with open_input(src) as f, AtomicOutput(out) as target:
+        size = os.fstat(f.fileno()).st_size
+        salvage = Salvage(Writer(target.file, compression=CompressionType.ZSTD))
         try:
-            for record in reader.records:
-                if not started:
-                    profile = record.profile if isinstance(record, Header) else ""
-                    writer.start(profile=profile, library="gimbalscope recover")
-                    started = True
-                if isinstance(record, Schema):
-                    schemas[record.id] = writer.register_schema(record.name, record.encoding, record.data)
-                elif isinstance(record, Channel):
-                    if record.id not in channels:
-                        channels[record.id] = writer.register_channel(
-                            record.topic, record.message_encoding, schemas.get(record.schema_id, 0),
-                            dict(record.metadata))
-                elif isinstance(record, Metadata):
-                    writer.add_metadata(record.name, dict(record.metadata))
-                elif isinstance(record, Message):
-                    writer.add_message(channels[record.channel_id], record.log_time, record.data,
-                                       record.publish_time, record.sequence)
-                    messages += 1
-        except Exception as e:   # the cut end: keep everything before it
-            cut = f"{type(e).__name__}: {e}"
-        if not started:
-            writer.start(profile="", library="gimbalscope recover")
-        writer.add_metadata("gimbalscope.recover", {"source": src, "messages": str(messages),
-                                                     "cut": cut or "none: the file was complete"})
-        writer.finish()
-    if cut:
-        warn(f"{src}: ends early ({cut}); kept {messages} messages before it")
-    print(f"{out}: {messages} messages")
+            salvage.read(f, size)
+            if salvage.messages:
+                salvage.finish(src)
+        except OSError as e:   # the output's disk is full, or the like
+            raise write_error(out, e) from None
+        problems = salvage.report()
+        if not salvage.messages:   # one line, and no output: an empty file would only mislead
+            target.discard()
+            print(f"gimbalscope: error: {show(src)}: nothing to recover, no intact message"
+                  + (f" ({'; '.join(problems)})" if problems else ""), file=sys.stderr)
+            return EXIT_NOTHING_KEPT
+        for line in problems:
+            warn(f"{show(src)}: {line}")
+    print(f"{show(out)}: {salvage.messages} messages")
     return 0
+
+
+def _check_input(src: str) -> None:
+    """An MCAP file that can be read at any offset (a pipe cannot)."""
+    if src == "-":
+        raise UsageError("recover reads a file, not standard input: save the recording to a file first")
+    with open_input(src) as f:
+        if not stat.S_ISREG(os.fstat(f.fileno()).st_mode):
+            raise UsageError(f"{show(src)}: not a regular file: save the recording to a file first")
+        if f.read(len(MAGIC)) != MAGIC:
+            raise UsageError(f"{show(src)}: not an MCAP file (it does not start with the MCAP magic bytes)")
+
+
+class Salvage:
+    """Copies what reads as written from an MCAP file into ``writer``, and keeps
+    count of what it dropped and why (``report``)."""
+
+    def __init__(self, writer: Writer) -> None:
+        self.writer = writer
+        self.started = False
+        self.profile = ""
+        self.messages = 0
+        self.cut: str | None = None                   # where and why the records ended early
+        self.schemas: dict[int, Schema] = {}          # as defined in the input, by its ids
+        self.channels: dict[int, Channel] = {}
+        self.encodings: dict[int, str] = {}           # channel id → message encoding (CRC salvage)
+        self.schema_ids: dict[int, int] = {}          # input id → output id, once registered
+        self.channel_ids: dict[int, int] = {}
+        # what was dropped, by kind: (count, first offset, first reason)
+        self.dropped: dict[str, list] = {}
+        self.partial: list[tuple[int, int, str | None]] = []   # CRC-failed chunks: (offset, messages kept, why)
+        self.from_cut = 0                             # messages kept from a chunk cut short
+
+    # ------------------------------------------------------------- reading
+    def read(self, f, size: int) -> None:
+        # channels and schemas a damaged chunk defined may be in the summary too
+        for op, body in summary_records(f, size, (OP_SCHEMA, OP_CHANNEL)):
+            try:
+                self._define(op, parse(op, body))
+            except Damaged:
+                pass   # the summary is a second copy: its damage costs nothing
+        walk = Walk(f, size)
+        for offset, op, body in walk.records(_TOP):
+            if op == OP_CHUNK:
+                self._chunk(offset, body)
+                continue
+            try:
+                record = parse(op, body)
+            except Damaged as e:
+                self._drop("damaged record", offset, str(e))
+                continue
+            self._top(op, record)
+        if walk.tail is not None:
+            self._cut_chunk(*walk.tail)
+        if walk.stop:
+            self.cut = walk.stop
+
+    def _top(self, op: int, record) -> None:
+        if op == OP_HEADER:
+            self.profile = record.profile
+        elif op in (OP_SCHEMA, OP_CHANNEL):
+            self._define(op, record)
+        elif op == OP_MESSAGE:
+            self._message(record, None)
+        elif op == OP_METADATA:
+            self._start()
+            self.writer.add_metadata(record.name, dict(record.metadata))
+        else:   # an attachment
+            self._start()
+            self.writer.add_attachment(record.create_time, record.log_time, record.name, record.media_type,
+                                       record.data)
+
+    def _define(self, op: int, record) -> None:
+        if op == OP_SCHEMA:
+            self.schemas.setdefault(record.id, record)
+        else:
+            self.channels.setdefault(record.id, record)
+            self.encodings.setdefault(record.id, record.message_encoding)
+
+    def _chunk(self, offset: int, body: bytes) -> None:
+        try:
+            records, crc_ok = read_chunk(body)
+        except Damaged as e:
+            self._drop("damaged chunk", offset, str(e))
+            return
+        end, why = len(records), None
+        if not crc_ok:
+            end, _count, why = intact_prefix(records, dict(self.encodings))
+        before = self.messages
+        stop = self._chunk_records(records, end, offset)
+        if not crc_ok:
+            self.partial.append((offset, self.messages - before, why))
+        elif stop is not None:
+            self._drop("damaged chunk", offset, f"{stop}; kept the {self.messages - before} messages before it")
+
+    def _cut_chunk(self, offset: int, body: bytes) -> None:
+        """A chunk cut short by the end of the file: the messages of its first part
+        that read as written."""
+        try:
+            records = read_cut_chunk(body)
+        except Damaged:
+            return
+        end, _count, _why = intact_prefix(records, dict(self.encodings))
+        before = self.messages
+        self._chunk_records(records, end, offset)
+        self.from_cut = self.messages - before
+
+    def _chunk_records(self, records: bytes, end: int, offset: int) -> str | None:
+        """Copy the records of a chunk up to ``end``; returns why it stopped early."""
+        pos = 0
+        while pos < end:
+            if end - pos < RECORD_HEAD:
+                return f"a record header cut short at byte {pos} of its records"
+            op, length = RECORD.unpack_from(records, pos)
+            body = pos + RECORD_HEAD
+            if length > end - body:
+                return f"a {op_name(op)} record at byte {pos} of its records runs past their end"
+            if op in (OP_SCHEMA, OP_CHANNEL, OP_MESSAGE):
+                try:
+                    record = parse(op, records[body:body + length])
+                except Damaged as e:
+                    return f"{e} at byte {pos} of its records"
+                if op == OP_MESSAGE:
+                    self._message(record, offset)
+                else:
+                    self._define(op, record)
+            pos = body + length
+        return None
+
+    # ------------------------------------------------------------- writing
+    def _start(self) -> None:
+        if not self.started:
+            self.writer.start(profile=self.profile, library="gimbalscope recover")
+            self.started = True
+
+    def _message(self, record, offset: int | None) -> None:
+        channel = self._channel(record.channel_id)
+        if channel is None:
+            self._drop("message on an unknown channel", offset, f"channel {record.channel_id}")
+            return
+        self.writer.add_message(channel, record.log_time, record.data, record.publish_time, record.sequence)
+        self.messages += 1
+
+    def _channel(self, cid: int) -> int | None:
+        """The output's id for the input's channel ``cid``, registered (with its
+        schema) just before its first message: a channel registered with no message
+        after it would be written only in the summary."""
+        out = self.channel_ids.get(cid)
+        if out is not None:
+            return out
+        channel = self.channels.get(cid)
+        if channel is None:
+            return None
+        self._start()
+        schema_id = 0
+        schema = self.schemas.get(channel.schema_id)
+        if schema is not None:
+            schema_id = self.schema_ids.get(schema.id)
+            if schema_id is None:
+                schema_id = self.schema_ids[schema.id] = self.writer.register_schema(
+                    schema.name, schema.encoding, schema.data)
+        out = self.channel_ids[cid] = self.writer.register_channel(
+            channel.topic, channel.message_encoding, schema_id, dict(channel.metadata))
+        return out
+
+    def finish(self, src: str) -> None:
+        self._start()
+        self.writer.add_metadata("gimbalscope.recover", {
+            "source": show(src), "messages": str(self.messages),
+            "cut": self.cut or "none: the file was complete",
+            "dropped": "; ".join(self.report()) or "nothing"})
+        self.writer.finish()
+
+    # ------------------------------------------------------------- report
+    def _drop(self, kind: str, offset: int | None, why: str) -> None:
+        seen = self.dropped.get(kind)
+        if seen is None:
+            self.dropped[kind] = [1, offset, why]
+        else:
+            seen[0] += 1
+
+    def report(self) -> list[str]:
+        """One line per kind of problem: what was kept, what was dropped, where."""
+        lines = []
+        for kind, (count, offset, why) in self.dropped.items():
+            where = f" at byte {offset}" if offset is not None else ""
+            if count == 1:
+                lines.append(f"dropped a {kind}{where} ({why})")
+            else:
+                lines.append(f"dropped {count} of: {kind} (the first{where}: {why})")
+        if self.partial:
+            offset, kept, why = self.partial[0]
+            rest = f"dropped the rest from {why}" if why else "none dropped, but some bytes may be altered"
+            if len(self.partial) == 1:
+                lines.append(f"the chunk at byte {offset} fails its CRC check: kept its first {kept} "
+                             f"messages, {rest}")
+            else:
+                kept = sum(k for _o, k, _w in self.partial)
+                lines.append(f"{len(self.partial)} chunks fail their CRC check: kept {kept} of their "
+                             f"messages, each up to its first bad record (the first at byte {offset}: {rest})")
+        if self.cut:
+            lines.append(f"ends early ({self.cut}); kept {self.messages} messages before it"
+                         + (f", {self.from_cut} of them from the part of the cut chunk that is there"
+                            if self.from_cut else ""))
+        return lines
+

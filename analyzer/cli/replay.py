@@ -5,10 +5,13 @@ its raw byte topics like ``decode`` (Table 1 framing, Tables 4-18 fields)."""
 from __future__ import annotations
 
 import argparse
+import math
 import time
 
+from ..outfile import show
 from ..output import JsonLinesSink, TextSink
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs
+from ..sources.mcapfile import McapSource
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs, warn_if_empty
 from .live import add_tui_args, wants_tui
 
 
@@ -19,7 +22,7 @@ def speed(text: str) -> float:
         value = float(text)
     except ValueError:
         value = -1.0
-    if value <= 0:
+    if not (value > 0 and math.isfinite(value)):   # "nan" and "inf" parse as floats
         raise argparse.ArgumentTypeError(f"{text!r}: a factor above 0 (2 = twice as fast) or 'max'")
     return value
 
@@ -39,15 +42,17 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    if type(capture.source).__name__ != "McapSource":
-        raise UsageError(f"{args.inputs[0]}: replay takes an MCAP recording (use decode for other captures)")
+    if not isinstance(capture.source, McapSource):
+        raise UsageError(f"{show(args.inputs[0])}: replay takes an MCAP recording (use decode for other captures)")
     if wants_tui(args):
         from ..tui.run import open_tui
         return open_tui(capture, args, mode="replay", speed=args.speed)
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
     start = time.monotonic()
+    seen = 0
     try:
         for ev in capture:
+            seen += 1
             if args.speed and ev.t is not None:
                 delay = start + ev.t / args.speed - time.monotonic()
                 if delay > 0:
@@ -56,4 +61,5 @@ def run(args: argparse.Namespace) -> int:
                 sink(ev)
     finally:
         sink.close()
+    warn_if_empty(capture, seen)
     return 0

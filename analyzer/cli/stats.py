@@ -38,6 +38,34 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+# what a noise event is, by its problem category (the deframer's: docs/decoding.md)
+_NOISE_NAMES = {"noise": ("noise run", "noise runs"), "bad checksum": ("broken frame", "broken frames"),
+                "truncated frame": ("truncated frame", "truncated frames")}
+
+
+def _broken(data: dict) -> str:
+    """Checksum errors count every event with a checksum problem (the problems
+    line's `bad checksum` and `bad length byte`); say which are not frames."""
+    n = data["broken_frames"]
+    if not n:
+        return ""
+    frames = data["checksum_errors"] - n
+    return f" ({frames} in frames, {n} in {'a broken frame' if n == 1 else 'broken frames'} shown as noise)"
+
+
+def _noise_kinds(data: dict) -> str:
+    """Noise events are unframed bytes (the problems line's `noise`) and frames
+    broken or cut short: say how many of each when they are not all noise runs."""
+    kinds = data["noise"]["by_problem"]
+    if set(kinds) <= {"noise"}:
+        return ""
+    parts = []
+    for cat, n in kinds.items():
+        one, many = _NOISE_NAMES.get(cat, (cat, cat))
+        parts.append(f"{n} {one if n == 1 else many}")
+    return " (" + ", ".join(parts) + ")"
+
+
 def _lat(d: dict) -> list[str]:
     if not d["count"]:
         return ["", "", "", ""]
@@ -56,11 +84,12 @@ def render(data: dict) -> None:
                   + "  bytes: " + ", ".join(f"line {k} {v}" for k, v in data["bytes"].items()))
     console.print(f"ok {s['ok']}  nak {s['nak']}  nic {s['nic']}  no_ack {s['no_ack']}  "
                   f"no_result {s['no_result']}  pending {s['pending']}  "
-                  f"retransmissions {data['retransmissions']}  checksum errors {data['checksum_errors']}  "
-                  f"noise {data['noise']['events']} runs / {data['noise']['bytes']} bytes  "
-                  f"orphans {data['orphans']}")
+                  f"retransmissions {data['retransmissions']}  orphans {data['orphans']}")
+    console.print(f"checksum errors {data['checksum_errors']}{_broken(data)}  "
+                  f"noise {data['noise']['events']} events / {data['noise']['bytes']} bytes{_noise_kinds(data)}")
     if data["problems"]:
-        console.print("problems: " + ", ".join(f"{k} {v}" for k, v in data["problems"].items()))
+        console.print("problems (events per category): "
+                      + ", ".join(f"{k} {v}" for k, v in data["problems"].items()))
     for title, key in (("per command", "by_command"), ("per device (group.port.device)", "by_device")):
         table = Table(title=title, title_justify="left")
         for col in ("", "count", "ok", "nak", "nic", "no_ack", "no_res", "pend", "retx", "cksum",

@@ -22,10 +22,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..tui.run import keymap_from, open_tui
+
+    # a mistake in what was typed (keymap, filter) is reported before the terminal
+    # check, so it can be fixed in one go, and before the screen opens
+    keymap = keymap_from(args)
+    build_filter(args.filter)
     if not (sys.stdout.isatty() and sys.stdin.isatty()):
         raise UsageError("view needs a terminal (for scripts: gimbalscope decode)")
-    build_filter(args.filter)   # a bad filter is one line, before the screen opens
     capture = open_inputs(args)
-    from ..tui.run import open_tui
-
-    return open_tui(capture, args, mode="view")
+    return open_tui(capture, args, mode="view", keymap=keymap)

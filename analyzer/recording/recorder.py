@@ -9,43 +9,161 @@ such a file has no summary and still reads (``analyzer.sources.mcapfile``).
 Message times (log_time): ``start_time`` plus the event's wire time. Inputs
 without time get ``start_time`` plus the event number in nanoseconds, which keeps
 their order.
+
+Write errors (a full disk) go one of two ways. Without ``on_error`` (convert,
+writing into a temporary file) they raise ``RecordingError``, one line, and the
+caller throws the file away. With ``on_error`` (live taps) the recorder stops,
+closes the file as well as it can, says so once through ``on_error``, and every
+later call does nothing: the tap goes on. "As well as it can": a record cut short
+is cut off, then a data end and footer are added if there is room (a whole MCAP
+without summary); without room the file ends at its last whole record, which
+readers take up to its last complete chunk. A recording that kept no message is
+removed: nothing useful was written.
 """
 
 from __future__ import annotations
 
+import errno
 import os
+import stat
 import time
-from typing import Any, Callable
+from typing import Any, BinaryIO, Callable
 
-from mcap.writer import CompressionType, Writer
+from mcap.data_stream import RecordBuilder
+from mcap.records import DataEnd, Footer
+from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
 from dissectors.event import COMMAND, NOISE, Event
 
+from ..outfile import OutputError, reason, show
 from ..output import dumps
 from ..sources.base import Chunk
 from . import schemas as S
 
 
-class RecordingError(Exception):
-    """The recording file cannot be written; the message names it."""
+class RecordingError(OutputError):
+    """The recording file cannot be written; the message names it, ``reason``
+    says why in a few words."""
+
+    def __init__(self, message: str, reason: str = "") -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
+def _tail() -> bytes:
+    """What closes an MCAP that has no summary: data end, footer, magic."""
+    b = RecordBuilder()
+    DataEnd(0).write(b)
+    Footer(0, 0, 0).write(b)
+    return b.end() + MCAP0_MAGIC
+
+
+class _Output:
+    """The stream the MCAP writer writes to, counting the bytes that reached the
+    file whole (``good``): after a failed write, what follows ``good`` is a record
+    cut short. A path is opened unbuffered (no buffer left to fail again at
+    close); an open file (convert's temporary file) is written through."""
+
+    def __init__(self, path: str, file: BinaryIO | None) -> None:
+        self.file = file
+        self.fd = file.fileno() if file is not None else os.open(
+            path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o666)
+        self.good = file.tell() if file is not None else 0
+
+    @property
+    def own(self) -> bool:
+        return self.file is None
+
+    def write(self, data: bytes) -> int:
+        if self.file is not None:
+            self.file.write(data)
+        else:
+            view = memoryview(data)
+            while view:
+                n = os.write(self.fd, view)   # a disk filling up takes part, then fails
+                if n <= 0:
+                    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+                view = view[n:]
+        self.good += len(data)
+        return len(data)
+
+    def tell(self) -> int:
+        return self.good
+
+    def flush(self) -> None:
+        if self.file is not None:
+            self.file.flush()
+
+    def sync(self) -> None:
+        """Push to the disk; a target that is no disk file (``/dev/null``) cannot sync."""
+        self.flush()
+        try:
+            os.fsync(self.fd)
+        except OSError as e:
+            if e.errno not in (errno.EINVAL, errno.ENOTSUP, errno.EROFS):
+                raise
+
+    def restart(self) -> None:
+        """Empty the file, to write it again from its first byte."""
+        if self.file is not None:
+            self.file.flush()
+            self.file.seek(0)
+            self.file.truncate()
+        else:
+            os.ftruncate(self.fd, 0)
+            os.lseek(self.fd, 0, os.SEEK_SET)
+        self.good = 0
+
+    def write_at(self, pos: int, data: bytes) -> None:
+        """Cut the file at ``pos`` and write ``data`` there (own files only)."""
+        os.ftruncate(self.fd, pos)
+        os.lseek(self.fd, pos, os.SEEK_SET)
+        self.good = pos
+        self.write(data)
+
+    def close(self) -> None:
+        if self.own and self.fd >= 0:
+            fd, self.fd = self.fd, -1
+            os.close(fd)
 
 
 class McapRecorder:
+    """Records to ``path``, or into ``file`` (an open binary file the caller owns
+    and closes; ``path`` then only names it in messages). See the module doc for
+    ``on_error``."""
+
     def __init__(self, path: str, *, metadata: dict[str, str], start_time: float | None = None,
                  flush_interval: float | None = None, clock: Callable[[], float] = time.monotonic,
-                 lines: tuple[str, ...] = ("A", "B")) -> None:
+                 lines: tuple[str, ...] = ("A", "B"), file: BinaryIO | None = None,
+                 on_error: Callable[[str], None] | None = None) -> None:
         self.path = path
+        self.on_error = on_error
+        self.failed: str | None = None   # why the recording stopped early
+        self.removed = False             # stopped with nothing kept: the file is gone
+        self.messages = 0                # in the recording (after a failure: those kept)
+        self.message_bytes = 0           # before compression
+        self._kept = 0                   # messages whose chunk reached the file whole
+        self._closed = False
         try:
-            self._file = open(path, "wb")
+            self._out = _Output(path, file)
         except OSError as e:
-            raise RecordingError(f"{path}: cannot write: {e.strerror or e}") from None
-        self._writer = Writer(self._file, compression=CompressionType.ZSTD, chunk_size=1 << 20)
-        self._writer.start(profile=S.PROFILE, library="gimbalscope")
-        self.start_ns = int((start_time if start_time is not None else time.time()) * 1e9)
-        self._metadata = dict(metadata)
+            raise RecordingError(f"{show(path)}: cannot write: {reason(e)}", reason(e)) from None
+        try:
+            self._start_args = (metadata, start_time, lines)
+            self._start(*self._start_args)
+        except OSError as e:   # the disk was full from the start: nothing useful written
+            self._remove()
+            raise RecordingError(f"{show(path)}: cannot write: {reason(e)}", reason(e)) from None
         self._flush_interval = flush_interval
         self._clock = clock
         self._last_flush = clock()
+
+    def _start(self, metadata: dict[str, str], start_time: float | None, lines: tuple[str, ...],
+               chunked: bool = True) -> None:
+        self._writer = Writer(self._out, compression=CompressionType.ZSTD, chunk_size=1 << 20,
+                              use_chunking=chunked)
+        self._writer.start(profile=S.PROFILE, library="gimbalscope")
+        self.start_ns = int((start_time if start_time is not None else time.time()) * 1e9)
         self._seq = 0
         ids = {}
         for name, schema in (("raw", S.RAW), ("event", S.EVENT), ("txn", S.TRANSACTION), ("log", S.LOG)):
@@ -58,22 +176,25 @@ class McapRecorder:
         self._log = self._writer.register_channel(S.LOG_TOPIC, "json", ids["log"])
         self._open_txn: dict[str, Any] | None = None
         self._offsets: dict[str, int] = {}
-        self.messages = 0
-        self.message_bytes = 0   # before compression
-        self._closed = False
-        if self._metadata:   # written first, so a killed recording still says what it is
-            self._writer.add_metadata(S.METADATA_NAME, self._metadata)
+        if metadata:   # written first, so a killed recording still says what it is
+            self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
 
     # ---------------------------------------------------------------- input
     def raw(self, chunk: Chunk, offset: int) -> None:
         """Record bytes read from a line (``offset`` of their first byte)."""
-        if not chunk.data:
+        if not chunk.data or self._closed:
             return
         self._offsets[chunk.line] = offset + len(chunk.data)
         channel = self._raw_channels.get(chunk.line)
         if channel is None:
-            channel = self._raw_channels[chunk.line] = self._writer.register_channel(
-                S.RAW_TOPIC.format(line=chunk.line), "json", self._raw_schema)
+            before = self._out.good
+            try:
+                channel = self._writer.register_channel(S.RAW_TOPIC.format(line=chunk.line), "json",
+                                                        self._raw_schema)
+            except OSError as e:
+                self._fail(e, before, self.messages)
+                return
+            self._raw_channels[chunk.line] = channel
         self._seq += 1
         ts = self._time_ns(chunk.t, self._seq)
         self._write(channel, ts, {"line": chunk.line, "offset": offset, "t": chunk.t, "data": chunk.data.hex()})
@@ -81,7 +202,7 @@ class McapRecorder:
     def end_marker(self, t: float | None) -> None:
         """Record that time ran on to ``t`` with nothing more on the wire (an empty
         raw chunk), so decoding the recording expires the same timeouts live did."""
-        if t is None:
+        if t is None or self._closed:
             return
         line = next(iter(self._raw_channels))
         self._write(self._raw_channels[line], self._time_ns(t, 0),
@@ -91,7 +212,7 @@ class McapRecorder:
         """A tap's own message (a port lost and back, the skew estimate) on /log."""
         ts = self._time_ns(t, 0)
         self._write(self._log, ts, {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000},
-                                    "level": level, "message": message, "name": "gimbalscope tap",
+                                    "level": level, "message": show(message), "name": "gimbalscope tap",
                                     "file": "", "line": 0})
 
     def event(self, ev: Event) -> None:
@@ -106,12 +227,33 @@ class McapRecorder:
         recording only knows it at the end (conversions). Safe to call twice."""
         if self._closed:
             return
-        self._closed = True
         self._end_txn()
-        if metadata:
-            self._writer.add_metadata(S.METADATA_NAME, metadata)
-        self._writer.finish()
-        self._file.close()
+        self.flush()   # the last chunk first: a failure after it loses only the summary
+        if self._closed:
+            return
+        data_end = before = self._out.good
+        try:
+            if self.messages == 0:
+                self._write_empty()
+                data_end = before = self._out.good
+            if metadata:
+                self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
+                data_end = self._out.good
+            self._writer.finish()
+            self._out.sync()
+        except OSError as e:
+            self._fail(e, before, self.messages, cut_at=data_end)
+            return
+        self._closed = True
+        self._out.close()
+
+    def _write_empty(self) -> None:
+        """A recording without a single message (an empty capture) is written again
+        without chunks: the MCAP writer drops a chunk that holds no message, and with
+        it the schema and channel records, which readers then miss. Unchunked, they
+        stand in the data section, and the file still says which lines it had."""
+        self._out.restart()
+        self._start(*self._start_args, chunked=False)
 
     def __enter__(self) -> "McapRecorder":
         return self
@@ -126,18 +268,83 @@ class McapRecorder:
         return self.start_ns + int(round(t * 1e9))
 
     def _write(self, channel: int, ts: int, obj: dict) -> None:
+        if self._closed:
+            return
         data = dumps(obj)
-        self._writer.add_message(channel, log_time=ts, data=data, publish_time=ts)
+        before = self._out.good
+        try:
+            self._writer.add_message(channel, log_time=ts, data=data, publish_time=ts)
+        except OSError as e:   # a full chunk was being written: it holds this message too
+            self._fail(e, before, self.messages + 1)
+            return
         self.messages += 1
         self.message_bytes += len(data)
+        if self._out.good != before:   # a full chunk went out, this message in it
+            self._kept = self.messages
         if self._flush_interval is not None and self._clock() - self._last_flush >= self._flush_interval:
             self.flush()
 
     def flush(self) -> None:
         """Close the chunk in progress and push it to disk (a killed tap keeps it)."""
-        self._writer.flush()
-        os.fsync(self._file.fileno())
+        if self._closed:
+            return
+        before = self._out.good
+        try:
+            self._writer.flush()
+            self._out.sync()
+        except OSError as e:
+            self._fail(e, before, self.messages)
+            return
+        self._kept = self.messages
         self._last_flush = self._clock()
+
+    def _fail(self, e: OSError, before: int, pending: int, cut_at: int | None = None) -> None:
+        """A write failed: stop. ``pending`` messages were handed to the writer; if
+        anything reached the file whole since ``before``, their chunk did."""
+        if self._out.good > before:
+            self._kept = max(self._kept, pending)
+        self.failed = reason(e)
+        self.messages = self._kept
+        self._closed = True
+        if self.on_error is None:
+            raise RecordingError(f"{show(self.path)}: cannot write: {self.failed}", self.failed) from None
+        self._salvage(self._out.good if cut_at is None else cut_at)
+        kept = "nothing kept, file removed" if self.removed else \
+            f"{self.messages} message{'' if self.messages == 1 else 's'} kept"
+        self.on_error(f"{show(self.path)}: recording stopped: {self.failed} ({kept})")
+
+    def _salvage(self, cut_at: int) -> None:
+        """Close a live recording after a failed write (module doc)."""
+        if not self._out.own:
+            return
+        if self._kept == 0:
+            self._remove()
+            return
+        try:
+            self._out.write_at(cut_at, _tail())
+            self._out.sync()
+        except OSError:
+            try:   # no room for the tail: end at the last whole record
+                os.ftruncate(self._out.fd, cut_at)
+            except OSError:
+                pass
+        try:
+            self._out.close()
+        except OSError:
+            pass
+
+    def _remove(self) -> None:
+        """Remove a file this recorder made that holds nothing useful."""
+        if not self._out.own:
+            return
+        try:
+            regular = stat.S_ISREG(os.fstat(self._out.fd).st_mode)
+            self._out.close()
+            if regular:   # never a device or anything else the path might name
+                os.unlink(self.path)
+                self.removed = True
+        except OSError:
+            pass
 
     @staticmethod
     def _log_message(ev: Event, ts: int) -> dict:
@@ -153,9 +360,8 @@ class McapRecorder:
         stream) fill it; the next command or the end writes it."""
         if ev.kind == COMMAND:
             self._end_txn()
-            g, p, d = ev.dst
             self._open_txn = {"ts": ts, "msg": {
-                "txn": ev.txn, "number": ev.number, "t": ev.t, "command": ev.command, "device": f"{g}.{p}.{d}",
+                "txn": ev.txn, "number": ev.number, "t": ev.t, "command": ev.command, "device": ev.device,
                 "status": ev.status, "retransmission": ev.retransmission, "ack_latency": None,
                 "result_latency": None, "answers": [], "fields": dict(ev.fields), "problems": list(ev.problems)}}
             return
@@ -177,21 +383,33 @@ class McapRecorder:
             self._open_txn = None
 
 
+def encodable(metadata: dict[str, str]) -> dict[str, str]:
+    """MCAP metadata strings must be UTF-8: names the OS gave as undecodable bytes
+    (surrogate escapes) are stored as ``\\xNN``."""
+    return {show(k): show(v) for k, v in metadata.items()}
+
+
 class RotatingRecorder:
     """Long unattended captures: a new numbered file (``name-0001.mcap``, …) when
     the current one holds ``max_bytes`` of messages (counted before compression:
     the writer keeps a chunk in memory until it flushes) or is ``max_seconds``
-    old; each part is a whole MCAP with its own metadata (``part``)."""
+    old; each part is a whole MCAP with its own metadata (``part``). A write
+    failure stops the whole recording (no new parts on a full disk) and goes to
+    ``on_error`` once, as with ``McapRecorder``."""
 
     def __init__(self, path: str, *, max_bytes: int | None = None, max_seconds: float | None = None,
-                 clock: Callable[[], float] = time.monotonic, **kw) -> None:
+                 clock: Callable[[], float] = time.monotonic,
+                 on_error: Callable[[str], None] | None = None, **kw) -> None:
         self.base, ext = os.path.splitext(path)
         self.ext = ext or ".mcap"
         self.max_bytes, self.max_seconds, self.clock = max_bytes, max_seconds, clock
+        self.on_error = on_error
+        self.failed: str | None = None
         self.kw = kw
         self.part = 0
         self.paths: list[str] = []
         self.messages = 0
+        self.current: McapRecorder | None = None
         self._open()
 
     def _open(self) -> None:
@@ -199,32 +417,66 @@ class RotatingRecorder:
         path = f"{self.base}-{self.part:04d}{self.ext}"
         kw = dict(self.kw)
         kw["metadata"] = {**kw.get("metadata", {}), "part": str(self.part)}
-        self.current = McapRecorder(path, **kw)
+        try:
+            self.current = McapRecorder(path, on_error=self._part_failed, **kw)
+        except RecordingError as e:
+            if self.part == 1:   # before the tap starts: the caller says it
+                raise
+            self.current = None
+            self.failed = e.reason
+            self._report(f"{show(path)}: recording stopped: {e.reason} ({self._kept()})")
+            return
         self.paths.append(path)
         self.opened = self.clock()
 
+    def _kept(self) -> str:
+        return f"{self.messages} message{'' if self.messages == 1 else 's'} kept in {len(self.paths)} files"
+
+    def _part_failed(self, message: str) -> None:
+        cur = self.current
+        self.failed = cur.failed if cur is not None else "write error"
+        if cur is not None and cur.removed:
+            self.paths.remove(cur.path)
+        self._report(message)
+
+    def _report(self, message: str) -> None:
+        if self.on_error is None:
+            raise RecordingError(message, self.failed or "")
+        self.on_error(message)
+
     def _maybe_rotate(self) -> None:
         cur = self.current
+        if cur is None or self.failed:
+            return
         too_big = self.max_bytes is not None and cur.message_bytes >= self.max_bytes
         too_old = self.max_seconds is not None and self.clock() - self.opened >= self.max_seconds
         if too_big or too_old:
-            self.messages += cur.messages
             cur.close()
-            self._open()
+            self.messages += cur.messages
+            self.current = None
+            if not self.failed:
+                self._open()
 
     def raw(self, chunk: Chunk, offset: int) -> None:
-        self.current.raw(chunk, offset)
-        self._maybe_rotate()
+        if self.current is not None:
+            self.current.raw(chunk, offset)
+            self._maybe_rotate()
 
     def event(self, ev: Event) -> None:
-        self.current.event(ev)
+        if self.current is not None:
+            self.current.event(ev)
 
     def end_marker(self, t: float | None) -> None:
-        self.current.end_marker(t)
+        if self.current is not None:
+            self.current.end_marker(t)
 
     def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
-        self.current.note(message, t, level)
+        if self.current is not None:
+            self.current.note(message, t, level)
 
     def close(self) -> None:
-        self.messages += self.current.messages
-        self.current.close()
+        cur = self.current
+        if cur is not None:
+            cur.close()   # still current: a failure here is reported against it
+            self.messages += cur.messages
+        self.current = None

@@ -49,6 +49,8 @@ EVENT = {
         "kind": {"type": "string", "enum": ["command", "result", "ack", "nak", "nic", "noise"]},
         "command": _NULLABLE_STRING,
         "dst": _ADDRESS,
+        "device": {**_NULLABLE_STRING, "description": "the gimbal's address group.port.device: a command's "
+                   "destination, a result's sender, an ACK/NAK/NIC's command's (null: noise, orphans)"},
         "src": _NULLABLE_INT,
         "payload": _NULLABLE_STRING,
         "checksum_ok": {"type": ["boolean", "null"]},

@@ -7,12 +7,17 @@ MCAP recordings and live serial ports plug in behind the same interface.
 
 from __future__ import annotations
 
+import weakref
 from abc import ABC, abstractmethod
 from typing import Callable, Iterator, NamedTuple
 
 LINE_A = "A"    # controller → device
 LINE_B = "B"    # device → controller
 LINE_AB = "AB"  # single-line tap: both directions on one wire
+
+
+def _ignore(msg: str) -> None:
+    pass
 
 
 class CaptureError(Exception):
@@ -35,7 +40,34 @@ class Source(ABC):
     description: str = ""
 
     def __init__(self) -> None:
-        self.warn: Callable[[str], None] = lambda msg: None
+        self._warn: Callable[[str], None] = _ignore
+        self._early: list[str] = []                 # see warn_later
+        self._cleanups: list[weakref.finalize] = []  # see on_close
+
+    @property
+    def warn(self) -> Callable[[str], None]:
+        """Told every warning; whoever reads the source (a ``Capture``) sets it."""
+        return getattr(self, "_warn", _ignore)
+
+    @warn.setter
+    def warn(self, handler: Callable[[str], None]) -> None:
+        self._warn = handler
+        early, self._early = getattr(self, "_early", []), []
+        for msg in early:
+            handler(msg)
+
+    def warn_later(self, msg: str) -> None:
+        """A warning found while the source was being opened, before anyone listens:
+        given to the handler when one is set."""
+        if self.warn is _ignore:
+            self._early.append(msg)
+        else:
+            self.warn(msg)
+
+    def on_close(self, cleanup: Callable[[], None]) -> None:
+        """Run ``cleanup`` once: at ``close()``, or when the source is collected or the
+        program ends without closing it (a temporary file must not outlive the run)."""
+        self._cleanups.append(weakref.finalize(self, cleanup))
 
     @abstractmethod
     def chunks(self) -> Iterator[Chunk]:
@@ -47,7 +79,10 @@ class Source(ABC):
         return (c for c in self.chunks() if c.line == line)
 
     def close(self) -> None:
-        pass
+        """Release what the source holds (files, temporary copies). Subclasses that
+        override it call ``super().close()``."""
+        for cleanup in getattr(self, "_cleanups", ()):
+            cleanup()
 
     def __enter__(self) -> "Source":
         return self

@@ -2,8 +2,18 @@
 ``/serial/B/raw``, or ``/serial/AB/raw``) are read back and re-dissected, so a
 newer dissector re-decodes an old recording.
 
-A file from a killed tap has no summary section: it is read record by record up
-to its last complete chunk, with a warning (``gimbalscope recover`` rewrites it).
+Nothing in the file is trusted (``mcapscan`` bounds every length). What cannot be
+read is said once, with its byte offset, and the rest is read:
+
+- a file from a killed tap has no summary: it is read up to where it ends;
+- a damaged chunk is skipped by its length; one whose CRC fails but that
+  decompresses is read up to its first record that does not read as written
+  (``gimbalscope recover`` keeps the same records);
+- a message on a raw topic that is not a gimbalscope raw chunk (other tools, by
+  hand) is counted and skipped: one warning per topic.
+
+A file with no raw chunk to decode is one error naming why; one with our raw
+channels and no messages at all is an empty capture.
 
 Large files are read in a second process: decompressing and parsing the raw
 messages cost as much as dissecting them, and a second core does it meanwhile
@@ -19,164 +29,174 @@ import struct
 import subprocess
 import sys
 from functools import partial
-from typing import Iterator
-
-from io import BytesIO
-
-from mcap.data_stream import ReadDataStream
-from mcap.records import Channel, Chunk as McapChunk, Message
-from mcap.stream_reader import get_chunk_data_stream
+from itertools import chain
+from typing import Callable, Iterator
 
 try:
     from orjson import loads as json_loads
 except ImportError:  # pragma: no cover
     json_loads = json.loads
 
+from ..outfile import show
 from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Source
 from .files import open_input
+from .mcapscan import (MAGIC, OP_CHANNEL, OP_CHUNK, OP_MESSAGE, RECORD, Damaged, Walk, intact_prefix, op_name,
+                       parse, read_chunk, read_cut_chunk, summary_records)
 
 RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}
 
-# MCAP record layout inside a chunk (spec: opcode u8, length u64, body)
-_RECORD = struct.Struct("<BQ")
-_CHANNEL_HEAD = struct.Struct("<HHI")     # id, schema id, topic length
-_MESSAGE_HEAD = 22                         # channel u16, sequence u32, log and publish times u64
-_LOG_TIME = struct.Struct("<Q")            # at byte 6 of a message record
-_OP_FOOTER, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x02, 0x04, 0x05, 0x06
-_MAGIC_LEN = 8
+_LOG_TIME = struct.Struct("<Q")            # at byte 6 of a message record's body
+_BODIES = frozenset((OP_CHUNK, OP_CHANNEL, OP_MESSAGE))   # top-level records read; the rest are skipped
+
+# A raw chunk's time ("t", seconds since the capture's first byte) must be a number
+# within this; beyond it no recording is that long, and times that large break the
+# arithmetic of re-recording it (nanosecond log times are 64-bit).
+MAX_T = 1e9
+# A recording's start (its first log time less its t) is an epoch time in this range,
+# else unknown: log times on another clock (boot time, a simulator's) are not dates.
+_EPOCH = (1e9, 9e9)
+# What a message that is not ours raises in the fast path (orjson's errors are ValueErrors)
+_NOT_OURS = (ValueError, TypeError, KeyError, AttributeError, RecursionError)
+
+# kinds of problem found while reading, each said with its own ending
+_CUT, _LOST, _DAMAGE, _FOREIGN = "cut", "lost", "damage", "foreign"   # _LOST: a cut through a record
+_ENDINGS = {
+    _CUT: "; read everything before it (a killed recording? 'gimbalscope recover' rewrites it whole)",
+    _LOST: "; read everything before it (a killed recording? 'gimbalscope recover' rewrites it whole)",
+    _DAMAGE: "; read on after it ('gimbalscope recover' keeps every intact chunk)",
+    _FOREIGN: "; read the rest",
+}
 
 READER_PROCESS_MIN = 8 << 20   # bytes: smaller files are read inline (a process costs ~0.1 s to start)
 _BATCH = 4096                  # chunks per message from the reader process
 _as_chunk = partial(tuple.__new__, Chunk)   # a (line, data, t) tuple as a Chunk, in C
 
+Note = Callable[[str, str], None]   # (kind, text): a problem found while reading
+
 
 class McapSource(Source):
-    def __init__(self, path: str) -> None:
+    """``path`` is read; ``name`` (default: the path) is what messages call it, e.g.
+    the user's name for a recording copied to a temporary file."""
+
+    def __init__(self, path: str, name: str | None = None) -> None:
         super().__init__()
         self.path = path
-        self.description = f"{path} (MCAP)"
+        self.label = show(name if name is not None else path)
+        self.description = f"{self.label} (MCAP)"
+        self._said: set[str] = set()
+        self._raw_channels: set[str] = set()   # lines with a raw channel, after a whole read
         lines, timed, start = self._survey()
         self.lines = lines
         self.timed = timed
         self.start_time = start
 
-    def _messages(self, topics: list[str], as_chunks: bool = False) -> Iterator:
-        """(line, log time in ns, raw message) in file order, or with ``as_chunks``
-        the ``Chunk`` each message holds; stops with a warning at a cut end.
-
-        Records are stepped over by their opcode and length (MCAP's framing); the
-        mcap library parses the ones needed (Channel, Message, Chunk) and
-        decompresses the chunks. Inside a chunk, messages of other topics (events,
-        transactions, log: most of a recording) and every index record are skipped
-        by length, never parsed: the library's full reader parses them all, which
-        made re-dissection 3-4 times slower."""
-        wanted: dict[int, str] = {}
-        unpack_record, unpack_channel = _RECORD.unpack_from, _CHANNEL_HEAD.unpack_from
+    # ------------------------------------------------------------------ reading
+    def _batches(self, topics: list[str], pairs: bool = False, need_t: bool | None = None,
+                 note: Note | None = None) -> Iterator[list]:
+        """The raw chunks of ``topics`` in file order, a list per MCAP chunk: ``Chunk``s,
+        or with ``pairs`` (log time in ns, ``Chunk``). ``need_t``: the recording has
+        time (True), has none (False), or not known yet (None); a message that
+        disagrees is not a raw chunk of this recording. Problems go to ``note``."""
+        note = note or self._say
+        p = _Pass(topics, pairs, need_t)
         with open_input(self.path) as f:
-            size_on_disk = os.fstat(f.fileno()).st_size
-            f.read(_MAGIC_LEN)
-            while True:
-                head = f.read(9)
-                if len(head) < 9:
-                    self._cut("no footer" if not head else "a record header is cut short")
-                    return
-                op, length = unpack_record(head, 0)
-                if op == _OP_FOOTER:
-                    return
-                if op not in (_OP_CHUNK, _OP_CHANNEL, _OP_MESSAGE):
-                    if f.tell() + length > size_on_disk:
-                        self._cut("the last record is cut short")
-                        return
-                    f.seek(length, 1)   # indexes, summary, metadata: not needed to re-dissect
-                    continue
-                body = f.read(length)
-                if len(body) < length:
-                    self._cut("the last record is cut short")
-                    return
-                try:
-                    stream = ReadDataStream(BytesIO(body))
-                    if op == _OP_CHANNEL:
-                        record = Channel.read(stream)
-                        if record.topic in topics:
-                            wanted[record.id] = RAW_TOPICS[record.topic]
-                        continue
-                    if op == _OP_MESSAGE:
-                        record = Message.read(stream, length)
-                        line = wanted.get(record.channel_id)
-                        if line is not None:
-                            msg = json_loads(record.data)
-                            yield (Chunk(line, bytes.fromhex(msg["data"]), msg.get("t")) if as_chunks
-                                   else (line, record.log_time, msg))
-                        continue
-                    chunk_stream, size = get_chunk_data_stream(McapChunk.read(stream))
-                    data = chunk_stream.read(size)
-                except Exception as e:   # a damaged record: keep what came before it
-                    self._cut(f"{type(e).__name__}: {e}")
-                    return
-                pos = 0
-                while pos + 9 <= size:
-                    op, length = unpack_record(data, pos)
-                    pos += 9
-                    if op == _OP_MESSAGE:
-                        line = wanted.get(data[pos] | data[pos + 1] << 8)
-                        if line is not None:
-                            msg = json_loads(data[pos + _MESSAGE_HEAD:pos + length])
-                            if as_chunks:   # the re-dissection path: one per read, kept lean
-                                yield Chunk(line, bytes.fromhex(msg["data"]), msg.get("t"))
-                            else:
-                                yield line, _LOG_TIME.unpack_from(data, pos + 6)[0], msg
-                    elif op == _OP_CHANNEL:
-                        cid, _schema, n = unpack_channel(data, pos)
-                        topic = data[pos + 8:pos + 8 + n].decode()
-                        if topic in topics:
-                            wanted[cid] = RAW_TOPICS[topic]
-                    pos += length
+            size = os.fstat(f.fileno()).st_size
+            if f.read(len(MAGIC)) != MAGIC:
+                raise CaptureError(f"{self.label}: not an MCAP file (it does not start with the MCAP magic "
+                                   "bytes of version 0)")
+            # channels registered without any message are only in the summary
+            for op, body in summary_records(f, size, (OP_CHANNEL,)):
+                _read_records(_record(op, body), p, [])
+            walk = Walk(f, size)
+            for offset, op, body in walk.records(_BODIES):
+                out = _read_record(offset, op, body, p, note)
+                if out:
+                    yield out
+            salvaged = []
+            if walk.tail is not None:   # a chunk cut short by the end of the file: its first part
+                _read_records(_cut_chunk_records(walk.tail[1], p.encodings), p, salvaged)
+                if salvaged:
+                    yield salvaged
+            if walk.stop:
+                note(_LOST if walk.lost else _CUT, f"ends early ({walk.stop})" + (
+                    f"; {len(salvaged)} raw chunks read from the part of it that is there" if salvaged else ""))
+        self._raw_channels = set(p.wanted.values())
+        for line, (count, first) in p.foreign.items():
+            topic, why = f"/serial/{line}/raw", _diagnose(first, need_t)
+            note(_FOREIGN, f"{count} messages on {topic} were not gimbalscope raw chunks (the first: {why})"
+                 if count > 1 else f"1 message on {topic} was not a gimbalscope raw chunk ({why})")
 
-    def _cut(self, why: str) -> None:
-        self.warn(f"{self.path}: ends early ({why}); read up to the last complete chunk "
-                  f"(a killed recording? 'gimbalscope recover' rewrites it)")
+    def _say(self, kind: str, text: str) -> None:
+        """A problem as a warning, once (two-line untimed recordings are read a
+        line at a time, each pass finding the same damage)."""
+        msg = f"{self.label}: {text}{_ENDINGS[kind]}"
+        if msg not in self._said:
+            self._said.add(msg)
+            self.warn(msg)
 
     def _survey(self) -> tuple[tuple[str, ...], bool, float | None]:
         """Which lines the recording has, whether it carries time, and when it
         started (the first raw message's log time less its wire time)."""
-        lines: set[str] = set()
+        notes: list[tuple[str, str]] = []
+        seen: set[str] = set()
         first: tuple[int, float | None] | None = None
-        for line, log_time, msg in self._messages(list(RAW_TOPICS)):
-            if first is None:
-                first = (log_time, msg.get("t"))
-            lines.add(line)
-            if len(lines) == 2 or LINE_AB in lines:
+        batches = self._batches(list(RAW_TOPICS), pairs=True, note=lambda kind, text: notes.append((kind, text)))
+        for batch in batches:
+            for log_time, chunk in batch:
+                if first is None:
+                    first = (log_time, chunk.t)
+                seen.add(chunk.line)
+            if len(seen) == 2 or LINE_AB in seen:
                 break
+        batches.close()   # its problems are said when the chunks are read
         if first is None:
-            raise CaptureError(f"{self.path}: MCAP file without gimbalscope raw topics "
-                               f"({', '.join(RAW_TOPICS)})")
+            if notes or not self._raw_channels:
+                raise CaptureError(self._nothing_to_read(notes))
+            # our raw channels and no message: an empty capture
+            return ((LINE_AB,) if self._raw_channels == {LINE_AB} else (LINE_A, LINE_B)), False, None
         log_time, t = first
         start = log_time / 1e9 - (t or 0)
-        return ((LINE_AB,) if LINE_AB in lines else (LINE_A, LINE_B)), t is not None, start
+        lines = (LINE_AB,) if LINE_AB in seen else (LINE_A, LINE_B)
+        return lines, t is not None, (start if _EPOCH[0] <= start <= _EPOCH[1] else None)
+
+    def _nothing_to_read(self, notes: list[tuple[str, str]]) -> str:
+        """Why there is nothing to decode: no raw topic, or damage that may have
+        taken them (a record cut or damaged: say that, not that they are missing)."""
+        said = "; ".join(text for _kind, text in notes)
+        if any(kind != _CUT for kind, _text in notes):
+            return f"{self.label}: no gimbalscope raw chunks to decode: {said}"
+        return (f"{self.label}: MCAP file without gimbalscope raw topics ({', '.join(RAW_TOPICS)})"
+                + (f"; it also {said}" if said else ""))
+
+    def _topics(self) -> list[str]:
+        return [f"/serial/{line}/raw" for line in self.lines]
 
     def chunks(self) -> Iterator[Chunk]:
         if os.path.getsize(self.path) < READER_PROCESS_MIN:
-            return self._messages(list(RAW_TOPICS), as_chunks=True)
+            return chain.from_iterable(self._batches(self._topics(), need_t=self.timed))
         return self._chunks_from_reader_process()
 
     def _chunks_from_reader_process(self) -> Iterator[Chunk]:
         # A fresh interpreter (not multiprocessing's fork: with the TUI's or a tap's
         # threads running, a forked child can inherit a lock one of them holds; and
         # its spawn re-imports the caller's main module).
-        proc = subprocess.Popen([sys.executable, "-m", __name__, self.path], stdin=subprocess.DEVNULL,
+        proc = subprocess.Popen([sys.executable, "-m", __name__, self.path, self.label, ",".join(self.lines),
+                                 "timed" if self.timed else "untimed"], stdin=subprocess.DEVNULL,
                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
         try:
             while True:
                 try:
                     item = pickle.load(proc.stdout)
                 except (EOFError, pickle.UnpicklingError):
-                    raise CaptureError(f"{self.path}: the MCAP reader process ended unexpectedly") from None
+                    raise CaptureError(f"{self.label}: the MCAP reader process ended unexpectedly") from None
                 if item is None:
                     return
                 if isinstance(item, tuple):       # ("warn" | "error", message)
                     if item[0] == "error":
                         raise CaptureError(item[1])
-                    self.warn(item[1])
+                    if item[1] not in self._said:
+                        self._said.add(item[1])
+                        self.warn(item[1])
                     continue
                 yield from map(_as_chunk, item)
         finally:
@@ -186,10 +206,166 @@ class McapSource(Source):
             proc.wait()
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
-        return self._messages([f"/serial/{line}/raw"], as_chunks=True)
+        return chain.from_iterable(self._batches([f"/serial/{line}/raw"], need_t=self.timed))
 
 
-def _read_in_child(path: str, out) -> None:
+class _Pass:
+    """What one read through the file knows so far."""
+
+    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign")
+
+    def __init__(self, topics: list[str], pairs: bool, need_t: bool | None) -> None:
+        self.lines = {topic: RAW_TOPICS[topic] for topic in topics}
+        self.pairs, self.need_t = pairs, need_t
+        self.wanted: dict[int, str] = {}      # channel id → line, for the topics asked for
+        self.encodings: dict[int, str] = {}   # every channel id → its message encoding
+        self.foreign: dict[str, list] = {}    # line → [messages that are not ours, the first one]
+
+
+def _read_record(offset: int, op: int, body: bytes, p: _Pass, note: Note) -> list:
+    """The raw chunks in one top-level record: a chunk, or a channel or message
+    outside chunks (files written without chunking). Its damage goes to ``note``."""
+    out: list = []
+    if op != OP_CHUNK:
+        stop = _read_records(_record(op, body), p, out)
+        if stop is not None:
+            note(_DAMAGE, f"the {op_name(op)} record at byte {offset} is damaged ({stop[1]})")
+        return out
+    where = f"the chunk at byte {offset}"
+    try:
+        records, crc_ok = read_chunk(body)
+    except Damaged as e:
+        note(_DAMAGE, f"{where} is damaged ({e})")
+        return out
+    if crc_ok:
+        stop = _read_records(records, p, out)
+        if stop is not None:
+            note(_DAMAGE, f"{where} is damaged inside ({stop[1]} at byte {stop[0]} of its records)"
+                          + (f": read the {len(out)} raw chunks before it" if out else ""))
+        return out
+    # the records changed since they were written: keep those that still read as written
+    end, _messages, why = intact_prefix(records, dict(p.encodings))
+    _read_records(records[:end], p, out)
+    note(_DAMAGE, f"{where} fails its CRC check: " + (
+        "all of it read (some bytes may be altered)" if why is None else
+        f"read the {len(out)} raw chunks before {why}" if out else f"none of it read ({why})"))
+    return out
+
+
+def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None:
+    """Append the raw chunks among ``records`` (a chunk's content) to ``out``;
+    returns (offset, what) of a record that does not fit, where reading stopped.
+
+    The hot path of re-dissection: messages of other topics (events,
+    transactions, log: most of a recording) and index records are skipped by
+    length, never parsed; a raw message is parsed once, its shape checked by
+    what parsing it raises (``_NOT_OURS``) and a comparison of its time."""
+    unpack_record, loads, fromhex, append = RECORD.unpack_from, json_loads, bytes.fromhex, out.append
+    wanted, pairs, need_t = p.wanted, p.pairs, p.need_t
+    lo, hi = -MAX_T, MAX_T
+    pos, end = 0, len(records)
+    try:
+        while pos < end:
+            op, length = unpack_record(records, pos)   # struct.error: a header cut short
+            body = pos + 9                              # RECORD_HEAD, as a constant: this loop is hot
+            nxt = body + length
+            if nxt > end:
+                return pos, f"a {op_name(op)} record longer than what remains"
+            if op == 5:                                 # OP_MESSAGE
+                if length < 22:                         # MESSAGE_HEAD
+                    return pos, "a Message record shorter than its header"
+                line = wanted.get(records[body] | records[body + 1] << 8)
+                if line is not None:
+                    try:
+                        msg = loads(records[body + 22:nxt])
+                        data = fromhex(msg["data"])
+                        t = msg.get("t")
+                        if need_t:
+                            if not lo <= t <= hi:       # None raises: not ours either
+                                raise ValueError
+                        elif t is not None and (need_t is False or not lo <= t <= hi):
+                            raise ValueError
+                    except _NOT_OURS:
+                        _count_foreign(p.foreign, line, records[body + 22:nxt])
+                    else:
+                        if pairs:
+                            append((_LOG_TIME.unpack_from(records, body + 6)[0], Chunk(line, data, t)))
+                        else:
+                            append(Chunk(line, data, t))
+            elif op == OP_CHANNEL:
+                try:
+                    channel = parse(op, records[body:nxt])
+                except Damaged as e:
+                    return pos, str(e)
+                _channel(p, channel)
+            pos = nxt
+    except struct.error:
+        return pos, "a record header cut short"
+    return None
+
+
+def _channel(p: _Pass, channel) -> None:
+    p.encodings[channel.id] = channel.message_encoding
+    line = p.lines.get(channel.topic)
+    if line is None:
+        p.wanted.pop(channel.id, None)   # an id given to another topic
+    else:
+        p.wanted[channel.id] = line
+
+
+def _count_foreign(foreign: dict[str, list], line: str, payload: bytes) -> None:
+    """Count a message on a raw topic that is not a raw chunk; keep the first."""
+    seen = foreign.get(line)
+    if seen is None:
+        foreign[line] = [1, payload]
+    else:
+        seen[0] += 1
+
+
+def _cut_chunk_records(body: bytes, encodings: dict[int, str]) -> bytes:
+    """The records of a chunk cut short that read as written (see ``read_cut_chunk``)."""
+    try:
+        records = read_cut_chunk(body)
+    except Damaged:
+        return b""
+    end, _messages, _why = intact_prefix(records, dict(encodings))
+    return records[:end]
+
+
+def _record(op: int, body: bytes) -> bytes:
+    """A top-level record's bytes again, to be read like a chunk's content."""
+    return RECORD.pack(op, len(body)) + body
+
+
+def _diagnose(payload: bytes, need_t: bool | None) -> str:
+    """Why a message on a raw topic is not a gimbalscope raw chunk, in a few words
+    (said for the first such message only)."""
+    try:
+        msg = json.loads(payload)
+    except (ValueError, RecursionError):
+        return "not JSON"
+    if not isinstance(msg, dict):
+        return f"JSON {type(msg).__name__}, not an object"
+    data = msg.get("data")
+    if not isinstance(data, str):
+        return "no 'data' field" if data is None else "'data' is not a string"
+    try:
+        bytes.fromhex(data)
+    except ValueError:
+        return "'data' is not hex"
+    t = msg.get("t")
+    if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float))):
+        return "'t' is not a number"
+    if t is not None and not -MAX_T <= t <= MAX_T:
+        return f"'t' is {t!r}, out of range"
+    if need_t and t is None:
+        return "no time ('t') in a recording with time"
+    if need_t is False and t is not None:
+        return "a time ('t') in a recording without time"
+    return "not a gimbalscope raw chunk"
+
+
+def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:
     """The reader process: raw chunks as pickled lists of (line, data, t) tuples,
     warnings as ("warn", text), a failure as ("error", text), then None."""
     def send(item) -> None:
@@ -198,11 +374,12 @@ def _read_in_child(path: str, out) -> None:
     try:
         src = McapSource.__new__(McapSource)   # the survey already ran in the parent
         Source.__init__(src)
-        src.path = path
+        src.path, src.label, src._said = path, label, set()
+        src.lines, src.timed = tuple(lines.split(",")), timed == "timed"
         src.warn = lambda msg: send(("warn", msg))
         batch = []
-        for chunk in src._messages(list(RAW_TOPICS), as_chunks=True):
-            batch.append(tuple(chunk))
+        for chunks in src._batches(src._topics(), need_t=src.timed):
+            batch.extend(map(tuple, chunks))
             if len(batch) >= _BATCH:
                 send(batch)
                 batch = []
@@ -214,9 +391,9 @@ def _read_in_child(path: str, out) -> None:
     except (BrokenPipeError, KeyboardInterrupt):
         pass   # the parent went away
     except Exception as e:   # noqa: BLE001 - said in one line by the parent
-        send(("error", f"{path}: cannot read: {type(e).__name__}: {e}"))
+        send(("error", f"{label}: cannot read: {type(e).__name__}: {e}"))
 
 
-if __name__ == "__main__":   # python -m analyzer.sources.mcapfile FILE: the reader process
-    _read_in_child(sys.argv[1], sys.stdout.buffer)
+if __name__ == "__main__":   # python -m analyzer.sources.mcapfile FILE NAME LINES timed|untimed: the reader process
+    _read_in_child(*sys.argv[1:5], sys.stdout.buffer)
     sys.stdout.buffer.flush()

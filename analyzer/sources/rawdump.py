@@ -1,40 +1,47 @@
 """Raw byte dumps: the bytes of one line (or of a single-line tap) with no time.
 
-Two files are line A (controller→device) and line B (device→controller); one file
-is a single-line tap carrying both directions interleaved (spec/READING.md).
+Two inputs are line A (controller→device) and line B (device→controller); one
+input is a single-line tap carrying both directions interleaved (spec/READING.md).
+Either may be a file, a pipe or FIFO (``<(…)``), standard input, or compressed
+(analyzer/sources/files.py): each is read once, at its own pace.
 """
 
 from __future__ import annotations
 
 from typing import Iterator
 
-from .base import LINE_A, LINE_AB, LINE_B, Chunk, Source
-from .files import open_input
-
-BLOCK = 1 << 16
+from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Source
+from .files import BLOCK, Input
 
 
 class RawDumpSource(Source):
     timed = False
 
-    def __init__(self, paths: list[str]) -> None:
+    def __init__(self, inputs: list[str | Input]) -> None:
         super().__init__()
-        if len(paths) not in (1, 2):
+        if len(inputs) not in (1, 2):
             raise ValueError("a raw capture is one file (single-line tap) or two (line A, line B)")
-        self.paths = list(paths)
-        self.lines = (LINE_AB,) if len(paths) == 1 else (LINE_A, LINE_B)
-        self.description = " + ".join(self.paths)
-        for p in self.paths:           # fail early, with the path, before any output
-            open_input(p).close()
+        # opened now: a bad path fails early, with its name, before any output
+        self.inputs = [i if isinstance(i, Input) else Input(i) for i in inputs]
+        self.paths = [i.path for i in self.inputs]
+        self.lines = (LINE_AB,) if len(inputs) == 1 else (LINE_A, LINE_B)
+        self.description = " + ".join(i.describe() for i in self.inputs)
+        for i in self.inputs:
+            self.on_close(i.close)
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
-        path = self.paths[self.lines.index(line)]
-        with open_input(path) as f:
-            while True:
+        inp = self.inputs[self.lines.index(line)]
+        f = inp.stream()
+        while True:
+            try:
                 data = f.read(BLOCK)
-                if not data:
-                    return
-                yield Chunk(line, data)
+            except OSError as e:
+                raise CaptureError(f"{inp.name}: cannot read: {e.strerror or e}") from None
+            if not data:
+                break
+            yield Chunk(line, data)
+        if inp.problem:
+            self.warn(inp.problem)
 
     def chunks(self) -> Iterator[Chunk]:
         for line in self.lines:

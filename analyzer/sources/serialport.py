@@ -9,6 +9,14 @@ chunks), so silences cut frames and timeouts expire while the line is quiet.
 
 A port that vanishes (USB unplugged) is reported, the gap is marked (a warning
 and a silence), and the port is reopened when it returns.
+
+Floods: what the readers took and decoding has not yet is bounded (``QUEUE_BYTES``;
+a reader waits when it is full). When more than ``BEHIND_BYTES`` wait, decoding has
+fallen behind the line: the waiting chunks are handed on marked ``undecoded`` (the
+capture records them, tells the deframer of the gap and counts them) until the
+backlog is down to ``CAUGHT_UP_BYTES``. After ``stop`` whatever still waits is
+decoded when it is that small, and otherwise handed on undecoded, so a tap ends
+promptly at any input rate.
 """
 
 from __future__ import annotations
@@ -27,9 +35,56 @@ PARITIES = {"N": serial.PARITY_NONE, "E": serial.PARITY_EVEN, "O": serial.PARITY
             "M": serial.PARITY_MARK, "S": serial.PARITY_SPACE}
 TICK = 0.05          # seconds between idle ticks
 REOPEN_EVERY = 0.5   # seconds between attempts to reopen a vanished port
+QUEUE_BYTES = 1 << 20          # read and not yet taken by the capture: the most held
+BEHIND_BYTES = 256 << 10       # more waiting than decoding clears in a fraction of a second
+CAUGHT_UP_BYTES = 16 << 10     # back to decoding once the backlog is this small
+JOIN_SECONDS = 1.0             # a reader ends within one read timeout (TICK) of stop
 
 
-def _open(url: str, baud: int, data_bits: int, parity: str, stop_bits: float) -> serial.SerialBase:
+class UndecodedChunk(Chunk):
+    """Bytes read while decoding was behind the line (``undecoded == "behind"``) or
+    still waiting when the tap stopped (``"stopped"``): for the recording only."""
+    __slots__ = ()
+    undecoded = "behind"
+
+
+class StoppedChunk(UndecodedChunk):
+    __slots__ = ()
+    undecoded = "stopped"
+
+
+_ITEM_COST = 128   # bytes a queued read costs beside its data (tuple, bytes object, time)
+
+
+def _weight(item: tuple) -> int:
+    """What a queued item costs in memory: its data plus the item itself, so that
+    many one-byte reads are bounded as surely as a few big ones."""
+    data = item[1]
+    return _ITEM_COST + (len(data) if isinstance(data, bytes) else 0)
+
+
+class _ByteQueue(queue.Queue):
+    """A queue bounded by the bytes it holds rather than by its items (a read can
+    be one byte or thousands)."""
+
+    def _init(self, maxsize: int) -> None:
+        super()._init(maxsize)
+        self.bytes = 0
+
+    def _qsize(self) -> int:
+        return self.bytes
+
+    def _put(self, item: tuple) -> None:
+        self.queue.append(item)
+        self.bytes += _weight(item)
+
+    def _get(self) -> tuple:
+        item = self.queue.popleft()
+        self.bytes -= _weight(item)
+        return item
+
+
+def open_port(url: str, baud: int, data_bits: int, parity: str, stop_bits: float) -> serial.SerialBase:
     """Open a port for reading, or raise CaptureError with one line saying why."""
     is_url = "://" in url
     if not is_url and not os.path.exists(url):
@@ -66,9 +121,10 @@ class SerialTap(Source):
         self.description = " + ".join(self.ports)
         self.clock = clock
         self.state = {line: "open" for line in self.lines}   # open, lost, reconnecting
-        self._queue: queue.Queue = queue.Queue()
+        self._queue: queue.Queue = _ByteQueue(QUEUE_BYTES)
+        self._leftover: list[tuple] = []   # a reader's last read when stop found the queue full
         self._stop = threading.Event()
-        self._serials = [_open(p, *self.settings) for p in self.ports]   # fail early, one line
+        self._serials = [open_port(p, *self.settings) for p in self.ports]   # fail early, one line
         self.start_time = clock()
         self._threads = [threading.Thread(target=self._reader, args=(line, port, ser), daemon=True,
                                           name=f"tap-{line}")
@@ -77,7 +133,8 @@ class SerialTap(Source):
             th.start()
 
     def stop(self) -> None:
-        """End the capture: chunks() returns once what was read is delivered."""
+        """End the capture: chunks() returns once what was read is delivered (what
+        was still queued, undecoded: a bounded amount, so the end is prompt)."""
         self._stop.set()
 
     def close(self) -> None:
@@ -86,8 +143,20 @@ class SerialTap(Source):
             th.join(timeout=1.0)
 
     # -------------------------------------------------------------- readers
+    def _put(self, item: tuple) -> None:
+        """Queue what a reader read; wait while the queue is full (the port's own
+        buffer holds the line meanwhile), and after stop leave it for chunks()."""
+        while True:
+            try:
+                self._queue.put(item, timeout=TICK)
+                return
+            except queue.Full:
+                if self._stop.is_set():
+                    self._leftover.append(item)
+                    return
+
     def _reader(self, line: str, port: str, ser: serial.SerialBase | None) -> None:
-        put = self._queue.put
+        put = self._put
         while not self._stop.is_set():
             if ser is None:
                 ser = self._reopen(line, port)
@@ -120,30 +189,59 @@ class SerialTap(Source):
         if self._stop.wait(REOPEN_EVERY):
             return None
         try:
-            ser = _open(port, *self.settings)
+            ser = open_port(port, *self.settings)
         except CaptureError:
             return None
         self.state[line] = "open"
-        self._queue.put(("back", line, self.clock(), f"{port}: back, capturing again"))
+        self._put(("back", line, self.clock(), f"{port}: back, capturing again"))
         return ser
 
     # ---------------------------------------------------------------- chunks
     def chunks(self) -> Iterator[Chunk]:
-        bt = self.byte_time
         start = self.start_time
         get = self._queue.get
-        while True:
+        behind = False
+        while not self._stop.is_set():
             try:
                 item = get(timeout=TICK)
             except queue.Empty:
-                if self._stop.is_set():
-                    return
                 yield Chunk(self.lines[0], b"", self.clock() - start)   # idle tick
                 continue
             if item[0] in ("lost", "back"):
                 self.warn(item[3])
                 continue
-            line, data, t_read = item
-            yield Chunk(line, data, (t_read - start) - len(data) * bt)
+            # decoding is behind when the backlog would take it long to clear; it
+            # skips until the backlog is small again (hysteresis: not chunk by chunk)
+            waiting = self._queue.qsize()
+            behind = waiting > (CAUGHT_UP_BYTES if behind else BEHIND_BYTES)
+            yield self._chunk(item, UndecodedChunk if behind else Chunk)
+        yield from self._rest()
+
+    def _rest(self) -> Iterator[Chunk]:
+        """After stop: what the readers still hold or queued. A small remainder (the
+        usual case: the last reads of a quiet line) is decoded as ever, so live
+        output still equals decode of the recording; a flood's backlog goes on
+        undecoded, so the tap ends promptly at any input rate."""
+        for th in self._threads:
+            th.join(timeout=JOIN_SECONDS)
+        items = []
+        while True:
+            try:
+                items.append(self._queue.get_nowait())
+            except queue.Empty:
+                break
+        leftover, self._leftover = self._leftover, []
+        items += leftover
+        waiting = sum(_weight(item) for item in items if item[0] not in ("lost", "back"))
+        kind = Chunk if waiting <= CAUGHT_UP_BYTES else StoppedChunk
+        for item in items:
+            if item[0] in ("lost", "back"):
+                self.warn(item[3])
+            else:
+                yield self._chunk(item, kind)
+
+    def _chunk(self, item: tuple, kind: type[Chunk]) -> Chunk:
+        line, data, t_read = item
+        return kind(line, data, (t_read - self.start_time) - len(data) * self.byte_time)
 
     byte_time: float = 10 / 9600   # set by the capture from its options

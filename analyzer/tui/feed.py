@@ -4,6 +4,10 @@ screen at most every ``interval`` seconds, so recording never waits for the
 screen and the screen is never flooded with one message per event.
 
 No Textual here: ``deliver`` is any callable (the app posts a message with it).
+
+A recording that fails (a full disk) is said once, on screen and after the
+screen closes, and dropped; the capture goes on (analyzer/recording closes the
+file as well as it can).
 """
 
 from __future__ import annotations
@@ -21,7 +25,8 @@ from dissectors.event import Event
 from .. import __version__
 from ..capture import Capture
 from ..doctor import LiveDoctor, log_level, one_line
-from ..recording import McapRecorder, RecordingError
+from ..outfile import show
+from ..recording import McapRecorder, RecordingError, RotatingRecorder
 
 
 MAX_BATCH = 20_000
@@ -53,7 +58,7 @@ class FeedBatch:
 class Feed(threading.Thread):
     def __init__(self, capture: Capture, deliver: Callable[[FeedBatch], None], *, ports: list[str] | None = None,
                  interval: float = 0.03, metadata: Callable[[], dict[str, str]] | None = None,
-                 recorder: McapRecorder | None = None, recording: str | None = None) -> None:
+                 recorder: McapRecorder | RotatingRecorder | None = None, recording: str | None = None) -> None:
         super().__init__(daemon=True, name="gimbalscope-feed")
         self.capture = capture
         self.deliver = deliver
@@ -66,12 +71,14 @@ class Feed(threading.Thread):
         self._stopped = threading.Event()   # a file source has no stop of its own
         self._sent_any = False
         self._warnings: list[str] = []
-        self.recorder: McapRecorder | None = recorder   # --record: made (and checked) before the screen opens
-        self.recording: str | None = recording
+        self.recorder: McapRecorder | RotatingRecorder | None = recorder   # --record: made (and checked)
+        self.recording: str | None = recording                              # before the screen opens
+        if recorder is not None:
+            recorder.on_error = self._recording_failed
         self.notes: list[str] = []   # what to say when the screen has closed (recordings written)
         capture.on_chunk = self._chunk
         capture.on_warning = self._warn
-        self.doctor = LiveDoctor(capture, self._found)
+        self.doctor = LiveDoctor(capture, self._found, tui=True)
         self._findings: list | None = None
 
     # ------------------------------------------------------------ controls
@@ -119,19 +126,31 @@ class Feed(threading.Thread):
                         "recorded_from": "the TUI's record key", **self._metadata()}
                 try:
                     self.recorder = McapRecorder(path, metadata=meta, flush_interval=1.0,
-                                                 start_time=cap.source.start_time, lines=cap.lines)
+                                                 start_time=cap.source.start_time, lines=cap.lines,
+                                                 on_error=self._recording_failed)
                     self.recording = path
-                    self._warnings.append(f"recording to {path}")
+                    self._warnings.append(f"recording to {show(path)}")
                 except RecordingError as e:
                     self._warnings.append(str(e))
             elif what == "stop" and self.recorder is not None:
                 self._close_recorder()
 
+    def _recording_failed(self, message: str) -> None:
+        """The recorder stopped (it has closed its file): say it once, record no
+        more; the capture goes on. Called in this thread, from inside the recorder."""
+        self._warnings.append(message)
+        self.notes.append(message)
+        self.recorder = None
+        self.recording = None
+
     def _close_recorder(self) -> None:
         rec, self.recorder = self.recorder, None
         rec.end_marker(self.capture.latest)
         rec.close()
-        note = f"recorded {rec.messages} messages to {self.recording}"
+        if rec.failed:   # failed while closing: _recording_failed said so
+            return
+        where = ", ".join(map(show, rec.paths)) if isinstance(rec, RotatingRecorder) else show(self.recording)
+        note = f"recorded {rec.messages} messages to {where}"
         self._warnings.append(note)
         self.notes.append(note)
         self.recording = None

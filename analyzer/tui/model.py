@@ -14,10 +14,10 @@ from bisect import bisect_left, bisect_right
 from dataclasses import dataclass, field
 from typing import Callable
 
-from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event, format_address
 
 from ..filter import compile_filter
-from ..output import device_address, fmt_seconds, summary
+from ..output import fmt_seconds, summary
 from ..stats import Stats
 
 TIME_MODES = ("absolute", "relative", "delta")
@@ -181,11 +181,10 @@ class CaptureModel:
         kind = ev.kind
         if kind not in (COMMAND, RESULT, ACK, NAK, NIC):
             return
-        if kind == COMMAND:
-            addr = device_address(ev)
-        elif ev.request is not None:
-            addr = device_address(self.events[ev.request - 1])
-        else:
+        if kind != COMMAND and ev.request is None:
+            return   # an unpaired answer says nothing about where a device answers
+        addr = ev.device
+        if addr is None:
             return
         info = self.devices.get(addr)
         if info is None:
@@ -386,13 +385,10 @@ class CaptureModel:
             r += step
         return None
 
-    def _address(self, ev: Event) -> str:
-        if ev.kind in (COMMAND, RESULT):
-            return device_address(ev)
-        if ev.request is not None:
-            req = self.event(ev.request)
-            return device_address(req) if req is not None else ""
-        return ""
+    @staticmethod
+    def _address(ev: Event) -> str:
+        """The device column: ``Event.device`` (answers carry their command's)."""
+        return ev.device or ""
 
     def toggle_mark(self, number: int) -> bool:
         if number in self.marks:
@@ -495,12 +491,14 @@ class CaptureModel:
         if ev.t is not None:
             head.children.append(DetailNode(f"time {ev.t:.6f} s → {ev.t_end:.6f} s"))
         if ev.dst is not None:
-            g, p, d = ev.dst
-            head.children.append(DetailNode(f"address {g}.{p}.{d} (group.port.device)", span=(1, 4)))
+            head.children.append(DetailNode(f"address {format_address(ev.dst)} (group.port.device)", span=(1, 4)))
             head.children.append(DetailNode(f"source group {ev.src}", span=(4, 5)))
             head.children.append(DetailNode(f"length {len(ev.payload)}", span=(5, 6)))
             ok = "ok" if ev.checksum_ok else "BAD"
             head.children.append(DetailNode(f"checksum 0x{ev.raw[-1]:02x} {ok}", span=(len(ev.raw) - 1, len(ev.raw))))
+        device = self._device_line(ev)
+        if device is not None:
+            head.children.append(device)
         nodes.append(head)
         if ev.command or ev.fields:
             entry = ev.entry
@@ -536,6 +534,17 @@ class CaptureModel:
             pairing.children.append(DetailNode("not paired"))
         nodes.append(pairing)
         return nodes
+
+    @staticmethod
+    def _device_line(ev: Event) -> DetailNode | None:
+        """Where the device is not the header's destination as written: a result
+        (its header addresses the controller) and an ACK/NAK/NIC (no header)."""
+        device = ev.device
+        if device is None or ev.kind == COMMAND:
+            return None
+        if ev.kind == RESULT:
+            return DetailNode(f"device {device} (source group {ev.src}, port and device as addressed)", span=(2, 5))
+        return DetailNode(f"device {device} (the command's, #{ev.request})", jump=ev.request)
 
     def _answers_of(self, number: int) -> list[int]:
         found = list(self.answers.get(number, ()))

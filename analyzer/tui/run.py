@@ -3,9 +3,15 @@ runs in a ``Feed`` thread; quitting stops it and finalises any recording."""
 
 from __future__ import annotations
 
+import difflib
+import importlib
+import pkgutil
 import signal
 import sys
 import tomllib
+
+from textual.binding import Binding
+from textual.dom import DOMNode
 
 from ..capture import Capture
 from ..recording import McapRecorder, RotatingRecorder
@@ -49,7 +55,38 @@ def load_keymap(path: str | None) -> dict[str, str]:
     bad = [k for k, v in flat.items() if not isinstance(v, str)]
     if bad:
         raise KeymapError(f"{path}: keymap values must be key strings: {', '.join(bad)}")
+    check_ids(path, flat)
     return flat
+
+
+def binding_ids() -> set[str]:
+    """Every id a keymap can rebind, read from the Binding(id=...) of each widget,
+    screen and app class of this package (so a new binding is known at once)."""
+    package = __name__.rpartition(".")[0]
+    for mod in pkgutil.iter_modules(sys.modules[package].__path__):
+        importlib.import_module(f"{package}.{mod.name}")   # screens are imported lazily by the app
+    ids: set[str] = set()
+    todo = [DOMNode]
+    while todo:
+        cls = todo.pop()
+        todo.extend(cls.__subclasses__())
+        if cls.__module__.startswith(package + "."):
+            ids.update(b.id for b in vars(cls).get("BINDINGS", ()) if isinstance(b, Binding) and b.id)
+    return ids
+
+
+def check_ids(path: str, keymap: dict[str, object]) -> None:
+    """Textual ignores an id it does not know; a typo would silently change nothing."""
+    valid = binding_ids()
+    unknown = [k for k in keymap if k not in valid]
+    if not unknown:
+        return
+    parts = []
+    for k in unknown:
+        near = difflib.get_close_matches(k, sorted(valid), n=3, cutoff=0.6)
+        parts.append(f"{k!r} (did you mean {' or '.join(near)}?)" if near else repr(k))
+    s = "s" if len(unknown) > 1 else ""
+    raise KeymapError(f"{path}: unknown binding id{s} {', '.join(parts)}; `?` in the TUI lists the ids")
 
 
 def settings_text(capture: Capture) -> str:
@@ -104,12 +141,20 @@ def run_app(capture: Capture, **kw) -> int:
     return 0
 
 
-def open_tui(capture: Capture, args, *, mode: str, speed: float = 1.0) -> int:
-    """``replay`` and ``view``: the TUI on a capture file (--keymap, --filter honoured)."""
+def keymap_from(args) -> dict[str, str]:
+    """--keymap, read and checked; a bad one is a UsageError (one line, exit 2)."""
     from ..cli.common import UsageError
 
     try:
-        keymap = load_keymap(getattr(args, "keymap", None))
+        return load_keymap(getattr(args, "keymap", None))
     except KeymapError as e:
         raise UsageError(str(e)) from None
+
+
+def open_tui(capture: Capture, args, *, mode: str, speed: float = 1.0,
+             keymap: dict[str, str] | None = None) -> int:
+    """``replay`` and ``view``: the TUI on a capture file (--keymap, --filter honoured;
+    pass ``keymap`` when it was read already)."""
+    if keymap is None:
+        keymap = keymap_from(args)
     return run_app(capture, mode=mode, speed=speed, keymap=keymap, filter_text=getattr(args, "filter", None))

@@ -124,10 +124,10 @@ def test_sim_at_a_wrong_baud_rate_answers_garbage():
 
 
 def test_demo_and_live_bad_options_are_one_line(tmp_path):
-    for args, fragment in ((["demo", "--seconds", "-1"], "--seconds -1: must be 0"),
+    for args, fragment in ((["demo", "--seconds", "-1"], "argument --seconds: '-1': must be a finite number, 0 or more"),
                            (["live", "loop://", "--record", "/nonexistent-dir/x.mcap"], "cannot write"),
                            (["convert", os.path.join(ROOT, "captures", "demo-bus.bin"), "-o", str(tmp_path),
-                             "--force"], "Is a directory")):
+                             "--force"], "is a directory")):
         out = run_cli(*args, timeout=30)
         assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
         assert len(out.stderr.strip().splitlines()) == 1 and fragment in out.stderr, out.stderr

@@ -200,6 +200,38 @@ def test_skewed_adapters_are_detected_and_corrected(tmp_path):
     assert jsonl(rec) == live
 
 
+def test_skew_correction_switching_on_partway_decodes_as_it_was_shown_live(tmp_path):
+    """The adapters drift apart mid-capture: for six rounds the gimbal's ACK comes
+    8 ms after its command as read, then line A's adapter starts delivering 20 ms
+    late, so ACKs read 12 ms before their commands. The estimate switches on at
+    that point; every event (times and latencies included) must decode from the
+    recording exactly as the live tap printed it, and the ACKs of before and after
+    are not read as one device slowing down."""
+    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "drift.mcap")
+    cmd = frame((1, 1, 1), 0, "HO")
+    for k in range(14):
+        if k < 6:                       # in step: ACK 8 ms after the command
+            os.write(ma, cmd)
+            time.sleep(len(cmd) * BT + 0.008)
+            os.write(mb, b"\x06")
+        else:                           # drifted: the ACK is read first
+            time.sleep(0.008 + BT)
+            os.write(mb, b"\x06")
+            time.sleep(0.020 - 0.008 - BT)
+            os.write(ma, cmd)
+        time.sleep(0.12)
+    time.sleep(0.6)
+    code, out, err = stop(proc)
+    assert code == 0, err
+    assert "line B reads about" in err
+    live = [json.loads(x) for x in out.splitlines()]
+    assert sum(e["kind"] == "command" for e in live) == 14 and sum(e["kind"] == "ack" for e in live) == 14
+    assert jsonl(rec) == live
+    found = run_cli("doctor", rec, "--format", "json")
+    assert found.returncode == 0, found.stderr
+    assert "slow_answers" not in found.stdout and "slow_answers" not in err
+
+
 def test_vanished_port_is_reopened_when_it_returns(tmp_path, socat_bin):
     """A USB adapter unplugged and plugged back keeps its device name: here line B
     is a socat pty link; killing socat removes it, starting it again brings the

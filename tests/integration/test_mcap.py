@@ -37,8 +37,10 @@ def go_read(path) -> dict:
 
 # pymcap-cli reports a SummaryOffset for an empty AttachmentIndex group as an error:
 # the Python writer emits that offset even when a file has no attachments (a known
-# false alarm; we write no attachments). Anything else fails the test.
+# false alarm; we write no attachments), and likewise for an empty ChunkIndex group
+# in a recording without messages (written unchunked). Anything else fails the test.
 KNOWN_FALSE_ALARMS = {"SUMMARY_OFFSET_WITHOUT_GROUP"}
+EMPTY_GROUPS = ("AttachmentIndex", "ChunkIndex")
 
 
 def doctor(path) -> list[dict]:
@@ -51,7 +53,7 @@ def doctor(path) -> list[dict]:
         for item in row.get("diagnostics", [row]):
             sev = item.get("severity")
             if sev in ("error", "warning") and not (item.get("code") in KNOWN_FALSE_ALARMS
-                                                    and "AttachmentIndex" in item.get("message", "")):
+                                                    and any(group in item.get("message", "") for group in EMPTY_GROUPS)):
                 problems.append(item)
     return problems
 
@@ -169,3 +171,31 @@ def test_reader_process_gives_the_same_events_and_warnings(tmp_path, monkeypatch
     next(it)
     it.close()
     assert len(started) == 1 and started[0].poll() is not None
+
+
+@pytest.mark.parametrize("lines", [1, 2])
+def test_convert_of_an_empty_capture_is_a_whole_recording(tmp_path, lines):
+    """No bytes at all: the recording still holds its schemas and raw channels (so
+    other readers accept it and it says which lines it had), and reads back as an
+    empty capture rather than being rejected."""
+    inputs = []
+    for k in range(lines):
+        p = tmp_path / f"empty{k}.bin"
+        p.write_bytes(b"")
+        inputs.append(p)
+    out = tmp_path / "empty.mcap"
+    r = run_cli("convert", *inputs, "-o", out)
+    assert r.returncode == 0, r.stderr
+    assert doctor(out) == []
+    seen = go_read(out)
+    assert seen["profile"] == "gimbalscope" and seen["summary"] is True
+    from mcap.reader import make_reader
+    with open(out, "rb") as f:
+        summary = make_reader(f).get_summary()
+    topics = {c.topic for c in summary.channels.values()}
+    expected = {"/serial/AB/raw"} if lines == 1 else {"/serial/A/raw", "/serial/B/raw"}
+    assert expected <= topics and len(summary.schemas) == 4
+    for cmd in (["decode", out, "--format", "jsonl"], ["stats", out], ["replay", out, "--no-tui", "--speed", "max"]):
+        r = run_cli(*cmd)
+        assert r.returncode == 0 and r.stdout.strip() == "" or cmd[0] == "stats", (cmd, r.stdout, r.stderr)
+        assert "no bytes in this capture" in r.stderr and "error" not in r.stderr, (cmd, r.stderr)

@@ -4,6 +4,7 @@ behaviour on broken input (resync, repair, silence, noise)."""
 from hypothesis import example, given, settings, strategies as st
 
 from dissectors import Deframer
+from dissectors.deframer import NOISE_PIECE
 from dissectors.wire import build_frame
 
 
@@ -151,12 +152,50 @@ def streams(draw):
     return b"".join(parts)
 
 
+@st.composite
+def long_streams(draw):
+    """streams() with noise runs between them, some longer than a noise piece."""
+    parts = [draw(streams())]
+    for _ in range(draw(st.integers(1, 3))):
+        n = draw(st.integers(1, 3 * NOISE_PIECE))
+        fill = draw(st.sampled_from([b"\x00", b"\xff", b"\x80\x81\x06", b"\xf8\x00\x00\x00\x00\x40\x15"]))
+        parts.append((fill * n)[:n])
+        parts.append(draw(streams()))
+    return b"".join(parts)
+
+
 @settings(deadline=None)
-@given(data=streams(), cuts=st.lists(st.integers(0, 400), max_size=10), line=st.sampled_from(["A", "B", "AB"]))
+@given(data=st.one_of(streams(), long_streams()), cuts=st.lists(st.integers(0, 4 * NOISE_PIECE), max_size=10),
+       line=st.sampled_from(["A", "B", "AB"]))
 def test_any_split_gives_identical_events(data, cuts, line):
     whole = summary(decode(data, line=line))
     splits = sorted(c for c in cuts if c <= len(data))
     assert summary(decode(data, line=line, splits=splits)) == whole
+    # noise comes in pieces of at most 4 KiB, whatever the split
+    assert max((len(raw) // 2 for kind, _o, raw, _c, _p in whole if kind == "noise"), default=0) <= NOISE_PIECE
+
+
+def noise_runs(events):
+    """The pieces of each noise run: consecutive events whose problem is `noise`."""
+    runs, current = [], []
+    for e in events:
+        if e.kind == "noise" and e.problems[0].startswith("noise:"):
+            current.append(e)
+        elif current:
+            runs.append(current)
+            current = []
+    return runs + ([current] if current else [])
+
+
+@settings(deadline=None)
+@given(data=long_streams(), cuts=st.lists(st.integers(0, 4 * NOISE_PIECE), max_size=10),
+       line=st.sampled_from(["A", "B", "AB"]))
+def test_a_long_noise_run_is_cut_every_4_kib_from_its_start(data, cuts, line):
+    splits = sorted(c for c in cuts if c <= len(data))
+    for run in noise_runs(decode(data, line=line, splits=splits)):
+        start = run[0].offset
+        assert [e.offset - start for e in run] == [k * NOISE_PIECE for k in range(len(run))]
+        assert all(len(e.raw) == NOISE_PIECE for e in run[:-1]) and 0 < len(run[-1].raw) <= NOISE_PIECE
 
 
 @settings(deadline=None)
@@ -165,6 +204,7 @@ def test_random_bytes_never_raise_and_every_byte_is_in_one_event(data, line):
     evs = decode(data, line=line)
     # events tile the stream: nothing lost, nothing counted twice
     assert b"".join(e.raw for e in evs) == data
+    assert all(len(e.raw) <= NOISE_PIECE for e in evs if e.kind == "noise")
     pos = 0
     for e in evs:
         assert e.offset == pos
@@ -215,3 +255,40 @@ def test_bit_error_in_a_short_payload_still_a_frame():
     evs = decode(bytes(f) + nxt, line="A")
     assert [(e.kind, e.checksum_ok) for e in evs] == [("command", False), ("command", True)]
     assert evs[0].problems[0].startswith("bad checksum")
+
+
+def test_a_flood_of_zero_bytes_comes_in_4_kib_pieces_and_nothing_is_held_whole():
+    d = Deframer("AB")
+    out = []
+    for _ in range(300):                     # 1.2 MB, fed as a tap reads it
+        out += d.feed(bytes(4000))
+        assert d.offset - (out[-1].offset + len(out[-1].raw) if out else 0) <= NOISE_PIECE
+    out += d.finish()
+    assert [len(e.raw) for e in out] == [NOISE_PIECE] * (1_200_000 // NOISE_PIECE) + [1_200_000 % NOISE_PIECE]
+    assert [e.offset for e in out] == list(range(0, 1_200_000, NOISE_PIECE))
+    assert out[0].problems == [f"noise: {NOISE_PIECE} bytes outside any frame"]
+
+
+def test_skipped_bytes_cut_frames_and_advance_offsets():
+    cmd = frame((1, 1, 1), 0, b"P0FA0FC18")
+    nxt = frame((1, 1, 2), 0, b"HO")
+    d = Deframer("A")
+    out = d.feed(cmd[:7])
+    out += d.skip(1000)                       # decoding fell behind: 1000 bytes not fed
+    assert d.offset == 7 + 1000
+    # the rest of the cut frame and the next one: never stitched to the bytes before the gap
+    out += d.feed(cmd[7:] + nxt)
+    out += d.finish()
+    assert [(e.kind, e.offset, len(e.raw)) for e in out] == [
+        ("noise", 0, 7), ("noise", 1007, len(cmd) - 7), ("command", 1007 + len(cmd) - 7, len(nxt))]
+    assert out[0].problems == ["truncated frame: 7 of 16 bytes, then bytes not decoded"]
+    assert out[2].checksum_ok and out[2].payload == b"HO"
+
+
+def test_skip_closes_a_pending_noise_run_and_keeps_times():
+    bt = 10 / 9600
+    d = Deframer("B", byte_time=bt)
+    out = d.feed(b"\x00\x00\x00", 1.0)
+    out += d.skip(50)
+    ack = d.feed(b"\x06", 3.0)
+    assert [(e.kind, e.offset, e.t) for e in out + ack] == [("noise", 0, 1.0), ("ack", 53, 3.0)]

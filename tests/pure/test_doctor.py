@@ -1,11 +1,19 @@
-"""The wiring doctor's rules on scripted traffic, and the echo stripper."""
+"""The wiring doctor's rules on scripted traffic, the echo stripper, and advice
+that fits where the traffic is read (files, live ports)."""
+
+import json
+import os
+import subprocess
+import sys
+import time
 
 import analyzer
-from analyzer.doctor import WiringDoctor
+from analyzer.doctor import Invocation, WiringDoctor
 from analyzer.echo import EchoStripper
 from analyzer.traffic import Traffic, Write
 from dissectors.event import ACK, COMMAND, RESULT, Event
-from tests.conftest import frame
+from tests.conftest import ROOT, frame, run_cli
+from tests.integration.test_live import pty_pair
 from tests.tui_fixtures import conversation
 
 BT = 10 / 9600
@@ -126,3 +134,69 @@ def test_fixture_conversation_is_below_every_threshold(tmp_path):
     log = tmp_path / "tap.log"
     log.write_text(tr.socat_log())
     assert [f.code for f in findings_of(log).values() if f.severity != "info"] == []
+
+
+# ------------------------------------------------------------ advice fits its input
+def swapped(tr: Traffic) -> Traffic:
+    """The same traffic as tapped with the two lines given the other way round."""
+    return Traffic(tr.baud, [Write("B" if w.line == "A" else "A", w.data, w.t) for w in tr.writes])
+
+
+def test_advice_on_raw_dumps_names_them_and_counts_events_not_seconds(tmp_path):
+    tr = polls()
+    a, b = tmp_path / "ctl.bin", tmp_path / "dev.bin"
+    a.write_bytes(tr.line_bytes("A"))
+    b.write_bytes(tr.line_bytes("B"))
+    r = run_cli("doctor", b, a)                   # given the wrong way round
+    assert r.returncode == 0, r.stderr
+    assert f"try: give the dumps the other way round: gimbalscope decode {a} {b} " \
+           f"(or gimbalscope decode {b} {a} --swap-lines)" in r.stdout
+    assert "PORT" not in r.stdout and "press x" not in r.stdout
+    # no time in raw dumps: the traffic is counted in events
+    assert "in 36 events (no time in this capture)" in r.stdout and "0.0 s" not in r.stdout
+    assert "[found after 36 events]" in r.stdout
+    # and what it suggests works
+    fixed = run_cli("doctor", b, a, "--swap-lines", "--format", "json")
+    assert [f["code"] for f in json.loads(fixed.stdout)["findings"]] == ["device_map"]
+
+
+def test_advice_on_a_socat_log_is_the_flag_with_its_name(tmp_path):
+    log = tmp_path / "tap.log"
+    log.write_text(swapped(polls()).socat_log())
+    found = json.loads(run_cli("doctor", log, "--format", "json").stdout)["findings"]
+    fix = next(f["fix"] for f in found if f["code"] == "lines_swapped")
+    assert fix == f"read its lines the other way round: gimbalscope decode {log} --swap-lines"
+    assert [f["code"] for f in json.loads(run_cli("doctor", log, "--swap-lines", "--format", "json").stdout)
+            ["findings"]] == ["device_map"]
+
+
+def test_advice_on_live_ports_is_the_swapped_port_order(tmp_path):
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
+    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "doctor", pa, pb, "--seconds", "3", "--format", "json"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    time.sleep(1.0)
+    for k in range(8):                            # the gimbal's side on line A, the controller's on B
+        os.write(mb, frame((1, 1, 1 + k % 2), 0, "P?"))
+        time.sleep(0.02)
+        os.write(ma, b"\x06")
+        time.sleep(0.05)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    found = {f["code"]: f for f in json.loads(out)["findings"]}
+    # the ports swapped, the flag `live` and `doctor` take; no TUI here, so no key
+    assert found["lines_swapped"]["fix"] == (f"give the ports the other way round: gimbalscope live {pb} {pa} "
+                                              f"(or add --swap-lines)")
+
+
+def test_advice_never_names_what_the_command_rejects():
+    ports = ("/dev/pts/7", "/dev/pts/8")
+    demo = Invocation(ports, live=True, command="demo").swap_fix()
+    assert "--swap-lines" not in demo and "press x" not in demo and "gimbalscope live" not in demo
+    assert "press x" in Invocation(ports, live=True, command="demo", tui=True).swap_fix()
+    live_tui = Invocation(ports, live=True, command="live", tui=True).swap_fix()
+    assert live_tui.startswith("give the ports the other way round: gimbalscope live /dev/pts/8 /dev/pts/7")
+    assert live_tui.endswith("; press x here to swap them now")
+    assert "press x" not in Invocation(("a.bin", "b.bin"), tui=True).swap_fix()   # files: no swap key
+    assert "--scan-baud" not in Invocation(("tap.log",)).baud_fix()              # files have no rate to scan
+    assert "gimbalscope decode tap.log --baud RATE" in Invocation(("tap.log",)).baud_fix()

@@ -225,3 +225,30 @@ def test_nic_must_follow_the_ack_directly():
     assert c.status == "ok" and c2.status == "ok"
     assert late_q.txn is None and q2.txn is None
     assert late_q.problems[0].startswith("orphan") and q2.problems[0].startswith("orphan")
+
+
+def test_answers_belong_to_their_commands_device():
+    # An ACK, NAK or NIC carries no address: it is the device of the command it
+    # answers. A result's header names the controller as destination and the
+    # device by source group, port and device (Table 3): 2.1.12 from 5 is 5.1.12.
+    q, a_q = cmd(b"P?", 0.0, dst=(5, 1, 12), src=2), simple("ack", 0.010)
+    r_q = res(b"0FA00000", 0.012, dst=(2, 1, 12), src=5)
+    h, n_h = cmd(b"HO", 0.1, dst=(1, 1, 3)), simple("nak", 0.110)
+    f, a_f, nic = cmd(b"FA", 0.2, dst=(1, 2, 4)), simple("ack", 0.210), simple("nic", 0.211)
+    run([q, a_q, r_q, h, n_h, f, a_f, nic])
+    assert [e.device for e in (q, a_q, r_q)] == ["5.1.12"] * 3
+    assert [e.device for e in (h, n_h)] == ["1.1.3"] * 2
+    assert [e.device for e in (f, a_f, nic)] == ["1.2.4"] * 3
+    assert r_q.dst == (2, 1, 12)          # the header stays as it was on the wire
+    assert a_q.to_dict()["device"] == "5.1.12" and a_q.to_dict()["dst"] is None
+
+
+def test_a_late_ack_still_names_the_device_and_orphans_none():
+    c = cmd(b"HO", 0.0, dst=(1, 1, 7))          # ends 0.009; ack timeout 0.1
+    late = simple("ack", 0.5)
+    orphan = simple("ack", 0.6)
+    noise = Event("B", 0, "noise", b"\x7e\xe0", 0.7, 0.702)
+    run([c, late, orphan, noise], ack=0.1)
+    assert late.device == "1.1.7"
+    assert orphan.device is None and noise.device is None
+    assert orphan.to_dict()["device"] is None

@@ -1,8 +1,12 @@
 """Statistics: counts and latency summaries, checked against hand-made events."""
 
+import os
+
 import pytest
 
+import analyzer
 from analyzer.stats import Latency, Stats
+from tests.conftest import ROOT, run_cli
 from tests.pure.test_pairing import cmd, res, run, simple
 
 
@@ -35,3 +39,32 @@ def test_counts_per_command_and_device():
     assert d["by_device"]["1.1.1"]["commands"] == 1
     assert d["by_device"]["1.1.2"]["commands"] == 3
     assert d["by_command"]["P?"]["result_latency"]["max"] == pytest.approx(0.006)
+
+
+def test_checksum_errors_agree_with_the_problems_and_say_what_is_not_a_frame():
+    """captures/demo-bus.bin: 12 frames arrive with a bad checksum, and one frame is
+    broken beyond reading (a good frame starts inside it), so its bytes are a noise
+    event whose problem is `bad checksum`. Both count as checksum errors, as in the
+    problems, and the summary says which is which."""
+    st = Stats()
+    for ev in analyzer.open(os.path.join(ROOT, "captures", "demo-bus.bin")):
+        st.add(ev)
+    d = st.to_dict()
+    assert d["checksum_errors"] == d["problems"]["bad checksum"] + d["problems"].get("bad length byte", 0) == 13
+    assert d["broken_frames"] == 1
+    assert d["noise"] == {"events": 5, "bytes": 27, "by_problem": {"noise": 4, "bad checksum": 1}}
+    assert d["noise"]["events"] == d["problems"]["noise"] + d["broken_frames"]
+    text = run_cli("stats", os.path.join(ROOT, "captures", "demo-bus.bin")).stdout
+    assert "checksum errors 13 (12 in frames, 1 in a broken frame shown as noise)" in text
+    assert "noise 5 events / 27 bytes (4 noise runs, 1 broken frame)" in text
+    assert "problems (events per category): " in text and "bad checksum 13" in text
+
+
+def test_problems_count_events_per_category():
+    evs = run([cmd(b"P?", 0.0), simple("ack", 0.012), res(b"0FA0FC18", 0.015)], ack=0.2)
+    evs[0].note("unknown command: one")
+    evs[0].note("unknown command: two")      # two details, one event
+    st = Stats()
+    for e in evs:
+        st.add(e)
+    assert st.to_dict()["problems"] == {"unknown command": 1}

@@ -205,3 +205,23 @@ def test_hex_lines_highlight_a_field():
     assert lines[0][1].startswith("00 01 02") and lines[1][0] == "0010"
     assert lines[0][3] == [(42, 47)]       # bytes 14-15: "0e 0f", columns [42, 47) of "00 01 ... 0f"
     assert lines[1][3] == [(0, 5)]         # bytes 16-17: "10 11"
+
+
+def test_device_filter_detail_and_navigation_use_the_answers_device(loaded):
+    model, _ = loaded
+    # 1.1.3: HO with a bad checksum (#11, unanswered), HO again (#12) and its ACK (#13)
+    model.set_filter('device == "1.1.3"')
+    assert [model.row(i).number for i in range(model.row_count)] == [11, 12, 13]
+    # 1.1.2: the go-to (#4) and its NAK (#5), sent again (#6) and ACKed (#7)
+    model.set_filter('device == "1.1.2"')
+    assert [model.row(i).number for i in range(model.row_count)] == [4, 5, 6, 7]
+    assert model.same_device(5) == 6 and model.same_device(7) is None
+    assert model.cells(model.event(5), 1)[3] == "1.1.2"     # the device column of a NAK
+    model.set_filter("")
+    head = model.detail(model.event(13))[0]
+    device = [n for n in head.children if n.label.startswith("device ")]
+    assert [(n.label.split(" (")[0], n.jump) for n in device] == [("device 1.1.3", 12)]
+    # a result's header addresses the controller (0.1.1); its device is 1.1.1
+    labels = [n.label for n in model.detail(model.event(3))[0].children]
+    assert "address 0.1.1 (group.port.device)" in labels
+    assert any(label.startswith("device 1.1.1 ") for label in labels)

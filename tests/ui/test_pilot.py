@@ -22,11 +22,17 @@ def run(coro):
     return asyncio.run(coro)
 
 
-async def settle(pilot, app, until, seconds=5.0):
-    """Let the feed deliver until ``until(app)`` holds."""
+# A guard against a hang, not a timing check: on a loaded machine the feed and the
+# doctor can take many times longer than on a quiet one, and the test must not fail then.
+HANG_GUARD = float(os.environ.get("HANG_GUARD", 120))
+
+
+async def settle(pilot, app, until, seconds=HANG_GUARD, what=lambda app: ""):
+    """Let the feed deliver until ``until(app)`` holds (``what`` says what there was
+    instead, if it never does)."""
     end = time.monotonic() + seconds
     while not until(app):
-        assert time.monotonic() < end, "timed out waiting for the TUI"
+        assert time.monotonic() < end, f"timed out waiting for the TUI: {what(app)}"
         await pilot.pause(0.05)
 
 
@@ -177,7 +183,7 @@ def test_replay_controls(tmp_path):
             await pilot.press("plus")
             assert app.model.playback.speed == 2.0
             await pilot.press("space")                 # play on, twice as fast
-            await settle(pilot, app, lambda a: a.model.row_count == 13, seconds=3)
+            await settle(pilot, app, lambda a: a.model.row_count == 13)
         stop_feed(app)
 
     run(drive())
@@ -233,7 +239,7 @@ def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
             site.start()
-            await settle(pilot, app, lambda a: any(f.code == "lines_swapped" for f in a.model.findings), 10)
+            await settle(pilot, app, lambda a: any(f.code == "lines_swapped" for f in a.model.findings))
             await settle(pilot, app, lambda a: "lines swapped" in str(a.status_bar.render()))
             await pilot.press("w")
             assert isinstance(app.screen, FindingsScreen)
@@ -249,11 +255,15 @@ def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
             await pilot.press("x")                   # swap: line A is read as line B
             start = len(app.model.events)
             await settle(pilot, app, lambda a: sum(1 for e in a.model.events[start:]
-                                                   if e.kind == "command" and e.status == "ok") >= 5, 10)
+                                                   if e.kind == "command" and e.status == "ok") >= 5)
             assert app.feed.capture.swap_lines
-            # the doctor starts again on the new wiring: the swap finding goes
+            # the doctor starts again on the new wiring: the swap finding goes, and no
+            # wiring error is left. (Timing warnings are not asserted: the simulated
+            # controller runs in this process, and on a loaded machine it really is
+            # late, which the doctor rightly reports.)
             await settle(pilot, app, lambda a: a.model.findings is not None and not any(
-                f.severity != "info" for f in a.model.findings), 10)
+                f.severity == "error" for f in a.model.findings),
+                what=lambda a: [(f.code, f.detail[:90]) for f in a.model.findings or []])
         stop_feed(app)
         site.stop()
 
