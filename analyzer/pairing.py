@@ -34,6 +34,10 @@ class Timeouts:
     result: float = 2.0
     result_by_command: dict[str, float] = field(default_factory=dict)
     untimed_window: int = 32   # untimed input: a due result is given up after this many commands
+    # untimed input: a command waits for its answers behind at most this many later
+    # events (noise floods carry no commands to count, and every event after a
+    # waiting command is held for order: without this, memory grew with the file)
+    untimed_hold: int = 4096
 
     def result_for(self, ev: Event) -> float:
         t = self.result_by_command.get(ev.command)
@@ -141,6 +145,8 @@ class Pairer:
                 append(ev)
                 continue
             held.append(ev)
+            if ev.t is None and len(held) > self.timeouts.untimed_hold:
+                self._give_up(held[0])
             while held:
                 head = held[0]
                 if head.kind == COMMAND and head.status is None:
@@ -148,6 +154,22 @@ class Pairer:
                 append(held.popleft())
         self._number = number
         return out
+
+    def _give_up(self, cmd: Event) -> None:
+        """Untimed input: ``cmd`` has waited behind ``untimed_hold`` events; its
+        ACK or result is not coming (the count stands in for the timeout)."""
+        why = f"none within the next {self.timeouts.untimed_hold} events"
+        txn = self._awaiting_ack
+        if txn is not None and txn.cmd is cmd:
+            self._no_ack(txn, why)
+            return
+        for txn in self._awaiting_result:
+            if txn.cmd is cmd:
+                self._awaiting_result.remove(txn)
+                self._no_result(txn, why)
+                if cmd.status is None:   # an optional result: the ACK settled it
+                    cmd.status = OK
+                return
 
     def advance(self, now: float) -> list[Event]:
         """Live input: time passed with no events; expire what is overdue."""

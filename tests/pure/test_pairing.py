@@ -252,3 +252,25 @@ def test_a_late_ack_still_names_the_device_and_orphans_none():
     assert late.device == "1.1.7"
     assert orphan.device is None and noise.device is None
     assert orphan.to_dict()["device"] is None
+
+
+def test_untimed_command_waits_behind_a_bounded_number_of_events():
+    """Without time nothing times out, and a noise flood has no later commands to
+    count: a P? whose ACK came but whose result never does must not hold every
+    later event until the end of the capture (memory grew with the file)."""
+    body = bytes([1, 1, 1, 0, 2]) + b"P?"
+    p_query = Event("A", 0, "command", b"\xf8" + body + bytes([sum(body) & 0xFF]))
+    p_query.dst, p_query.src, p_query.payload, p_query.checksum_ok = (1, 1, 1), 0, b"P?", True
+    ack = Event("B", 0, "ack", b"\x06")
+    limit = 100
+    pairer = Pairer(Timeouts(untimed_hold=limit))
+    out = pairer.push(p_query) + pairer.push(ack)
+    most_held = 0
+    for k in range(5 * limit):
+        out += pairer.push(Event("B", k, "noise", b"\x00"))
+        most_held = max(most_held, len(pairer.held()))
+    assert most_held <= limit + 1
+    assert p_query in out and p_query.status == "no_result"
+    assert any(pr == f"missing result: none within the next {limit} events" for pr in p_query.problems)
+    out += pairer.finish()
+    assert [e.number for e in out] == list(range(1, 5 * limit + 3))   # nothing lost, in order
