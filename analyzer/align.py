@@ -1,5 +1,5 @@
 """Ordering two untimed lines (raw dumps): which answers on line B belong to which
-command on line A (spec/READING.md, "A capture without time … still pairs").
+command on line A (docs/decoding.md, "Pairing where the document says nothing").
 
 Without time the interleaving of the two lines is unknown. Line B is cut into
 answer groups (an ACK or NAK with the NIC, results and noise after it); the

@@ -1,6 +1,6 @@
 """Request/response pairing: links each command to its ACK/NAK, NIC and result,
 with latency, timeouts and retransmissions (spec §1.4.2-1.4.3, Table 3;
-spec/READING.md "Pairing where the document says nothing").
+docs/decoding.md "Pairing where the document says nothing").
 
 A pure module: ``Pairer.push(event)`` takes events in wire order and returns the
 events whose pairing is settled, in the same order. A command is held back until
@@ -241,7 +241,7 @@ class Pairer:
         txn.cmd.note(f"{P_NO_RESULT}: {why}")
 
     def _classify(self, ev: Event) -> str:
-        """Single-line tap: is this frame a command or a result? (READING.md)
+        """Single-line tap: is this frame a command or a result? (docs/decoding.md, "Pairing")
 
         A frame that fits a result someone is waiting for is that result. Otherwise
         the direction decides once it is known (commands travel from the

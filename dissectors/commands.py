@@ -4,7 +4,7 @@ list of §1.2), with its parameters, its result layouts and its spec reference.
 This one table drives decoding (``dissectors.dissect``), pairing (which commands
 are due a result, and which result layouts fit), the text summaries and the
 generated field reference in docs/fields.md. Result layouts follow
-../shared/spec/READING.md where the tables leave them open.
+docs/decoding.md where the tables leave them open.
 """
 
 from __future__ import annotations

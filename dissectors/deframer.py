@@ -15,7 +15,7 @@ bytes, cut every ``NOISE_PIECE`` bytes from the run's start (absolute offsets, s
 the cut does not depend on how the bytes were split), and no more than one piece
 plus one frame is ever held.
 
-How broken input is handled (spec/READING.md; docs/decoding.md):
+How broken input is handled (docs/decoding.md, "Deframing"):
 - A frame whose checksum fails is re-examined before it is reported: if a valid
   frame starts inside it, that frame wins (a corrupted length byte must not
   swallow the next good frame); if the bytes up to the next frame start check out

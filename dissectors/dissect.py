@@ -1,5 +1,5 @@
 """Dissection: payload bytes to command ids, named fields and problems, driven by
-the command table in ``dissectors.commands`` (Tables 4-18, spec/READING.md).
+the command table in ``dissectors.commands`` (Tables 4-18, docs/decoding.md).
 
 Commands are dissected on their own; a result is dissected against the command
 it answers, because its layout depends on that command (Table 15, Table 8 …).

@@ -11,7 +11,7 @@ from functools import lru_cache
 from typing import Any
 
 # Event kinds. A single-line tap first yields "frame" for every frame; pairing then
-# decides between command and result (spec/READING.md, "Pairing").
+# decides between command and result (docs/decoding.md, "Pairing").
 COMMAND = "command"
 RESULT = "result"
 ACK = "ack"

@@ -1,5 +1,5 @@
 """``gimbalscope stats``: counts, errors and latency per command and per device
-(statuses per the pairing rules of spec §1.4.2-1.4.3 and spec/READING.md)."""
+(statuses per the pairing rules of spec §1.4.2-1.4.3 and docs/decoding.md)."""
 
 from __future__ import annotations
 

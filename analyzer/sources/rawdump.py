@@ -1,7 +1,7 @@
 """Raw byte dumps: the bytes of one line (or of a single-line tap) with no time.
 
 Two inputs are line A (controller→device) and line B (device→controller); one
-input is a single-line tap carrying both directions interleaved (spec/READING.md).
+input is a single-line tap carrying both directions interleaved (docs/decoding.md, "Wire format").
 Either may be a file, a pipe or FIFO (``<(…)``), standard input, or compressed
 (analyzer/sources/files.py): each is read once, at its own pace.
 """

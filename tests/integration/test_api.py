@@ -1,5 +1,5 @@
 """The Python API as the README shows it, and two-file raw dumps without time,
-where answers are placed by address and result layout (READING.md)."""
+where answers are placed by address and result layout (docs/decoding.md, "Pairing where the document says nothing")."""
 
 import analyzer
 from tests.conftest import frame

@@ -1,5 +1,5 @@
 """Every command and result decoder against values worked out by hand from the
-spec's tables (Tables 4-18) and spec/READING.md. Numbers in comments show the
+spec's tables (Tables 4-18) and docs/decoding.md. Numbers in comments show the
 arithmetic; none of the expectations come from running the code."""
 
 import pytest
@@ -63,7 +63,7 @@ def test_rate_queries_and_results():
         assert res(q, "0401") == ({"rate_deg_s": 10.25}, [])
     for q in ("AP?", "AT?"):
         assert res(q, "0064") == ({"accel_deg_s2": 1.0}, [])
-    # R? and A?: one value, or pan then tilt (READING.md)
+    # R? and A?: one value, or pan then tilt (docs/decoding.md, "Results whose layout the tables leave open")
     assert res("R?", "0401")[0] == {"rate_deg_s": 10.25}
     assert res("R?", "04010064")[0] == {"pan_rate_deg_s": 10.25, "tilt_rate_deg_s": 1.0}
     assert res("A?", "00C8")[0] == {"accel_deg_s2": 2.0}
@@ -72,7 +72,7 @@ def test_rate_queries_and_results():
 
 # ------------------------------------------------------------- Tables 7, 8 gains
 def test_rate_gain_in_tenths():
-    # 1.5 is 15 = 0x0F (Table 7's "0E" is a typo, READING.md)
+    # 1.5 is 15 = 0x0F (Table 7's "0E" is a typo, docs/decoding.md "Numbers")
     assert cmd("GRP0F") == ("GRP", {"gain": 1.5}, [])
     assert cmd("GRT0E") == ("GRT", {"gain": 1.4}, [])
     assert cmd("GRP03")[2] == [] and cmd("GRP1E")[2] == []   # 0.3 and 3.0 are the bounds
@@ -219,7 +219,7 @@ def test_vector_motion():
 
 # ------------------------------------------------------------- Tables 16, 17 lens
 def test_lens_go_to_and_position():
-    # 0x4BF = 1215, 0x123 = 291 (nibbles A-F are 'A'-'F', READING.md)
+    # 0x4BF = 1215, 0x123 = 291 (nibbles A-F are 'A'-'F', docs/decoding.md "Numbers")
     assert cmd("V4BF123") == ("V", {"zoom": 1215, "focus": 291}, [])
     assert res("V?", "4BF123")[0] == {"zoom": 1215, "focus": 291}
     assert res("V?", "VFFF000")[0] == {"zoom": 4095, "focus": 0}

@@ -1,4 +1,4 @@
-"""Pairing per §1.4.2-1.4.3, Table 3 and spec/READING.md: statuses, latency,
+"""Pairing per §1.4.2-1.4.3, Table 3 and docs/decoding.md ("Pairing"): statuses, latency,
 timeouts, retransmissions, addresses. Events are built by hand with times chosen
 so that latencies are easy to check."""
 
