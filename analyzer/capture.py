@@ -156,9 +156,6 @@ class Capture:
         pairer = self._pairer
         return pairer.held() if pairer is not None else []
 
-    def events(self) -> Iterator[Event]:
-        return iter(self)
-
     # --------------------------------------------------------- wire order
     def _wire_order(self) -> Iterator[list[Event]]:
         """Batches of events in wire order."""

@@ -2,7 +2,7 @@
 JSON Lines objects, filter subjects.
 
 Field names here are the JSON Lines contract (README, "Event contract"); the filter
-language, the statistics and (later) MCAP and the TUI use the same names.
+language, the statistics, MCAP recordings and the TUI use the same names.
 """
 
 from __future__ import annotations
@@ -44,7 +44,6 @@ P_NO_RESULT = "missing result"
 P_RETRANSMISSION = "retransmission"
 P_ORPHAN = "orphan"
 P_LATE = "late answer"
-P_WRONG_LINE = "wrong line"
 
 
 def format_address(address) -> str:
@@ -123,10 +122,6 @@ class Event:
     def end(self) -> int:
         """Offset one past the event's last byte on its line."""
         return self.offset + len(self.raw)
-
-    @property
-    def is_frame(self) -> bool:
-        return self.dst is not None
 
     @property
     def device(self) -> str | None:

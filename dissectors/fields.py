@@ -4,7 +4,7 @@ hex unless a table says otherwise).
 
 A ``Field`` is one named value; a layout is a tuple of literal ``bytes`` and
 ``Field`` objects, compiled into one regular expression. Each field name is the
-one used in JSON Lines, filters, statistics and (later) MCAP and the TUI.
+one used in JSON Lines, filters, statistics, MCAP recordings and the TUI.
 """
 
 from __future__ import annotations

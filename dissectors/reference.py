@@ -23,7 +23,7 @@ def render() -> str:
         "# Command and field reference",
         "",
         "Generated from `dissectors/commands.py` by `python -m dissectors.reference`; do not edit by hand.",
-        "Every field name here is the one used in JSON Lines, `--filter`, statistics and (later) MCAP and the TUI.",
+        "Every field name here is the one used in JSON Lines, `--filter`, statistics, MCAP recordings and the TUI.",
         "",
         "| id | name | payload | fields | result | result fields | spec |",
         "|---|---|---|---|---|---|---|",

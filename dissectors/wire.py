@@ -13,22 +13,12 @@ ACK = 0x06
 NAK = 0x15
 NIC = 0x3F  # "?": follows an ACK when the command has no meaning to the device
 
-HEADER_LEN = 6  # F8 G P D S L
-OVERHEAD = HEADER_LEN + 1  # header plus checksum byte
 WILDCARD = 0xFF
-MCU_GROUP = 0
-
-SIMPLE_KINDS = {ACK: "ack", NAK: "nak", NIC: "nic"}
 
 
 def checksum(body: bytes | bytearray | memoryview) -> int:
     """Straight sum of G through the last payload byte, ignoring overflow (§1.4.1.3)."""
     return sum(body) & 0xFF
-
-
-def payload_length(length_byte: int) -> int:
-    """Decode the length byte: 0 stands for 256 payload bytes (§1.4.1.1)."""
-    return length_byte or 256
 
 
 def build_frame(dst: tuple[int, int, int], src: int, payload: bytes | str) -> bytes:

@@ -27,8 +27,6 @@ from dataclasses import dataclass, field
 class WireFaults:
     bit_error: float = 0.0     # probability a byte has one bit flipped
     noise: float = 0.0         # probability a write is followed by a noise burst
-    wrong_baud: int | None = None  # the sender runs at this rate while the line expects ``baud``
-    baud: int = 9600
     seed: int = 7
     rng: random.Random = field(init=False)
 
@@ -36,9 +34,6 @@ class WireFaults:
         self.rng = random.Random(self.seed)
 
     def apply(self, data: bytes) -> bytes:
-        if self.wrong_baud:
-            from .uart import misread
-            data = misread(data, self.wrong_baud, self.baud)
         if self.bit_error:
             out = bytearray(data)
             for k in range(len(out)):

@@ -1,8 +1,8 @@
 """The source interface: where bytes come from (python-can's ``BusABC``, for taps).
 
 A source yields ``Chunk``s: bytes seen on one line, with the wire time of their
-first byte when the source knows time. Raw dumps and socat logs are sources now;
-MCAP recordings and live serial ports plug in behind the same interface.
+first byte when the source knows time. Raw dumps, socat logs, MCAP recordings and
+live serial ports are sources.
 """
 
 from __future__ import annotations
