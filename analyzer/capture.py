@@ -199,7 +199,7 @@ class Capture:
                 tap(chunk, d.offset)
             if chunk.t is not None:
                 self._seen(chunk.t + len(chunk.data) * self.options.byte_time)
-            if getattr(chunk, "undecoded", False):
+            if chunk.undecoded:
                 yield self._skip(d, chunk)
                 continue
             yield d.feed(chunk.data, chunk.t)
@@ -276,7 +276,7 @@ class Capture:
                 end = chunk.t + len(data) * byte_time
                 if self._latest is None or end > self._latest:
                     self._latest = end
-                if getattr(chunk, "undecoded", False):
+                if chunk.undecoded:
                     arrived(self._skip(d, chunk))
                 else:
                     arrived(d.feed(data, chunk.t))

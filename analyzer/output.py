@@ -10,7 +10,7 @@ naming the file otherwise. A reader that went away (``| head``) stays a
 from __future__ import annotations
 
 import sys
-from typing import IO
+from typing import IO, Callable
 
 from .outfile import OutputError, reason, write_error
 
@@ -56,28 +56,43 @@ def output_error(name: str, e: OSError) -> OutputError:
     return write_error(name, e)
 
 
+class Writing:
+    """A guard around writes (``with guard:``): a reader that went away stays a
+    ``BrokenPipeError`` (quiet, ``cli/main.py``); any other failed write becomes the
+    one-line ``error(e)``. A class made once per output, not a generator context
+    manager: the text sink enters it for every event."""
+
+    __slots__ = ("error",)
+
+    def __init__(self, error: Callable[[OSError], OutputError]) -> None:
+        self.error = error
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, kind, e, tb) -> bool:
+        if kind is None or not issubclass(kind, OSError) or issubclass(kind, BrokenPipeError):
+            return False
+        raise self.error(e) from None
+
+
+_STDOUT_WRITES = Writing(stdout_error)
+
+
 def flush_stdout() -> None:
     """Flush standard output now, so that a failure is ours to report rather than
     the interpreter's at exit."""
     if sys.stdout is None:
         return
-    try:
+    with _STDOUT_WRITES:
         sys.stdout.flush()
-    except BrokenPipeError:
-        raise
-    except OSError as e:
-        raise stdout_error(e) from None
 
 
 def print_out(text: str) -> None:
     """Print a line of a report (stats, doctor) to standard output; a failed
     write is a ``StdoutError``, one line in ``cli/main.py``."""
-    try:
+    with _STDOUT_WRITES:
         sys.stdout.write(text + "\n")
-    except BrokenPipeError:
-        raise
-    except OSError as e:
-        raise stdout_error(e) from None
 
 
 class _Sink:
@@ -90,6 +105,7 @@ class _Sink:
             name = STDOUT if stdout else str(getattr(out, "name", "output"))
         self.name = name
         self.broken = False
+        self._writes = Writing(self._failed)
 
     def _failed(self, e: OSError) -> OutputError:
         self.broken = True
@@ -119,15 +135,11 @@ class JsonLinesSink(_Sink):
         if self.broken:
             self._lines.clear()
             return
-        try:
+        with self._writes:
             self.out.write(b"".join(self._lines))
             self._lines.clear()
             if flush:
                 self.out.flush()
-        except BrokenPipeError:
-            raise
-        except OSError as e:
-            raise self._failed(e) from None
 
     def close(self) -> None:
         self._write(True)
@@ -234,7 +246,7 @@ class TextSink(_Sink):
         if self.broken:
             return
         text, style = text_line(ev)
-        try:
+        with self._writes:
             if self._console is not None:
                 from rich.text import Text
                 self._console.print(Text(text, style=style or None))
@@ -242,17 +254,9 @@ class TextSink(_Sink):
                 self.out.write(text + "\n")
             if self.flush_each:
                 self.out.flush()
-        except BrokenPipeError:
-            raise
-        except OSError as e:
-            raise self._failed(e) from None
 
     def close(self) -> None:
         if self.broken:
             return
-        try:
+        with self._writes:
             self.out.flush()
-        except BrokenPipeError:
-            raise
-        except OSError as e:
-            raise self._failed(e) from None

@@ -21,7 +21,7 @@ import sys
 from .. import __version__
 from ..capture import Capture, open_live
 from ..doctor import LiveDoctor, log_level, one_line
-from ..outfile import check_output, show
+from ..outfile import check_output
 from ..output import JsonLinesSink, TextSink
 from ..recording import McapRecorder, RotatingRecorder
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float, warn
@@ -90,12 +90,6 @@ def open_recorder(capture: Capture, args: argparse.Namespace, record: str | None
     except BaseException:
         capture.source.close()
         raise
-
-
-def recorded(recorder, record: str) -> str:
-    """What a finished recording says: how many messages, where."""
-    where = ", ".join(map(show, recorder.paths)) if isinstance(recorder, RotatingRecorder) else show(record)
-    return f"recorded {recorder.messages} messages to {where}"
 
 
 def wants_tui(args: argparse.Namespace) -> bool:
@@ -167,7 +161,7 @@ def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None
             recorder.end_marker(capture.latest)
             recorder.close()
             if not recorder.failed:   # a failure was said when it happened
-                status(recorded(recorder, record))
+                status(recorder.summary())
         sink.close()
     return 0
 

@@ -255,6 +255,10 @@ class McapRecorder:
         self._out.restart()
         self._start(*self._start_args, chunked=False)
 
+    def summary(self) -> str:
+        """What a finished recording says: how many messages, where."""
+        return f"recorded {self.messages} messages to {show(self.path)}"
+
     def __enter__(self) -> "McapRecorder":
         return self
 
@@ -473,6 +477,10 @@ class RotatingRecorder:
     def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
         if self.current is not None:
             self.current.note(message, t, level)
+
+    def summary(self) -> str:
+        """What a finished recording says: how many messages, in which files."""
+        return f"recorded {self.messages} messages to {', '.join(map(show, self.paths))}"
 
     def close(self) -> None:
         cur = self.current

@@ -30,6 +30,11 @@ class Chunk(NamedTuple):
     data: bytes
     t: float | None = None   # seconds since capture start of the first byte's start bit
 
+    # Not a field: why the bytes are for the recording only and not to be decoded
+    # ("behind", "stopped": a live tap's subclasses in analyzer/sources/serialport.py);
+    # None for every ordinary chunk, read as a class attribute (no per-chunk cost).
+    undecoded = None
+
 
 class Source(ABC):
     """A capture input with one line (``("AB",)``) or two (``("A", "B")``)."""

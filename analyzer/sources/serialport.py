@@ -133,8 +133,8 @@ class SerialTap(Source):
             th.start()
 
     def stop(self) -> None:
-        """End the capture: chunks() returns once what was read is delivered (what
-        was still queued, undecoded: a bounded amount, so the end is prompt)."""
+        """End the capture: chunks() returns once what was read is delivered (a
+        bounded amount, so the end is prompt: see ``_rest``)."""
         self._stop.set()
 
     def close(self) -> None:

@@ -149,8 +149,7 @@ class Feed(threading.Thread):
         rec.close()
         if rec.failed:   # failed while closing: _recording_failed said so
             return
-        where = ", ".join(map(show, rec.paths)) if isinstance(rec, RotatingRecorder) else show(self.recording)
-        note = f"recorded {rec.messages} messages to {where}"
+        note = rec.summary()
         self._warnings.append(note)
         self.notes.append(note)
         self.recording = None

@@ -172,16 +172,19 @@ def test_loop_url_is_accepted_and_sigterm_ends_cleanly():
     assert proc.returncode == 0 and out == "" and "Traceback" not in err
 
 
+def drifted_round(ma, mb, cmd):
+    """The gimbal answers 8 ms after the command, but line A's adapter delivers the
+    command 20 ms late: the ACK is read 12 ms before the command."""
+    time.sleep(0.008 + BT)
+    os.write(mb, b"\x06")
+    time.sleep(0.020 - 0.008 - BT)
+    os.write(ma, cmd)
+
+
 def test_skewed_adapters_are_detected_and_corrected(tmp_path):
     ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "skew.mcap")
     for _ in range(6):
-        # the gimbal answers 8 ms after the command, but line A's adapter delivers
-        # the command 20 ms late: the ACK is read 12 ms before the command
-        cmd = frame((1, 1, 1), 0, "HO")
-        time.sleep(0.008 + BT)
-        os.write(mb, b"\x06")
-        time.sleep(0.020 - 0.008 - BT)
-        os.write(ma, cmd)
+        drifted_round(ma, mb, frame((1, 1, 1), 0, "HO"))
         time.sleep(0.15)
     time.sleep(0.6)
     code, out, err = stop(proc)
@@ -215,10 +218,7 @@ def test_skew_correction_switching_on_partway_decodes_as_it_was_shown_live(tmp_p
             time.sleep(len(cmd) * BT + 0.008)
             os.write(mb, b"\x06")
         else:                           # drifted: the ACK is read first
-            time.sleep(0.008 + BT)
-            os.write(mb, b"\x06")
-            time.sleep(0.020 - 0.008 - BT)
-            os.write(ma, cmd)
+            drifted_round(ma, mb, cmd)
         time.sleep(0.12)
     time.sleep(0.6)
     code, out, err = stop(proc)
