@@ -10,7 +10,6 @@ import time
 
 from ..outfile import show
 from ..output import JsonLinesSink, TextSink
-from ..sources.mcapfile import McapSource
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs, warn_if_empty
 from .live import add_tui_args, wants_tui
 
@@ -42,6 +41,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
+    from ..sources.mcapfile import McapSource   # here: every other command starts without it
+
     if not isinstance(capture.source, McapSource):
         raise UsageError(f"{show(args.inputs[0])}: replay takes an MCAP recording (use decode for other captures)")
     if wants_tui(args):
