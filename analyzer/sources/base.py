@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import weakref
 from abc import ABC, abstractmethod
-from typing import Callable, Iterator, NamedTuple
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable, Iterator, NamedTuple
+
+if TYPE_CHECKING:
+    from .files import Input
 
 LINE_A = "A"    # controller → device
 LINE_B = "B"    # device → controller
@@ -94,3 +98,39 @@ class Source(ABC):
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+@dataclass(frozen=True)
+class Reader:
+    """How one input format is recognised and opened. Each reader module declares
+    one (``READER``; MCAP's is in the registry, to keep the mcap package unloaded);
+    the list of them, most specific first, is ``READERS`` in
+    analyzer/sources/registry.py, which ``detect()`` walks.
+
+    An input is recognised by ``magic`` (what its head starts with) or ``looks``
+    (a check of its head), the head being already decompressed (``Input.head``).
+    """
+
+    name: str                                        # the format, as messages and docs call it
+    opens: Callable[[list[Input], float], Source]    # (inputs, byte time) -> the source reading them
+    magic: bytes = b""
+    looks: Callable[[bytes], bool] | None = None
+    takes: tuple[int, ...] = (1,)                    # how many inputs it reads together
+    crowded: str = ""                                # the error when given with a count not in ``takes``
+    suffixes: tuple[str, ...] = ()                   # file names that claim the format (lower case) ...
+    misnamed: str = ""                               # ... and the error when the head says otherwise
+    vet: Callable[[Input], None] | None = None       # raises CaptureError for an input it must not take
+
+    def __post_init__(self) -> None:
+        if not self.magic and self.looks is None:
+            raise ValueError(f"reader {self.name!r}: give magic bytes or a head check")
+
+    def recognises(self, head: bytes) -> bool:
+        """Is ``head`` (an input's decompressed head) the start of this format?"""
+        if self.magic and head.startswith(self.magic):
+            return True
+        return self.looks is not None and self.looks(head)
+
+    def claimed_by_name(self, path: str) -> bool:
+        """Does the file name say it is this format (``rec.mcap``)?"""
+        return path.lower().endswith(self.suffixes)

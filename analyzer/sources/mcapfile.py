@@ -39,7 +39,7 @@ except ImportError:  # pragma: no cover
 
 from ..outfile import show
 from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Source
-from .files import open_input
+from .files import Input, open_input
 from .mcapscan import (MAGIC, OP_CHANNEL, OP_CHUNK, OP_MESSAGE, RECORD, Damaged, Walk, intact_prefix, op_name,
                        parse, read_chunk, read_cut_chunk, summary_records)
 
@@ -207,6 +207,37 @@ class McapSource(Source):
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         return chain.from_iterable(self._batches([f"/serial/{line}/raw"], need_t=self.timed))
+
+
+def open_mcap(inputs: list[Input], byte_time: float) -> McapSource:
+    """The source of an MCAP input (analyzer/sources/registry.py). It is read with
+    random access (surveyed, then read, large ones by a second process): one that
+    arrives through a pipe or compressed is copied to a temporary file first,
+    removed when the source closes or the run ends. Its chunks carry their own
+    times, so ``byte_time`` is not used."""
+    inp, = inputs
+    path, temporary = inp.as_regular_file()
+    problem = inp.problem
+    inp.close()
+    try:
+        source = McapSource(path, name=inp.name)
+    except BaseException:
+        if temporary:
+            _remove(path)
+        raise
+    if temporary:
+        source.on_close(lambda: _remove(path))
+        source.description = inp.describe("MCAP")   # the user's name, not the copy's
+    if problem:
+        source.warn_later(problem)
+    return source
+
+
+def _remove(path: str) -> None:
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
 
 
 class _Pass:

@@ -8,9 +8,10 @@ Either may be a file, a pipe or FIFO (``<(…)``), standard input, or compressed
 
 from __future__ import annotations
 
+import codecs
 from typing import Iterator
 
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Source
+from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Reader, Source
 from .files import BLOCK, Input
 
 
@@ -46,3 +47,35 @@ class RawDumpSource(Source):
     def chunks(self) -> Iterator[Chunk]:
         for line in self.lines:
             yield from self.line_chunks(line)
+
+
+def reject_text(inp: Input) -> None:
+    """A raw dump of this protocol has start bytes (F8) or simple responses; a file of
+    printable text without any (one line or many, with a final newline or not) is
+    something else given by mistake."""
+    head = inp.head
+    if not head:
+        return
+    if any(b in head for b in (b"\xf8", b"\x06", b"\x15")):
+        return
+    try:
+        # a head cut inside a UTF-8 character is still text
+        text = codecs.getincrementaldecoder("utf-8")().decode(head, final=False)
+    except UnicodeDecodeError:
+        return
+    if text and all(c.isprintable() or c in "\r\n\t" for c in text):
+        lines = text.splitlines()
+        first = lines[0][:60] if lines else ""
+        raise CaptureError(f"{inp.name}: a text file that is not a socat -x -v log "
+                           f"(line 1: {first!r}); raw dumps are binary")
+
+
+def open_raw_dumps(inputs: list[Input], byte_time: float) -> RawDumpSource:
+    return RawDumpSource(inputs)   # untimed: no byte time needed
+
+
+def _any_bytes(head: bytes) -> bool:
+    return True   # raw bytes have no signature: the fallback, tried last
+
+
+READER = Reader("raw dump", open_raw_dumps, looks=_any_bytes, takes=(1, 2), vet=reject_text)

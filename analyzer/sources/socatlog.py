@@ -33,7 +33,7 @@ import re
 import time
 from typing import Callable, Iterator
 
-from .base import LINE_A, LINE_B, CaptureError, Chunk, Source
+from .base import LINE_A, LINE_B, CaptureError, Chunk, Reader, Source
 from .files import HEAD, Input
 
 HEADER = re.compile(
@@ -254,3 +254,13 @@ class SocatLogSource(Source):
         return CaptureError(f"{self.name}:{line_no}: not a socat -x -v log "
                             f"(expected a '> YYYY/MM/DD hh:mm:ss.ffffff  length=…' header)")
 
+
+def open_socat_log(inputs: list[Input], byte_time: float) -> SocatLogSource:
+    inp, = inputs
+    return SocatLogSource(inp, byte_time)
+
+
+READER = Reader(
+    "socat -x -v log", open_socat_log, looks=looks_like_socat,
+    crowded="a socat log carries both lines; give it on its own",
+)
