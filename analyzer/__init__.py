@@ -1,16 +1,19 @@
 """gimbalscope analyzer: capture sources, pairing, statistics, filters, CLI.
 
     import analyzer
+    from dissectors.event import COMMAND, OK
+
     for ev in analyzer.open("ctl.bin", "dev.bin"):
-        if ev.kind == "command" and ev.status != "ok":
+        if ev.kind == COMMAND and ev.status != OK:
             print(ev.number, ev.command, ev.status, ev.problems)
 """
 
 from dissectors.event import Event
 
 from .capture import Capture, Options, open
-from .pairing import Pairer, Timeouts
+from .pairing import Pairer, Timeouts, Transaction
 from .sources import CaptureError
 
 __version__ = "0.1.0"
-__all__ = ["Capture", "CaptureError", "Event", "Options", "Pairer", "Timeouts", "open", "__version__"]
+__all__ = ["Capture", "CaptureError", "Event", "Options", "Pairer", "Timeouts", "Transaction", "open",
+           "__version__"]

@@ -6,7 +6,7 @@ pair. This is what ``analyzer.open`` returns and what every CLI command reads.
 - a single-line tap: one stream, frames classified by pairing.
 
 A live source that falls behind marks chunks as not to be decoded (``undecoded``):
-they still reach ``on_chunk`` (the recording), the deframer is told of the gap,
+they still reach the ``on_chunk`` hook (the recording), the deframer is told of the gap,
 and the bytes are counted and said (``Capture.undecoded``).
 """
 
@@ -59,9 +59,9 @@ class Capture:
         self.source = source
         self.options = options or Options()
         self.warnings: list[str] = []
-        self.on_warning = on_warning     # also told every warning (recorders log them)
-        # called with (chunk, offset of its first byte) for every chunk read: recorders
-        self.on_chunk: Callable[[Chunk, int], None] | None = None
+        self.on_warning = on_warning     # also told every warning (API users)
+        # while ``batches()`` runs: told (chunk, offset of its first byte) for every chunk read
+        self._tap: Callable[[Chunk, int], None] | None = None
         self._now: float | None = None   # after an idle tick: the time pairing may run on to
         self._tick = False               # an idle tick arrived: time passed with no bytes
         self._latest: float | None = None  # the latest time any chunk or tick showed
@@ -77,10 +77,8 @@ class Capture:
         # the tap's lines were wired the other way round: read A as B and B as A
         # (settable while a live capture runs: the TUI's swap key)
         self.swap_lines = self.options.swap_lines
-        # the files or ports as given, and the subcommand reading them (when a CLI
-        # command set it): advice names what works there (analyzer.doctor)
+        # the files or ports as given (analyzer.info.CaptureInfo)
         self.inputs: tuple[str, ...] = ()
-        self.command: str | None = None
         # bytes per line passed on to on_chunk (the recording) but not decoded: a
         # live source fell behind, or they were still queued when it stopped
         self.undecoded: dict[str, int] = {}
@@ -125,11 +123,15 @@ class Capture:
         for batch in self.batches():
             yield from batch
 
-    def batches(self) -> Iterator[list[Event]]:
+    def batches(self, on_chunk: Callable[[Chunk, int], None] | None = None) -> Iterator[list[Event]]:
         """The events in wire order, a list per step of the source; a live source's
         idle ticks give (often empty) lists too, so a consumer regains control
-        while the line is quiet (the TUI's feed thread). Between steps,
-        ``unsettled()`` shows what pairing still holds."""
+        while the line is quiet (the tap runner, analyzer/runner.py). Between
+        steps, ``unsettled()`` shows what pairing still holds.
+
+        ``on_chunk(chunk, offset)`` is told every chunk read, before its events,
+        with the offset of its first byte on its line (recordings keep them)."""
+        self._tap = on_chunk
         if self.options.tune_gc:
             _gc_busy(+1)
         try:
@@ -170,7 +172,7 @@ class Capture:
         """One line's events, a list per chunk read."""
         d = self._deframer(line)
         feed = d.feed
-        tap = self.on_chunk
+        tap = self._tap
         physical = _SWAP[line] if self.swap_lines else line
         for chunk in self.source.line_chunks(physical):
             if not chunk.data:
@@ -184,7 +186,7 @@ class Capture:
 
     def _single(self) -> Iterator[list[Event]]:
         d = self._deframer(LINE_AB)
-        tap = self.on_chunk
+        tap = self._tap
         for chunk in self.source.chunks():
             if not chunk.data:            # an idle tick: time passed
                 if chunk.t is not None:
@@ -223,40 +225,10 @@ class Capture:
         # file); a live tap releases every 4, so the screen stays close to the wire
         release_every = 4 if live else 32
         margin = chunks_ahead * self.options.byte_time + 0.05
-        # Events not yet released, in arrival order; sorted by time (stably: ties keep
-        # arrival order) at each release. They arrive nearly in time order, so the
-        # sort is a merge of a few runs: cheaper than a heap operation per event.
-        held: list[Event] = []
-        tap = self.on_chunk
-        estimator = SkewEstimator()
-        observe = estimator.observe
-        reported = 0.0
+        merge = _Merge(self)
+        arrived = merge.arrived
+        tap = self._tap
         since_release = 0
-
-        def arrived(events: list[Event]) -> None:
-            nonlocal reported
-            for ev in events:
-                # only commands and ACK/NAK bytes inform the estimate
-                if ev.kind in _SKEW_KINDS and observe(ev):   # sees the times as read
-                    delta = estimator.skew - self.skew
-                    self.skew = estimator.skew
-                    # Line B events held back move with the estimate, but only those
-                    # near the pair that taught it (the estimator pairs within
-                    # ``near``): a live tap has released anything older already, and
-                    # decoding its recording, which holds events longer, must give
-                    # the same times (live output equals decode of the recording).
-                    horizon = ev.t - estimator.near
-                    for other in held:
-                        if other.line == "B" and other.t is not None and other.t >= horizon:
-                            _shift(other, delta)
-                    if abs(self.skew - reported) >= 0.001:
-                        reported = self.skew
-                        self.skew_from = horizon + self.skew
-                        self._warn(f"line B reads about {self.skew * 1000:.1f} ms ahead of line A (adapter "
-                                   f"delays): its times are moved later by that much")
-                if self.skew and ev.line == "B":
-                    _shift(ev, self.skew)
-                held.append(ev)
         byte_time = self.options.byte_time
         for chunk in self.source.chunks():
             data = chunk.data
@@ -276,10 +248,7 @@ class Capture:
                 end = chunk.t + len(data) * byte_time
                 if self._latest is None or end > self._latest:
                     self._latest = end
-                if chunk.undecoded:
-                    arrived(self._skip(d, chunk))
-                else:
-                    arrived(d.feed(data, chunk.t))
+                arrived(self._skip(d, chunk) if chunk.undecoded else d.feed(data, chunk.t))
             since_release += 1
             if not self._tick and since_release < release_every:
                 continue
@@ -293,19 +262,11 @@ class Capture:
                 # pairing may only run up to what has been released: an answer still
                 # held back here must not find its command already timed out
                 self._now = mark
-            if held:
-                held.sort(key=_time)
-                k = bisect_left(held, mark, key=_time)
-                ready = held[:k]
-                del held[:k]
-                yield ready
-            else:
-                yield held[:0]
+            yield merge.release(mark)
         for d in deframers.values():
             arrived(d.finish())
         self._say_undecoded(final=True)
-        held.sort(key=_time)
-        yield held
+        yield merge.release(None)
         yield self._at_end()
 
     # ------------------------------------------------------ undecoded bytes
@@ -351,6 +312,66 @@ _time = attrgetter("t")
 UNDECODED_EVERY = 10.0   # capture seconds between updates of the undecoded count
 _SWAP = {"A": "B", "B": "A"}
 _SKEW_KINDS = frozenset((COMMAND, ACK, NAK))
+
+
+class _Merge:
+    """The events of a timed two-line capture not yet released (``Capture._merged``),
+    in arrival order, with line B's skew correction applied as it is learnt.
+
+    They are sorted by time (stably: ties keep arrival order) at each release.
+    They arrive nearly in time order, so the sort is a merge of a few runs:
+    cheaper than a heap operation per event."""
+
+    def __init__(self, capture: "Capture") -> None:
+        self.capture = capture
+        self.held: list[Event] = []
+        self.estimator = SkewEstimator()
+        self.reported = 0.0   # the correction last said
+
+    def arrived(self, events: list[Event]) -> None:
+        cap = self.capture
+        held = self.held
+        observe = self.estimator.observe
+        for ev in events:
+            # only commands and ACK/NAK bytes inform the estimate; it sees the times as read
+            if ev.kind in _SKEW_KINDS and observe(ev):
+                self._learnt(ev)
+            if cap.skew and ev.line == "B":
+                _shift(ev, cap.skew)
+            held.append(ev)
+
+    def _learnt(self, ev: Event) -> None:
+        """The skew estimate moved. Line B events held back move with it, but only
+        those near the pair that taught it (the estimator pairs within ``near``): a
+        live tap has released anything older already, and decoding its recording,
+        which holds events longer, must give the same times (live output equals
+        decode of the recording)."""
+        cap, estimator = self.capture, self.estimator
+        delta = estimator.skew - cap.skew
+        cap.skew = estimator.skew
+        horizon = ev.t - estimator.near
+        for other in self.held:
+            if other.line == "B" and other.t is not None and other.t >= horizon:
+                _shift(other, delta)
+        if abs(cap.skew - self.reported) >= 0.001:
+            self.reported = cap.skew
+            cap.skew_from = horizon + cap.skew
+            cap._warn(f"line B reads about {cap.skew * 1000:.1f} ms ahead of line A (adapter "
+                      f"delays): its times are moved later by that much")
+
+    def release(self, mark: float | None) -> list[Event]:
+        """The held events before ``mark`` (all of them for None), in time order."""
+        held = self.held
+        if not held:
+            return []
+        held.sort(key=_time)
+        if mark is None:
+            self.held = []
+            return held
+        k = bisect_left(held, mark, key=_time)
+        ready = held[:k]
+        del held[:k]
+        return ready
 
 
 def _bytes(n: int) -> str:

@@ -27,12 +27,12 @@ from dataclasses import dataclass, field
 from statistics import median
 
 from dissectors import dissect_command
-from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, NO_ACK, NO_RESULT, OK, RESULT, ST_NAK, ST_NIC, Event
+from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
-from .output import device_address
 from .stats import Latency
+from .styles import ERROR, INFO, WARNING   # the severities every view colours
 
-ERROR, WARNING, INFO = "error", "warning", "info"
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
 _ANSWER_BYTES = {0x06, 0x15, 0x3F}
 _MAX_EVIDENCE = 20
@@ -249,7 +249,6 @@ class WiringDoctor:
         self.naks: deque[tuple[float, int]] = deque(maxlen=200)
         self.ack_latency = Latency()               # every device's ACKs: the 95th percentile
         self.trend_from = float("-inf")            # ACKs before this time are left out of the trend
-        self._addr_of: dict[int, str] = {}         # command number -> device, for its answers
         self._first_seen: dict[tuple[str, str], tuple[float | None, int]] = {}   # (time, events seen)
 
     # ------------------------------------------------------------------ input
@@ -304,11 +303,7 @@ class WiringDoctor:
 
     def _command(self, ev: Event) -> None:
         self.commands += 1
-        addr = device_address(ev)
-        self._addr_of[ev.number] = addr
-        if len(self._addr_of) > 4096:    # answers follow their command closely: keep memory flat
-            for k in list(self._addr_of)[:2048]:
-                del self._addr_of[k]
+        addr = ev.transaction.device
         dev = self._device(addr)
         if dev is None:
             self.other_addresses.add(ev.number)
@@ -316,29 +311,29 @@ class WiringDoctor:
             self._count(dev, ev)
         prev, prev_failed = self._prev_cmd, self._prev_failed
         self._prev_cmd = ev
-        self._prev_failed = ev if ev.status in ("nak", "no_ack") else None
+        self._prev_failed = ev if ev.status in (ST_NAK, NO_ACK) else None
         self._patience(ev, prev)
-        if ev.status in ("ok", "nic", "no_result"):
+        if ev.status in (OK, ST_NIC, NO_RESULT):
             self.ok_transactions += 1
-        if ev.status == "nak":
+        if ev.status == ST_NAK:
             self.nak_count += 1
             if ev.t is not None:     # bursts need time
                 self.naks.append((ev.t, ev.number))
-        if ev.command == "IX" and ev.status == "no_result" and any("sent again" in p for p in ev.problems):
+        if ev.command == "IX" and ev.status == NO_RESULT and ev.has_problem(NO_RESULT_SENT_AGAIN):
             self.ix_given_up.add(ev.number)
         self._retries(ev, prev, prev_failed)
 
     def _count(self, dev: _Device, ev: Event) -> None:
         dev.commands += 1
-        if ev.status == "no_ack":
+        if ev.status == NO_ACK:
             dev.unanswered.add(ev.number)
-        elif ev.status == "nic" and ev.command and len(dev.nic) < _MAX_NIC:
+        elif ev.status == ST_NIC and ev.command and len(dev.nic) < _MAX_NIC:
             dev.nic.add(ev.command)
 
     def _patience(self, ev: Event, prev: Event | None) -> None:
         """How long the controller waited for an ACK that did not come."""
-        if prev is not None and prev.status == "no_ack" and prev.t_end is not None and ev.t is not None \
-                and any("before the next command" in p for p in prev.problems):
+        if prev is not None and prev.status == NO_ACK and prev.t_end is not None and ev.t is not None \
+                and prev.has_problem(UNANSWERED_SUPERSEDED):
             self.next_gaps.append((prev.number, ev.t - prev.t_end))
 
     def _retries(self, ev: Event, prev: Event | None, prev_failed: Event | None) -> None:
@@ -346,14 +341,14 @@ class WiringDoctor:
         controller is); a failed first attempt is watched: will it be sent again?"""
         if ev.retransmission:
             if prev_failed is not None and prev_failed.t_end is not None and ev.t is not None \
-                    and prev_failed.status == "no_ack":
+                    and prev_failed.status == NO_ACK:
                 self.retry_gaps.append((ev.number, ev.t - prev_failed.t_end))
             # pairing marks a retransmission of the command just before it (even
             # when a bit error had changed that one's address)
             if prev is not None and self.failed.pop(prev.number, None) is not None:
                 self.retried += 1
         self._expire_failed(ev)
-        if ev.status in ("nak", "no_ack") and not ev.retransmission:
+        if ev.status in (ST_NAK, NO_ACK) and not ev.retransmission:
             self._watch_failed(ev)
 
     def _watch_failed(self, ev: Event) -> None:
@@ -389,9 +384,10 @@ class WiringDoctor:
                 and dissect_command(ev.payload).entry is not None:
             self.commands_on_b.add(ev.number)    # a command frame travelling device→controller
             return
-        addr = self._addr_of.get(ev.request) if ev.request is not None else None
-        if addr is None:
+        txn = ev.transaction   # the command's record: its device is the answer's
+        if txn is None:
             return
+        addr = txn.device
         self.answers += 1
         dev = self.devices.get(addr)
         if dev is None:
@@ -658,79 +654,6 @@ class WiringDoctor:
             title += f", and more (past {_MAX_DEVICES})"
             parts.append(f"{_n(len(self.other_addresses), 'command')} to further addresses, not tracked one by one")
         return [Finding("device_map", INFO, title, "\n".join(parts), "", [], "map")]
-
-
-class LiveDoctor:
-    """The doctor alongside a running capture (live printing, the TUI's capture
-    thread, ``gimbalscope doctor``): fed every event, it checks about once a second
-    of capture time (every UNTIMED_CHECK_EVERY events when the capture has no time)
-    and hands each new finding (not the device map) to ``on_new`` once, e.g. to
-    print it and put it on a recording's /log topic.
-
-    ``tui``: findings are read in the TUI, whose swap key a fix may mention."""
-
-    def __init__(self, capture, on_new=None, every: float = 1.0, *, tui: bool = False) -> None:
-        self.capture = capture
-        self.invocation = Invocation.of(capture, tui)
-        self.doctor = self._new_doctor()
-        self.on_new = on_new
-        self.every = every
-        self.findings: list[Finding] = []
-        self._told: set[tuple[str, str]] = set()
-        self._next: float | None = None
-        self._next_event = UNTIMED_CHECK_EVERY
-        self._swapped = capture.swap_lines
-
-    def _new_doctor(self) -> WiringDoctor:
-        return WiringDoctor(self.capture.lines, self.capture.options.timeouts.ack, self.invocation)
-
-    def add_batch(self, batch: list[Event]) -> bool:
-        """Feed a batch; True when the findings were re-checked."""
-        if self.capture.swap_lines != self._swapped:
-            # the lines were swapped while capturing (the TUI's key): a new wiring,
-            # so start again rather than mix evidence from both
-            self._swapped = self.capture.swap_lines
-            self.doctor = self._new_doctor()
-            self._told.clear()
-            self._next = None
-            self._next_event = UNTIMED_CHECK_EVERY
-        doctor = self.doctor
-        skew_from = getattr(self.capture, "skew_from", None)
-        if skew_from is not None and skew_from != doctor.trend_from:
-            doctor.restart_ack_trend(skew_from)
-        add = doctor.add
-        checked = False
-        for ev in batch:
-            add(ev)
-            # without time, check by event count, inside the batch: an untimed
-            # capture's batches can be tens of thousands of events long
-            if ev.t is None and doctor.events >= self._next_event:
-                self._next_event = doctor.events + UNTIMED_CHECK_EVERY
-                self._check()
-                checked = True
-        echo = self.capture.echo
-        if echo is not None:
-            for cmd in echo.take_echoed():
-                doctor.echoed(cmd)
-        t = doctor.last_t
-        if t is None or (self._next is not None and t < self._next):
-            return checked
-        self._next = t + self.every
-        self._check()
-        return True
-
-    def _check(self) -> None:
-        self.findings = self.doctor.findings()
-        for f in self.findings:
-            if f.severity != INFO and f.key not in self._told:
-                self._told.add(f.key)
-                if self.on_new is not None:
-                    self.on_new(f)
-
-
-def log_level(f: Finding) -> int:
-    """foxglove.Log level of a finding (recording.schemas)."""
-    return {ERROR: 4, WARNING: 3}.get(f.severity, 2)
 
 
 def one_line(f: Finding) -> str:

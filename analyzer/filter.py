@@ -48,7 +48,7 @@ from operator import attrgetter
 from typing import Any, Callable
 
 from dissectors.commands import COMMANDS, DERIVED_FIELDS
-from dissectors.event import Event
+from dissectors.event import KINDS, STATUSES, Event
 
 Predicate = Callable[[Event], bool]
 
@@ -59,8 +59,8 @@ TOP_LEVEL = ("number", "t", "t_end", "line", "offset", "kind", "command", "dst",
              "checksum_ok", "fields", "problems", "txn", "status", "latency", "retransmission",
              "request", "raw", "device")
 ENUMS = {
-    "kind": {"command", "result", "ack", "nak", "nic", "noise"},
-    "status": {"ok", "nak", "nic", "no_ack", "no_result", "pending"},
+    "kind": set(KINDS),
+    "status": set(STATUSES),
     "line": {"A", "B", "AB"},
 }
 

@@ -17,6 +17,9 @@ from .outfile import OutputError, reason, write_error
 from dissectors import summarize
 from dissectors.wire import payload_text
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+from dissectors.problems import MALFORMED
+
+from .styles import ROW_STYLE, row_class
 
 try:
     import orjson
@@ -166,7 +169,7 @@ def summary(ev: Event) -> str:
         entry = ev.entry
         text = summarize(entry.summary, ev.fields) if entry is not None and ev.fields else (
             entry.name.lower() if entry is not None else "")
-        if entry is None or not ev.fields and ev.problems and "malformed" in ev.problems[0]:
+        if entry is None or not ev.fields and ev.problems and MALFORMED.matches(ev.problems[0]):
             text = f"'{payload_text(ev.payload)}'"
         return text
     if kind == RESULT:
@@ -211,19 +214,8 @@ def text_line(ev: Event) -> tuple[str, str]:
 
 
 def style_of(ev: Event) -> str:
-    if ev.checksum_ok is False or ev.kind == NOISE:
-        return "bold red"
-    if ev.kind == NAK or ev.status == "nak":
-        return "red"
-    if ev.kind == NIC or ev.status == "nic":
-        return "magenta"
-    if ev.status in ("no_ack", "no_result", "pending") or ev.retransmission:
-        return "yellow"
-    if ev.problems:
-        return "yellow"
-    if ev.kind == COMMAND:
-        return "cyan"
-    return ""
+    """The Rich style of ``ev``'s line: its row's, as the TUI colours it (``styles``)."""
+    return ROW_STYLE[row_class(ev)]
 
 
 class TextSink(_Sink):

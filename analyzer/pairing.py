@@ -8,8 +8,12 @@ its status is final, so every event leaves with its ``txn``/``status``/
 ``latency`` filled; the hold is bounded by the timeouts (timed input) or by a
 count of later commands (untimed input), so memory stays flat.
 
-Answers also get their device here: an ACK, NAK or NIC has no address of its
-own, so a linked one takes its command's (``Event.device``); an orphan has none.
+Each command gets a ``Transaction``, the one record of which answers are its
+own: the command and every answer linked to it reference it
+(``Event.transaction``), and statistics, the wiring doctor, the TUI and
+recordings read it rather than match answers to commands again. An ACK, NAK or
+NIC has no address of its own: its device is its transaction's
+(``Event.device``); an orphan has none.
 """
 
 from __future__ import annotations
@@ -20,9 +24,12 @@ from dataclasses import dataclass, field
 from dissectors import apply_command, dissect_command, dissect_result, result_fits
 from dissectors.commands import DUE, OPTIONAL
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, RESULT, Event,
+    ACK, COMMAND, FRAME, NAK, NIC, RESULT, Event, format_address,
     NO_ACK, NO_RESULT, OK, PENDING, ST_NAK, ST_NIC,
-    P_LATE, P_NO_RESULT, P_ORPHAN, P_RETRANSMISSION, P_UNANSWERED,
+)
+from dissectors.problems import (
+    LATE, NO_RESULT_OVERFLOW, NO_RESULT_SENT_AGAIN, NO_RESULT_TIMEOUT, ORPHAN, RETRANSMISSION,
+    UNANSWERED_NO_ACK, UNANSWERED_SUPERSEDED, UNANSWERED_TIMEOUT, ProblemInfo,
 )
 from dissectors.wire import WILDCARD
 
@@ -48,15 +55,63 @@ class Timeouts:
         return self.result
 
 
-class _Txn:
-    __slots__ = ("cmd", "no", "deadline", "optional", "age")
+class Transaction:
+    """A command and its answers, as pairing linked them (a request/response
+    record, like Wireshark's ``mdb_transaction_t``).
 
-    def __init__(self, cmd: Event, no: int) -> None:
-        self.cmd = cmd
-        self.no = no
-        self.deadline: float | None = None
-        self.optional = False
-        self.age = 0  # commands seen since this one (untimed expiry)
+    ``number`` is the events' ``txn``; ``request`` the command's event number
+    (the answers' ``request``); ``command`` its id, ``device`` its
+    "group.port.device", ``retransmission`` whether it repeats a failed one;
+    ``status`` its final status, None until it settles. ``ack`` (the ACK or
+    NAK), ``nic`` and ``result`` are the answers' event numbers, None until
+    linked; ``ack_latency`` and ``result_latency`` their latencies (None
+    without time).
+
+    Complete when the command settles: pairing releases a command only once its
+    status is final, so whoever reads the events finds the record complete. An
+    answer that can still come later (an ACK after the ACK timeout, an optional
+    result) is added when it is linked, as its event is.
+
+    It holds numbers, not events: the events reference the record, and
+    references both ways would make every command a reference cycle, which
+    reference counting does not free (decoding relies on it freeing events at
+    once: ``capture._gc_busy``). ``deadline``, ``optional`` and ``age`` are
+    pairing's own bookkeeping while answers are awaited: one object per command.
+    """
+
+    __slots__ = ("number", "request", "command", "device", "status", "retransmission",
+                 "ack", "nic", "result", "ack_latency", "result_latency",
+                 "deadline", "optional", "age")
+
+    def __init__(self, number: int, cmd: Event) -> None:
+        self.number = number
+        self.request: int = cmd.number
+        self.command: str | None = cmd.command
+        self.device: str = format_address(cmd.dst)
+        self.status: str | None = None
+        self.retransmission: bool = cmd.retransmission
+        self.ack: int | None = None
+        self.nic: int | None = None
+        self.result: int | None = None
+        self.ack_latency: float | None = None
+        self.result_latency: float | None = None
+        self.deadline: float | None = None   # when the awaited answer is overdue
+        self.optional = False                # the awaited result may not come
+        self.age = 0                         # commands seen since this one (untimed expiry)
+
+    @property
+    def settled(self) -> bool:
+        return self.status is not None
+
+    @property
+    def answers(self) -> list[int]:
+        """The linked answers' event numbers, in wire order (a result can come
+        before the place of an ACK that was lost)."""
+        return sorted(n for n in (self.ack, self.nic, self.result) if n is not None)
+
+    def __repr__(self) -> str:
+        return (f"Transaction(txn {self.number}: #{self.request} {self.command} {self.device} "
+                f"{self.status}, answers {self.answers})")
 
 
 def address_fits(cmd: Event, res: Event) -> bool:
@@ -93,18 +148,19 @@ class Pairer:
         self._number = 0
         self._txn_no = 0
         self._held: deque[Event] = deque()
-        self._awaiting_ack: _Txn | None = None
-        self._awaiting_result: list[_Txn] = []
-        self._last_cmd: _Txn | None = None     # for retransmissions
-        self._timed_out: _Txn | None = None    # no_ack by timeout: a late ACK may still come
+        # commands (their state is their ``transaction``'s)
+        self._awaiting_ack: Event | None = None
+        self._awaiting_result: list[Event] = []
+        self._last_cmd: Event | None = None     # for retransmissions
+        self._timed_out: Event | None = None    # no_ack by timeout: a late ACK may still come
         self._controller_groups: set[int] = set()
         # An ACKed command not due a result is ok unless a NIC follows the ACK:
         # its status waits for the next event (or the end, or the ACK timeout).
-        self._provisional: _Txn | None = None
+        self._provisional: Event | None = None
         self._provisional_since: float | None = None
         self._prev: Event | None = None        # the event pushed before this one
-        # the latest ACK and its transaction: a NIC must follow that ACK directly (§1.4.2)
-        self._last_ack: tuple[Event, _Txn] | None = None
+        # the latest ACK and its command: a NIC must follow that ACK directly (§1.4.2)
+        self._last_ack: tuple[Event, Event] | None = None
 
     # ----------------------------------------------------------------- API
     def push(self, ev: Event) -> list[Event]:
@@ -149,8 +205,10 @@ class Pairer:
                 self._give_up(held[0])
             while held:
                 head = held[0]
-                if head.kind == COMMAND and head.status is None:
-                    break
+                if head.kind == COMMAND:
+                    if head.status is None:
+                        break
+                    head.transaction.status = head.status   # final: the record takes it
                 append(held.popleft())
         self._number = number
         return out
@@ -159,17 +217,14 @@ class Pairer:
         """Untimed input: ``cmd`` has waited behind ``untimed_hold`` events; its
         ACK or result is not coming (the count stands in for the timeout)."""
         why = f"none within the next {self.timeouts.untimed_hold} events"
-        txn = self._awaiting_ack
-        if txn is not None and txn.cmd is cmd:
-            self._no_ack(txn, why)
+        if self._awaiting_ack is cmd:
+            self._no_ack(cmd, UNANSWERED_TIMEOUT, why)
             return
-        for txn in self._awaiting_result:
-            if txn.cmd is cmd:
-                self._awaiting_result.remove(txn)
-                self._no_result(txn, why)
-                if cmd.status is None:   # an optional result: the ACK settled it
-                    cmd.status = OK
-                return
+        if cmd in self._awaiting_result:
+            self._awaiting_result.remove(cmd)
+            self._no_result(cmd, NO_RESULT_TIMEOUT, why)
+            if cmd.status is None:   # an optional result: the ACK settled it
+                cmd.status = OK
 
     def advance(self, now: float) -> list[Event]:
         """Live input: time passed with no events; expire what is overdue."""
@@ -188,57 +243,66 @@ class Pairer:
         """End of capture: whatever still waits is ``pending``."""
         if self._provisional is not None:
             self._settle()
-        for txn in ([self._awaiting_ack] if self._awaiting_ack else []) + self._awaiting_result:
-            if not txn.optional:
-                txn.cmd.status = PENDING
+        for cmd in ([self._awaiting_ack] if self._awaiting_ack else []) + self._awaiting_result:
+            if not cmd.transaction.optional:
+                cmd.status = PENDING
         self._awaiting_ack = None
         self._awaiting_result = []
         out = list(self._held)
         self._held.clear()
+        for ev in out:
+            if ev.kind == COMMAND:
+                ev.transaction.status = ev.status
         return out
 
     # ------------------------------------------------------------ internals
     def _settle(self) -> None:
-        txn = self._provisional
+        cmd = self._provisional
         self._provisional = None
-        if txn.cmd.status is None:
-            txn.cmd.status = OK
+        if cmd.status is None:
+            cmd.status = OK
 
     def _release(self) -> list[Event]:
         held = self._held
         out = []
         while held:
             head = held[0]
-            if head.kind == COMMAND and head.status is None:
-                break
+            if head.kind == COMMAND:
+                if head.status is None:
+                    break
+                head.transaction.status = head.status
             out.append(held.popleft())
         return out
 
     def _expire(self, t: float) -> None:
-        txn = self._awaiting_ack
-        if txn is not None and txn.deadline is not None and t > txn.deadline:
-            self._no_ack(txn, f"no ACK/NAK within {self.timeouts.ack * 1000:g} ms")
-            self._timed_out = txn
+        cmd = self._awaiting_ack
+        if cmd is not None:
+            deadline = cmd.transaction.deadline
+            if deadline is not None and t > deadline:
+                self._no_ack(cmd, UNANSWERED_TIMEOUT, f"no ACK/NAK within {self.timeouts.ack * 1000:g} ms")
+                self._timed_out = cmd
         if self._awaiting_result:
             keep = []
-            for txn in self._awaiting_result:
-                if txn.deadline is not None and t > txn.deadline:
-                    self._no_result(txn, f"none within {self.timeouts.result_for(txn.cmd):g} s of the ACK")
+            for cmd in self._awaiting_result:
+                deadline = cmd.transaction.deadline
+                if deadline is not None and t > deadline:
+                    self._no_result(cmd, NO_RESULT_TIMEOUT,
+                                    f"none within {self.timeouts.result_for(cmd):g} s of the ACK")
                 else:
-                    keep.append(txn)
+                    keep.append(cmd)
             self._awaiting_result = keep
 
-    def _no_ack(self, txn: _Txn, why: str) -> None:
-        txn.cmd.status = NO_ACK
-        txn.cmd.note(f"{P_UNANSWERED}: {why}")
-        if self._awaiting_ack is txn:
+    def _no_ack(self, cmd: Event, problem: ProblemInfo, why: str) -> None:
+        cmd.status = NO_ACK
+        cmd.add_problem(problem, why)
+        if self._awaiting_ack is cmd:
             self._awaiting_ack = None
 
-    def _no_result(self, txn: _Txn, why: str) -> None:
-        if txn.optional:
+    def _no_result(self, cmd: Event, problem: ProblemInfo, why: str) -> None:
+        if cmd.transaction.optional:
             return
-        txn.cmd.status = NO_RESULT
-        txn.cmd.note(f"{P_NO_RESULT}: {why}")
+        cmd.status = NO_RESULT
+        cmd.add_problem(problem, why)
 
     def _classify(self, ev: Event) -> str:
         """Single-line tap: is this frame a command or a result? (docs/decoding.md, "Pairing")
@@ -248,12 +312,12 @@ class Pairer:
         controller's source group), and where it cannot (controller and devices in
         one group) a payload that parses as a command is one.
         """
-        for txn in reversed(self._awaiting_result):
-            if address_fits(txn.cmd, ev) and result_fits(txn.cmd.entry, ev.payload):
+        for cmd in reversed(self._awaiting_result):
+            if address_fits(cmd, ev) and result_fits(cmd.entry, ev.payload):
                 return RESULT
-        txn = self._awaiting_ack
-        if txn is not None and txn.cmd.dst[0] != txn.cmd.src and address_fits(txn.cmd, ev) \
-                and result_fits(txn.cmd.entry, ev.payload):
+        cmd = self._awaiting_ack
+        if cmd is not None and cmd.dst[0] != cmd.src and address_fits(cmd, ev) \
+                and result_fits(cmd.entry, ev.payload):
             return RESULT
         groups = self._controller_groups
         g = ev.dst[0]
@@ -271,86 +335,97 @@ class Pairer:
         if ev.command is None:
             apply_command(ev)
         if self._awaiting_ack is not None:
-            self._no_ack(self._awaiting_ack, "no ACK/NAK before the next command")
+            self._no_ack(self._awaiting_ack, UNANSWERED_SUPERSEDED, "no ACK/NAK before the next command")
         self._timed_out = None
         if self._awaiting_result:
             keep = []
             window = self.timeouts.untimed_window
-            for txn in self._awaiting_result:
+            for cmd in self._awaiting_result:
+                txn = cmd.transaction
                 txn.age += 1
-                if txn.cmd.command == ev.command and txn.cmd.dst == ev.dst:
-                    self._no_result(txn, "the command was sent again before it came")
+                if cmd.command == ev.command and cmd.dst == ev.dst:
+                    self._no_result(cmd, NO_RESULT_SENT_AGAIN, "the command was sent again before it came")
                 elif ev.t is None and txn.age > window:
-                    self._no_result(txn, f"none within the next {window} commands")
+                    self._no_result(cmd, NO_RESULT_TIMEOUT, f"none within the next {window} commands")
                 else:
-                    keep.append(txn)
+                    keep.append(cmd)
             self._awaiting_result = keep
         prev = self._last_cmd
-        if prev is not None and prev.cmd.status in (ST_NAK, NO_ACK, NO_RESULT) and _repeats(prev.cmd, ev):
+        if prev is not None and prev.status in (ST_NAK, NO_ACK, NO_RESULT) and _repeats(prev, ev):
             ev.retransmission = True
-            ev.note(f"{P_RETRANSMISSION}: repeats #{prev.cmd.number} after {prev.cmd.status}")
+            ev.add_problem(RETRANSMISSION, f"repeats #{prev.number} after {prev.status}")
         self._txn_no += 1
-        txn = _Txn(ev, self._txn_no)
         ev.txn = self._txn_no
+        txn = ev.transaction = Transaction(self._txn_no, ev)
         if ev.t_end is not None:
             txn.deadline = ev.t_end + self.timeouts.ack
-        self._awaiting_ack = txn
-        self._last_cmd = txn
+        self._awaiting_ack = ev
+        self._last_cmd = ev
 
-    def _link(self, ev: Event, txn: _Txn) -> None:
-        cmd = txn.cmd
-        ev.txn = txn.no
+    def _link(self, ev: Event, cmd: Event) -> None:
+        """Make ``ev`` an answer to ``cmd``, in the event and in the record."""
+        txn = cmd.transaction
+        ev.txn = txn.number
         ev.request = cmd.number
-        if ev.dst is None:   # an ACK/NAK/NIC names no device: it is its command's
-            ev.device = cmd.device
+        ev.transaction = txn
+        latency = None
         if ev.t is not None and cmd.t_end is not None:
-            ev.latency = round(ev.t - cmd.t_end, 9)
+            latency = ev.latency = round(ev.t - cmd.t_end, 9)
+        kind = ev.kind
+        if kind == RESULT:
+            txn.result = ev.number
+            txn.result_latency = latency
+        elif kind == NIC:
+            txn.nic = ev.number
+        else:   # the ACK or NAK (a late one too)
+            txn.ack = ev.number
+            txn.ack_latency = latency
 
     def _handshake(self, ev: Event) -> None:
-        txn = self._awaiting_ack
-        if txn is None:
+        cmd = self._awaiting_ack
+        if cmd is None:
             late = self._timed_out
             if late is not None:
                 self._link(ev, late)
-                ev.note(f"{P_LATE}: after the {self.timeouts.ack * 1000:g} ms ACK timeout")
+                ev.add_problem(LATE, f"after the {self.timeouts.ack * 1000:g} ms ACK timeout")
                 self._timed_out = None
             else:
-                ev.note(f"{P_ORPHAN}: no command awaits an ACK/NAK")
+                ev.add_problem(ORPHAN, "no command awaits an ACK/NAK")
             return
         self._awaiting_ack = None
-        self._link(ev, txn)
-        cmd = txn.cmd
+        self._link(ev, cmd)
         if ev.kind == NAK:
             cmd.status = ST_NAK
             return
-        self._last_ack = (ev, txn)
+        self._last_ack = (ev, cmd)
         due = cmd.entry.result_due if cmd.entry is not None else None
         if due == DUE or due == OPTIONAL:
+            txn = cmd.transaction
             txn.optional = due == OPTIONAL
             if ev.t_end is not None:
                 txn.deadline = ev.t_end + self.timeouts.result_for(cmd)
-            self._awaiting_result.append(txn)
+            self._awaiting_result.append(cmd)
             if len(self._awaiting_result) > 64:   # a runaway controller: keep memory flat
                 old = self._awaiting_result.pop(0)
-                self._no_result(old, "too many commands waiting for results")
-                if old.cmd.status is None:
-                    old.cmd.status = OK
+                self._no_result(old, NO_RESULT_OVERFLOW, "too many commands waiting for results")
+                if old.status is None:
+                    old.status = OK
         if due != DUE:
-            self._provisional = txn
+            self._provisional = cmd
             self._provisional_since = ev.t_end
 
     def _nic(self, ev: Event) -> None:
         last = self._last_ack
-        if last is None or self._prev is not last[0] or last[1].cmd.status not in (None, OK):
-            ev.note(f"{P_ORPHAN}: NIC not right after an ACK")
+        if last is None or self._prev is not last[0] or last[1].status not in (None, OK):
+            ev.add_problem(ORPHAN, "NIC not right after an ACK")
             return
-        txn = last[1]
-        self._link(ev, txn)
-        txn.cmd.status = ST_NIC
-        if self._provisional is txn:
+        cmd = last[1]
+        self._link(ev, cmd)
+        cmd.status = ST_NIC
+        if self._provisional is cmd:
             self._provisional = None
-        if txn in self._awaiting_result:
-            self._awaiting_result.remove(txn)
+        if cmd in self._awaiting_result:
+            self._awaiting_result.remove(cmd)
         self._last_ack = None
 
     def _result(self, ev: Event) -> None:
@@ -359,29 +434,28 @@ class Pairer:
         candidates = list(self._awaiting_result)
         if self._awaiting_ack is not None:
             candidates.append(self._awaiting_ack)
-        for txn in reversed(candidates):
-            if address_fits(txn.cmd, ev):
-                if result_fits(txn.cmd.entry, ev.payload):
-                    match = txn
+        for cmd in reversed(candidates):
+            if address_fits(cmd, ev):
+                if result_fits(cmd.entry, ev.payload):
+                    match = cmd
                     break
-                if fallback is None and not txn.optional:
-                    fallback = txn
-        txn = match or fallback
-        if txn is None:
-            ev.note(f"{P_ORPHAN}: no command awaits this result")
+                if fallback is None and not cmd.transaction.optional:
+                    fallback = cmd
+        cmd = match or fallback
+        if cmd is None:
+            ev.add_problem(ORPHAN, "no command awaits this result")
             return
-        cmd = txn.cmd
-        self._link(ev, txn)
+        self._link(ev, cmd)
         ev.command = cmd.command
         ev.entry = cmd.entry
         fields, problems = dissect_result(cmd.entry, ev.payload)
         ev.fields = fields
         if problems:
             ev.note(*problems)
-        if txn is self._awaiting_ack:   # the ACK was lost but the result came
+        if cmd is self._awaiting_ack:   # the ACK was lost but the result came
             self._awaiting_ack = None
-            cmd.note(f"{P_UNANSWERED}: no ACK seen, but the result arrived")
+            cmd.add_problem(UNANSWERED_NO_ACK, "no ACK seen, but the result arrived")
         else:
-            self._awaiting_result.remove(txn)
+            self._awaiting_result.remove(cmd)
         if cmd.status is None:
             cmd.status = OK

@@ -17,17 +17,22 @@ import math
 from collections import Counter
 from typing import Any
 
-from dissectors.event import ACK, COMMAND, NAK, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, RESULT, Event
+from dissectors.event import (
+    ACK, COMMAND, NAK, NIC, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, PENDING, NO_ACK, NO_RESULT, RESULT,
+    STATUSES, Event,
+)
 
 _LOG_STEP = math.log(1.01)
 _CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))
+KIND_ORDER = (COMMAND, ACK, NAK, NIC, RESULT, NOISE)   # the order reports list kinds in
 
 
 def categories(ev: Event) -> list[str]:
     """The event's problem categories, each once, in order."""
     out: list[str] = []
     for p in ev.problems:
-        cat = p.split(":", 1)[0]
+        info = getattr(p, "id", None)   # a plain string (an event built by hand) has none
+        cat = info.text if info is not None else p.split(":", 1)[0]
         if cat not in out:
             out.append(cat)
     return out
@@ -92,23 +97,12 @@ class Counts:
     def to_dict(self) -> dict[str, Any]:
         return {
             "commands": self.commands,
-            **{s: self.status.get(s, 0) for s in ("ok", "nak", "nic", "no_ack", "no_result", "pending")},
+            **{s: self.status.get(s, 0) for s in STATUSES},
             "retransmissions": self.retransmissions,
             "checksum_errors": self.checksum_errors,
             "ack_latency": self.ack_latency.to_dict(),
             "result_latency": self.result_latency.to_dict(),
         }
-
-
-def device_of(ev: Event) -> str | None:
-    """The device a frame concerns, as group.port.device: a command's destination,
-    or a result's source group with the port and device it keeps (Table 3)."""
-    if ev.dst is None:
-        return None
-    g, p, d = ev.dst
-    if ev.kind == RESULT:
-        g = ev.src
-    return f"{g}.{p}.{d}"
 
 
 class Stats:
@@ -126,7 +120,6 @@ class Stats:
         self.last_t: float | None = None
         self.by_command: dict[str, Counts] = {}
         self.by_device: dict[str, Counts] = {}
-        self._cmd_of_txn: dict[int, tuple[str, str]] = {}  # txn -> (command, device), recent only
 
     def add(self, ev: Event) -> None:
         self.events += 1
@@ -149,30 +142,25 @@ class Stats:
             self.noise_kinds[cats[0] if cats else P_NOISE] += 1
             self.broken_frames += checksum
             return
-        if ev.txn is None:
+        txn = ev.transaction   # the command's record: an answer counts for its command and device
+        if txn is None:
             if kind != COMMAND:
                 self.orphans += 1
             return
+        key = (txn.command or "?", txn.device or "?")
         if kind == COMMAND:
-            key = (ev.command or "?", device_of(ev) or "?")
-            if len(self._cmd_of_txn) > 4096:
-                self._cmd_of_txn.clear()
-            self._cmd_of_txn[ev.txn] = key
             for counts in self._counts(key):
                 counts.commands += 1
-                counts.status[ev.status or "pending"] += 1
+                counts.status[ev.status or PENDING] += 1
                 counts.retransmissions += ev.retransmission
                 counts.checksum_errors += ev.checksum_ok is False
-            return
-        key = self._cmd_of_txn.get(ev.txn)
-        if key is None:
             return
         for counts in self._counts(key):
             if ev.checksum_ok is False:
                 counts.checksum_errors += 1
             if ev.latency is None:
                 continue
-            if kind in (ACK, NAK):
+            if kind == ACK or kind == NAK:
                 counts.ack_latency.add(ev.latency)
             elif kind == RESULT:
                 counts.result_latency.add(ev.latency)
@@ -197,10 +185,10 @@ class Stats:
             "events": self.events,
             "duration": (self.last_t - self.first_t) if self.first_t is not None else None,
             "bytes": dict(sorted(self.bytes.items())),
-            "kinds": {k: self.kinds.get(k, 0) for k in ("command", "ack", "nak", "nic", "result", "noise")},
+            "kinds": {k: self.kinds.get(k, 0) for k in KIND_ORDER},
             "commands": total.commands,
-            "status": {s: total.status.get(s, 0) for s in ("ok", "nak", "nic", "no_ack", "no_result", "pending")},
-            "timeouts": total.status.get("no_ack", 0) + total.status.get("no_result", 0),
+            "status": {s: total.status.get(s, 0) for s in STATUSES},
+            "timeouts": total.status.get(NO_ACK, 0) + total.status.get(NO_RESULT, 0),
             "retransmissions": total.retransmissions,
             "checksum_errors": self.checksum_errors,
             "broken_frames": self.broken_frames,

@@ -28,7 +28,9 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
 import analyzer  # noqa: E402
-from analyzer.recording import McapRecorder  # noqa: E402
+from analyzer.info import CaptureInfo  # noqa: E402
+from analyzer.runner import TapRunner  # noqa: E402
+from analyzer.writers.mcap import McapWriter  # noqa: E402
 from analyzer.traffic import generate  # noqa: E402
 
 BAUD = 115200
@@ -50,13 +52,8 @@ def decode_rate(paths: list[str]) -> tuple[int, float]:
 def record(paths: list[str], out: str) -> tuple[int, float]:
     cap = analyzer.open(*paths, baud=BAUD)
     t = time.perf_counter()
-    rec = McapRecorder(out, metadata={"tool": "bench"}, start_time=time.time(), lines=cap.lines)
-    cap.on_chunk = rec.raw
-    n = 0
-    for ev in cap:
-        rec.event(ev)
-        n += 1
-    rec.close()
+    info = CaptureInfo.of(cap, command="bench")
+    n = TapRunner(cap, [McapWriter(out, info)], info=info).run()   # as convert records
     return n, n / (time.perf_counter() - t)
 
 

@@ -33,7 +33,9 @@ sys.path.insert(0, os.path.join(ROOT, "bench"))
 
 import analyzer  # noqa: E402
 from analyzer.capture import open_live  # noqa: E402
-from analyzer.recording import McapRecorder  # noqa: E402
+from analyzer.info import CaptureInfo  # noqa: E402
+from analyzer.runner import TapRunner  # noqa: E402
+from analyzer.writers.mcap import McapWriter  # noqa: E402
 from analyzer.tui.run import SWITCH, make_app, stop_feed  # noqa: E402
 from analyzer.tui.widgets import EventList  # noqa: E402
 from mcap_bench import BAUD, EVENTS_PER_COMMAND, saturated  # noqa: E402
@@ -52,11 +54,8 @@ def make_recording(events: int, path: str) -> None:
     with open(log, "w") as f:
         f.write(tr.socat_log())
     cap = analyzer.open(log, baud=BAUD)
-    rec = McapRecorder(path, metadata={"tool": "tui_bench"}, start_time=0.0, lines=cap.lines)
-    cap.on_chunk = rec.raw
-    for ev in cap:
-        rec.event(ev)
-    rec.close()
+    info = CaptureInfo.of(cap, command="bench")
+    TapRunner(cap, [McapWriter(path, info)], info=info).run()
     os.remove(log)
 
 

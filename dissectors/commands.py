@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .event import P_RANGE, P_RESERVED
+from .problems import OUT_OF_RANGE, RESERVED, Problem
 from .fields import Field, Layout, choice, decimal, hexnum, text
 
 NONE = "none"          # ACK only
@@ -92,30 +92,30 @@ def free_text(name: str) -> Field:
 
 
 # ---------------------------------------------------------------- derived values
-def _baud(values: dict) -> list[str] | None:
+def _baud(values: dict) -> list[Problem] | None:
     code = values["rate_code"]
     values["baud"] = BAUD_CODES.get(code)
     if code not in BAUD_CODES:
-        return [f"{P_RESERVED}: rate code C{code:X} is reserved for future data rates (Table 4)"]
+        return [RESERVED.problem(f"rate code C{code:X} is reserved for future data rates (Table 4)")]
     return None
 
 
-def _max_baud(values: dict) -> list[str] | None:
+def _max_baud(values: dict) -> list[Problem] | None:
     code = values["max_rate_code"]
     values["max_baud"] = BAUD_CODES.get(code)
     if code not in BAUD_CODES:
-        return [f"{P_RESERVED}: rate code C{code:X} is reserved for future data rates (Table 4)"]
+        return [RESERVED.problem(f"rate code C{code:X} is reserved for future data rates (Table 4)")]
     return None
 
 
-def _awake(values: dict) -> list[str] | None:
+def _awake(values: dict) -> list[Problem] | None:
     s = values["status"]
     values["azimuth_not_initialized"] = bool(s & 1)
     values["elevation_not_initialized"] = bool(s & 2)
     values["motors_off"] = bool(s & 4)
     values["error"] = bool(s & 8)
     if s & ~0xF:
-        return [f"{P_RESERVED}: status bits 4..7 are reserved (Table 5)"]
+        return [RESERVED.problem("status bits 4..7 are reserved (Table 5)")]
     return None
 
 
@@ -156,10 +156,10 @@ def _home(values: dict) -> None:
     values["elevation_initialized"] = bool(values["count_correct_bits"] & 2)
 
 
-def _aux_data(values: dict) -> list[str] | None:
+def _aux_data(values: dict) -> list[Problem] | None:
     values["data_length"] = n = len(values["data"])
     if n > 200:
-        return [f"{P_RANGE}: data_length {n} outside 0..200 (Table 16)"]
+        return [OUT_OF_RANGE.problem(f"data_length {n} outside 0..200 (Table 16)")]
     return None
 
 

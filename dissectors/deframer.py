@@ -34,8 +34,8 @@ from bisect import bisect_right
 
 from .event import (
     ACK as K_ACK, COMMAND, Event, FRAME, NAK as K_NAK, NIC as K_NIC, NOISE, RESULT,
-    P_CHECKSUM, P_LENGTH, P_NOISE, P_TRUNCATED,
 )
+from .problems import CHECKSUM, LENGTH, NOISE as NOISE_PROBLEM, TRUNCATED, Problem
 from .wire import ACK, NAK, NIC, START
 
 _SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}
@@ -223,7 +223,7 @@ class Deframer:
         ns = self._noise_start
         if ns is not None and ns < upto:
             ev = self._event(NOISE, ns, upto)
-            ev.add_problem(P_NOISE, f"{upto - ns} byte{'s' if upto - ns != 1 else ''} outside any frame")
+            ev.add_problem(NOISE_PROBLEM, f"{upto - ns} byte{'s' if upto - ns != 1 else ''} outside any frame")
             out.append(ev)
         self._noise_start = None
 
@@ -325,55 +325,82 @@ class Deframer:
 
     def _try_frame(self, out: list[Event], p: int, final: bool) -> int | None:
         """Decide what starts at absolute offset p (a start byte). Returns the
-        absolute offset to continue from, or None when more bytes are needed."""
+        absolute offset to continue from, or None when more bytes are needed.
+
+        A whole frame whose checksum holds is handled here (with silences in the
+        buffer, every frame comes this way); anything else goes to the step that
+        reads it."""
         buf, base = self._buf, self._base
         rp = p - base
         avail = len(buf) - rp
-        end_abs = base + len(buf)
+        gaps = self._gaps   # usually empty: then no silence can cut anything, no need to look
         if avail < 6:
-            cut = self._gap_in(p, end_abs + 1)
+            cut = self._gap_in(p, base + len(buf) + 1) if gaps else None
             if cut is None and not final:
-                return None
-            stop = cut if cut is not None else end_abs
-            return self._broken(out, p, stop, f"{P_TRUNCATED}: header cut after {stop - p} bytes")
+                return None   # the header is still arriving
+            return self._cut_header(out, p, cut)
         length = buf[rp + 5] or 256
         total = length + 7
-        cut = self._gap_in(p, p + total)
+        cut = self._gap_in(p, p + total) if gaps else None
         if cut is None and avail >= total:
             if sum(buf[rp + 1:rp + total - 1]) & 0xFF == buf[rp + total - 1]:
                 if _suspect(buf, rp + 6, rp + total - 1):
-                    # checksums match by chance 1 time in 256: a payload carrying a
-                    # start byte yields to a valid frame inside it
-                    # - or to a whole printable frame inside it, even with a bad checksum
-                    q = buf.find(START, rp + 6, rp + total - 1)
-                    while q != -1:
-                        v = self._valid_at(base + q, final)
-                        if v is None:
-                            return None
-                        if v > 0 or self._plausible_inside(q, rp + total):
-                            return self._broken(out, p, base + q,
-                                                f"{P_CHECKSUM}: frame that only checks out by chance, "
-                                                f"resynchronised on the frame at offset {base + q}")
-                        q = buf.find(START, q + 1, rp + total - 1)
+                    q = self._frame_inside_suspect(rp, total, final)
+                    if q is None:
+                        return None
+                    if q >= 0:
+                        return self._broken(out, p, q, CHECKSUM.problem(
+                            f"frame that only checks out by chance, resynchronised on the frame at offset {q}"))
                 self._flush_noise(out, p)
                 out.append(self._frame_event(p, p + total, True))
                 return p + total
         elif cut is None and not final:
             return None  # the frame is still arriving
-        # The stated frame is bad: checksum failed, or cut by silence / end of data.
-        limit = cut if cut is not None else min(p + total, end_abs)
+        return self._bad_frame(out, p, length, cut, final)
+
+    def _cut_header(self, out: list[Event], p: int, cut: int | None) -> int:
+        """Fewer than 6 bytes follow the start byte at p, and a silence (at ``cut``)
+        or the end of the data came: a header cut short."""
+        stop = cut if cut is not None else self._base + len(self._buf)
+        return self._broken(out, p, stop, TRUNCATED.problem(f"header cut after {stop - p} bytes"))
+
+    def _frame_inside_suspect(self, rp: int, total: int, final: bool) -> int | None:
+        """A frame at buffer index rp checks out but carries a start byte in its
+        payload. Checksums match by chance 1 time in 256, so it yields to a valid
+        frame inside it, or to a whole printable frame inside it even with a bad
+        checksum: that frame's absolute offset; -1 when none does; None when more
+        bytes are needed to tell."""
+        buf, base = self._buf, self._base
+        q = buf.find(START, rp + 6, rp + total - 1)
+        while q != -1:
+            v = self._valid_at(base + q, final)
+            if v is None:
+                return None
+            if v > 0 or self._plausible_inside(q, rp + total):
+                return base + q
+            q = buf.find(START, q + 1, rp + total - 1)
+        return -1
+
+    def _bad_frame(self, out: list[Event], p: int, length: int, cut: int | None, final: bool) -> int | None:
+        """The frame stated at p is bad: its checksum failed, or a silence (at
+        ``cut``) or the end of the data cut it. Try the better readings in turn
+        (docs/decoding.md, "Deframing")."""
+        buf, base = self._buf, self._base
+        total = length + 7
+        end_abs = base + len(buf)
         # 1. a valid frame starting inside it wins
-        q = buf.find(START, rp + 1, limit - base)
+        limit_r = (cut if cut is not None else min(p + total, end_abs)) - base
+        q = buf.find(START, p - base + 1, limit_r)
         while q != -1:
             v = self._valid_at(base + q, final)
             if v is None:
                 return None
             if v > 0:
                 return self._before_resync(out, p, base + q, length)
-            q = buf.find(START, q + 1, limit - base)
+            q = buf.find(START, q + 1, limit_r)
         # 2. the length byte was corrupted: an end before the next start byte checks out.
         # No frame spans a silence, so the first silence after p bounds the search.
-        bound = cut if cut is not None else self._gap_in(p, end_abs + 1)
+        bound = cut if cut is not None or not self._gaps else self._gap_in(p, end_abs + 1)
         repaired = self._length_repair(p, length, bound, final)
         if repaired is None:
             return None
@@ -381,41 +408,50 @@ class Deframer:
             self._flush_noise(out, p)
             m = repaired - p - 7
             ev = self._frame_event(p, repaired, False)
-            ev.add_problem(P_LENGTH, f"says {length}, frame carries {m} payload bytes (the checksum holds with {m})")
+            ev.add_problem(LENGTH, f"says {length}, frame carries {m} payload bytes (the checksum holds with {m})")
             out.append(ev)
             return repaired
-        # 3. no better reading: a complete frame with a bad checksum, or a cut one.
-        # It is reported as a frame when its payload looks like one (mostly
-        # printable) or when it ends exactly where something else begins (a start
-        # byte, a simple response on B, a silence, the end): the length held.
-        if cut is None and avail >= total:
-            payload = buf[rp + 6:rp + total - 1]
-            end_r = rp + total
-            if end_r < len(buf):
-                nxt = buf[end_r]
-                bounded = nxt == START or (self.simple and nxt in _SIMPLE) or \
-                    self._gap_in(p + total - 1, p + total + 1) == p + total
-            elif final:
-                bounded = True
-            else:
-                return None   # the next byte decides
-            if bounded or _printable_share(payload) >= 0.75:
-                self._flush_noise(out, p)
-                got = buf[rp + total - 1]
-                want = sum(buf[rp + 1:rp + total - 1]) & 0xFF
-                ev = self._frame_event(p, p + total, False)
-                ev.add_problem(P_CHECKSUM, f"expected 0x{want:02x}, got 0x{got:02x}")
-                out.append(ev)
-                return p + total
+        # 3. no better reading: a complete frame with a bad checksum, or a cut one
+        if cut is None and end_abs >= p + total:
+            return self._checksum_failed(out, p, total, final)
+        return self._cut_short(out, p, total, cut)
+
+    def _checksum_failed(self, out: list[Event], p: int, total: int, final: bool) -> int | None:
+        """A complete frame at p whose checksum fails, with no better reading. It is
+        reported as a frame when it ends exactly where something else begins (a
+        start byte, a simple response on B, a silence, the end: the length held) or
+        when its payload looks like one (mostly printable); else its start byte is
+        noise."""
+        buf = self._buf
+        rp = p - self._base
+        end_r = rp + total
+        if end_r < len(buf):
+            nxt = buf[end_r]
+            bounded = nxt == START or (self.simple and nxt in _SIMPLE) or \
+                self._gap_in(p + total - 1, p + total + 1) == p + total
+        elif final:
+            bounded = True
+        else:
+            return None   # the next byte decides
+        if not bounded and _printable_share(buf[rp + 6:end_r - 1]) < 0.75:
             return self._as_noise(out, p)
-        stop = cut if cut is not None else end_abs
-        # a frame cut short: report it only when what arrived looks like a frame
-        header_ok = _printable_share(buf[rp + 6:stop - base]) >= 0.75
-        if header_ok:
-            return self._broken(out, p, stop,
-                                f"{P_TRUNCATED}: {stop - p} of {total} bytes"
-                                + (", then silence" if cut is not None else f", then {self._ends}"))
-        return self._as_noise(out, p)
+        self._flush_noise(out, p)
+        got = buf[end_r - 1]
+        want = sum(buf[rp + 1:end_r - 1]) & 0xFF
+        ev = self._frame_event(p, p + total, False)
+        ev.add_problem(CHECKSUM, f"expected 0x{want:02x}, got 0x{got:02x}")
+        out.append(ev)
+        return p + total
+
+    def _cut_short(self, out: list[Event], p: int, total: int, cut: int | None) -> int:
+        """A frame at p cut by a silence (at ``cut``) or the end of the data: reported
+        only when what arrived looks like a frame (a mostly printable payload)."""
+        base = self._base
+        stop = cut if cut is not None else base + len(self._buf)
+        if _printable_share(self._buf[p - base + 6:stop - base]) < 0.75:
+            return self._as_noise(out, p)
+        then = ", then silence" if cut is not None else f", then {self._ends}"
+        return self._broken(out, p, stop, TRUNCATED.problem(f"{stop - p} of {total} bytes{then}"))
 
     def _plausible_inside(self, rq: int, rend: int) -> bool:
         """Does a whole frame with a mostly printable payload start at buffer index
@@ -452,7 +488,7 @@ class Deframer:
         self._noise_start = ns
         return q
 
-    def _broken(self, out: list[Event], p: int, stop: int, problem: str) -> int:
+    def _broken(self, out: list[Event], p: int, stop: int, problem: Problem) -> int:
         """Bytes [p, stop) are a frame that cannot be read: one noise event."""
         self._flush_noise(out, p)
         ev = self._event(NOISE, p, stop)
@@ -470,11 +506,11 @@ class Deframer:
             if implied == buf[rq - 1]:
                 self._flush_noise(out, p)
                 ev = self._frame_event(p, q, False)
-                ev.add_problem(P_LENGTH, f"says {length}, frame carries {m} payload bytes "
-                                         f"(the checksum holds with {m})")
+                ev.add_problem(LENGTH, f"says {length}, frame carries {m} payload bytes "
+                                       f"(the checksum holds with {m})")
                 out.append(ev)
                 return q
-        return self._broken(out, p, q, f"{P_CHECKSUM}: broken frame, resynchronised on the frame at offset {q}")
+        return self._broken(out, p, q, CHECKSUM.problem(f"broken frame, resynchronised on the frame at offset {q}"))
 
     def _length_repair(self, p: int, length: int, cut: int | None, final: bool) -> int:
         """End offset of a repaired frame at p, 0 if none, None if more bytes are needed.

@@ -12,7 +12,8 @@ import re
 from typing import Any, NamedTuple
 
 from .commands import COMMANDS, Command, NONE
-from .event import P_MALFORMED, P_UNKNOWN
+from .event import COMMAND
+from .problems import MALFORMED, RESERVED, UNKNOWN_COMMAND, Problem
 from .fields import Layout
 from .wire import payload_text
 
@@ -21,7 +22,7 @@ class Decoded(NamedTuple):
     entry: Command | None
     command: str
     fields: dict[str, Any]
-    problems: tuple[str, ...]
+    problems: tuple[Problem, ...]
 
 
 def _build_index() -> dict[int, list[Command]]:
@@ -35,7 +36,7 @@ def _build_index() -> dict[int, list[Command]]:
 
 _INDEX = _build_index()
 _CACHE: dict[bytes, Decoded] = {}
-_RESULT_CACHE: dict[tuple[str, bytes], tuple[dict, tuple[str, ...]]] = {}
+_RESULT_CACHE: dict[tuple[str, bytes], tuple[dict, tuple[Problem, ...]]] = {}
 _CACHE_MAX = 8192   # per cache; polls repeat, positions vary: bounded memory
 _UNKNOWN_CODE = re.compile(rb"\*[A-Za-z]{1,3}|[\s\S]{1,2}")
 
@@ -64,7 +65,7 @@ def _dissect_command(payload: bytes) -> Decoded:
         if m is not None:
             values, problems = m
             if c.reserved:
-                problems.insert(0, f"reserved code: {c.id} is marked reserved ({c.ref})")
+                problems.insert(0, RESERVED.problem(f"{c.id} is marked reserved ({c.ref})"))
             return Decoded(c, c.command_id(values), values, tuple(problems))
     # A known code whose parameters do not fit: malformed, not unknown.
     best: Command | None = None
@@ -79,9 +80,9 @@ def _dissect_command(payload: bytes) -> Decoded:
             best = c
     if best is not None:
         cid = best.id if "{" not in best.id else best.id.replace("{aux_port}", payload[2:3].decode("latin-1"))
-        return Decoded(best, cid, {}, (f"{P_MALFORMED}: expected {best.layout.describe()} ({best.ref})",))
+        return Decoded(best, cid, {}, (MALFORMED.problem(f"expected {best.layout.describe()} ({best.ref})"),))
     code = _code_of(payload)
-    return Decoded(None, code, {}, (f"{P_UNKNOWN}: '{code}' is not in protocol rev 1.9",))
+    return Decoded(None, code, {}, (UNKNOWN_COMMAND.problem(f"'{code}' is not in protocol rev 1.9"),))
 
 
 def _closer(a: Layout, b: Layout, n: int) -> bool:
@@ -91,7 +92,7 @@ def _closer(a: Layout, b: Layout, n: int) -> bool:
     return da < db
 
 
-def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[str, ...]]:
+def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[Problem, ...]]:
     """Decode a result payload as an answer to ``entry`` (never raises)."""
     if entry is None:
         return {}, ()
@@ -99,7 +100,7 @@ def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[s
     hit = _RESULT_CACHE.get(key)
     if hit is not None:
         return hit
-    out: tuple[dict, tuple[str, ...]] | None = None
+    out: tuple[dict, tuple[Problem, ...]] | None = None
     for layout in entry.result:
         m = layout.match(payload)
         if m is not None:
@@ -107,10 +108,10 @@ def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[s
             break
     if out is None:
         if not entry.result or entry.result_due == NONE:
-            why = f"{P_MALFORMED}: {entry.id} has no result ({entry.ref})"
+            why = MALFORMED.problem(f"{entry.id} has no result ({entry.ref})")
         else:
             expected = " or ".join(l.describe() for l in entry.result)
-            why = f"{P_MALFORMED}: expected {expected} ({entry.ref})"
+            why = MALFORMED.problem(f"expected {expected} ({entry.ref})")
         out = ({}, (why,))
     if len(_RESULT_CACHE) >= _CACHE_MAX:
         _RESULT_CACHE.clear()
@@ -124,7 +125,7 @@ def field_spans(ev) -> list[tuple[str, int, int]]:
     entry = ev.entry
     if entry is None or ev.payload is None:
         return []
-    layouts = (entry.layout,) if ev.kind == "command" else entry.result
+    layouts = (entry.layout,) if ev.kind == COMMAND else entry.result
     for layout in layouts:
         spans = layout.spans(ev.payload)
         if spans:

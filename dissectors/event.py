@@ -7,8 +7,10 @@ language, the statistics, MCAP recordings and the TUI use the same names.
 
 from __future__ import annotations
 
-from functools import lru_cache
 from typing import Any
+
+from . import problems as _problems
+from .problems import Problem, ProblemInfo
 
 # Event kinds. A single-line tap first yields "frame" for every frame; pairing then
 # decides between command and result (docs/decoding.md, "Pairing").
@@ -28,39 +30,63 @@ NO_ACK = "no_ack"
 NO_RESULT = "no_result"
 PENDING = "pending"
 
-# Problem categories: every problem string starts with one of these, optionally
-# followed by ": detail". Filters match on the category (`"bad checksum" in problems`).
-P_CHECKSUM = "bad checksum"
-P_LENGTH = "bad length byte"
-P_TRUNCATED = "truncated frame"
-P_NOISE = "noise"
-P_MALFORMED = "malformed payload"
-P_RANGE = "value out of range"
-P_RESERVED = "reserved code"
-P_LOWERCASE = "lower-case hex"
-P_UNKNOWN = "unknown command"
-P_UNANSWERED = "unanswered"
-P_NO_RESULT = "missing result"
-P_RETRANSMISSION = "retransmission"
-P_ORPHAN = "orphan"
-P_LATE = "late answer"
+# Every kind an event has once paired, and every status a command ends with, in
+# the order JSON Schemas, filters and reports list them.
+KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE)
+STATUSES = (OK, ST_NAK, ST_NIC, NO_ACK, NO_RESULT, PENDING)
+
+# Problem categories as text: every problem string starts with one of these,
+# optionally followed by ": detail". Filters match on the category (`"bad checksum"
+# in problems`). The table, with ids and severities, is ``dissectors.problems``.
+P_CHECKSUM = _problems.CHECKSUM.text
+P_LENGTH = _problems.LENGTH.text
+P_TRUNCATED = _problems.TRUNCATED.text
+P_NOISE = _problems.NOISE.text
+P_MALFORMED = _problems.MALFORMED.text
+P_RANGE = _problems.OUT_OF_RANGE.text
+P_RESERVED = _problems.RESERVED.text
+P_LOWERCASE = _problems.LOWERCASE_HEX.text
+P_UNKNOWN = _problems.UNKNOWN_COMMAND.text
+P_UNANSWERED = _problems.UNANSWERED.text
+P_NO_RESULT = _problems.NO_RESULT.text
+P_RETRANSMISSION = _problems.RETRANSMISSION.text
+P_ORPHAN = _problems.ORPHAN.text
+P_LATE = _problems.LATE.text
+
+
+# Address texts by address. A capture has a handful of addresses, so every event
+# of a device shares one string instead of holding its own (memory at a million
+# events); emptied when garbled input names thousands. A plain dict: pairing
+# formats every command's address, and a dict lookup costs a fraction of an LRU
+# cache's bookkeeping.
+_ADDRESS_TEXT: dict[tuple[int, int, int], str] = {}
+_ADDRESS_TEXT_MAX = 4096
 
 
 def format_address(address) -> str:
     """A device address as people write it, "group.port.device" (``(1, 1, 2)`` ->
     ``"1.1.2"``). The one place addresses become text."""
     try:
-        return _address_text(address)
-    except TypeError:   # a list, not a tuple: unhashable for the cache
-        return _address_text(tuple(address))
+        text = _ADDRESS_TEXT.get(address)
+    except TypeError:   # a list, not a tuple: unhashable as a key
+        address = tuple(address)
+        text = _ADDRESS_TEXT.get(address)
+    if text is None:
+        if len(_ADDRESS_TEXT) >= _ADDRESS_TEXT_MAX:
+            _ADDRESS_TEXT.clear()
+        g, p, d = address
+        text = _ADDRESS_TEXT[address] = f"{g}.{p}.{d}"
+    return text
 
 
-@lru_cache(maxsize=4096)
-def _address_text(address: tuple[int, int, int]) -> str:
-    # Cached: a capture has a handful of addresses, so every event of a device
-    # shares one string instead of holding its own (memory at a million events).
-    g, p, d = address
-    return f"{g}.{p}.{d}"
+class DeviceOnly:
+    """The part of a pairing record an address-less event reads, for events given
+    a device by hand rather than by pairing."""
+
+    __slots__ = ("device",)
+
+    def __init__(self, device: str) -> None:
+        self.device = device
 
 
 # Shared, never mutated: most events have no fields and no problems.
@@ -75,13 +101,16 @@ class Event:
     fills ``command``/``fields``, pairing fills ``txn``/``status``/``latency``.
     ``fields`` may be shared between events with identical payloads, and
     ``problems`` starts as a shared empty tuple: treat both as read-only and add
-    problems with ``note``.
+    problems with ``add_problem`` or ``note`` (``dissectors.problems``).
 
     ``device`` is the gimbal the event belongs to, as text shows it ("1.1.2"):
     a command's destination; a result's sender, which its header gives as the
     source group with the port and device kept (Table 3); an ACK, NAK or NIC
-    carries no address, so pairing copies its command's. Orphan handshakes and
-    noise have none. ``dst`` stays the literal header.
+    carries no address: it is its transaction's. Orphan handshakes and noise
+    have none. ``dst`` stays the literal header.
+
+    ``transaction`` is the pairing record (``analyzer.pairing.Transaction``) of
+    a command and of each answer pairing linked to it; None otherwise.
     """
 
     __slots__ = (
@@ -89,7 +118,7 @@ class Event:
         "dst", "src", "payload", "checksum_ok",
         "command", "fields", "problems",
         "txn", "status", "latency", "retransmission", "request",
-        "entry", "_device",
+        "entry", "transaction",
     )
 
     def __init__(self, line: str, offset: int, kind: str, raw: bytes,
@@ -116,7 +145,7 @@ class Event:
         self.retransmission = False
         self.request = None
         self.entry = None  # the command-table entry, for summaries (not serialised)
-        self._device = None  # an answer's device, set by pairing (answers have no header)
+        self.transaction = None   # set by pairing: the command's and its answers' record
 
     @property
     def end(self) -> int:
@@ -127,8 +156,9 @@ class Event:
     def device(self) -> str | None:
         """The device's "group.port.device" (class docstring), or None."""
         dst = self.dst
-        if self._device is not None or dst is None:
-            return self._device
+        if dst is None:   # an ACK, NAK or NIC names no device: its transaction does
+            txn = self.transaction
+            return txn.device if txn is not None else None
         kind = self.kind
         if kind == COMMAND:
             return format_address(dst)
@@ -138,19 +168,35 @@ class Event:
 
     @device.setter
     def device(self, value: str | None) -> None:
-        self._device = value
+        """For events linked without pairing (built by hand): a stand-in record
+        that only names the device."""
+        self.transaction = DeviceOnly(value) if value is not None else None
 
-    def add_problem(self, category: str, detail: str = "") -> None:
-        self.note(f"{category}: {detail}" if detail else category)
+    def add_problem(self, info: ProblemInfo | str, detail: str = "") -> None:
+        """Attach one problem: ``info`` is its entry in ``dissectors.problems``
+        (``CHECKSUM``); a category's text ("bad checksum") names its entry."""
+        if not isinstance(info, ProblemInfo):
+            info = _problems.parse(info).id
+        self.problems = [*self.problems, info.problem(detail)]
 
-    def note(self, *problems: str) -> None:
-        """Attach problem strings. ``problems`` starts as a shared empty tuple (one
-        allocation fewer per event on the hot path) and becomes a list when used."""
+    def note(self, *problems: Problem | str) -> None:
+        """Attach problems. ``problems`` starts as a shared empty tuple (one
+        allocation fewer per event on the hot path) and becomes a list when used.
+        A plain "category: detail" string gets its category's id (and raises
+        ValueError when the category is not in the table): every problem has one."""
         if problems:
+            for p in problems:
+                if not isinstance(p, Problem):
+                    problems = tuple(map(_problems.parse, problems))
+                    break
             self.problems = [*self.problems, *problems]
 
-    def has_problem(self, category: str) -> bool:
-        return any(p == category or p.startswith(category + ":") for p in self.problems)
+    def has_problem(self, what: ProblemInfo | str) -> bool:
+        """Does the event carry this problem? ``what`` is an id of the table (a
+        category id also matches its sub-cases) or a category's text."""
+        if isinstance(what, ProblemInfo):
+            return any(what.matches(p) for p in self.problems)
+        return any(p == what or p.startswith(what + ":") for p in self.problems)
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON Lines object (README, "Event contract")."""

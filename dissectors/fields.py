@@ -13,9 +13,11 @@ import re
 from dataclasses import dataclass, field as dc_field
 from typing import Any, Callable
 
-from .event import P_LOWERCASE, P_RANGE
+from .problems import LOWERCASE_HEX, OUT_OF_RANGE, Problem
 
 HEX = rb"[0-9A-Fa-f]"
+# one shared value: problems are immutable, and lower-case payloads repeat
+_LOWERCASE = LOWERCASE_HEX.problem("numbers must be upper-case ASCII hex (§1.4.1.2)")
 
 
 @dataclass(frozen=True)
@@ -29,11 +31,11 @@ class Field:
     valid: tuple[float, float] | None = None  # warn when the decoded value is outside
     lead: bytes = rb"[\s\S]"  # what the field's first character can be
 
-    def check(self, value: Any) -> str | None:
+    def check(self, value: Any) -> Problem | None:
         if self.valid is not None and isinstance(value, (int, float)):
             lo, hi = self.valid
             if not lo <= value <= hi:
-                return f"{P_RANGE}: {self.name} {value} outside {lo}..{hi}"
+                return OUT_OF_RANGE.problem(f"{self.name} {value} outside {lo}..{hi}")
         return None
 
 
@@ -89,9 +91,9 @@ def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes
     f = Field(name, regex, dec, "", desc)
     allowed = set(mapping.values())
 
-    def check(value: Any, _f=f) -> str | None:
+    def check(value: Any, _f=f) -> Problem | None:
         if value not in allowed:
-            return f"{P_RANGE}: {name} {value!r} is none of {sorted(map(str, allowed))}"
+            return OUT_OF_RANGE.problem(f"{name} {value!r} is none of {sorted(map(str, allowed))}")
         return None
     object.__setattr__(f, "check", check)
     return f
@@ -101,7 +103,7 @@ def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes
 class Layout:
     """A payload layout: literals and fields in order, plus derived fields."""
     parts: tuple
-    derive: Callable[[dict], list[str] | None] | None = None
+    derive: Callable[[dict], list[Problem] | None] | None = None
     regex: re.Pattern = dc_field(init=False, repr=False, compare=False)
     fields: tuple[Field, ...] = dc_field(init=False, repr=False, compare=False)
     _checked: tuple = dc_field(init=False, repr=False, compare=False)
@@ -165,14 +167,14 @@ class Layout:
                 out.append("<" + part.name + ">")
         return "".join(out)
 
-    def match(self, payload: bytes) -> tuple[dict, list[str]] | None:
+    def match(self, payload: bytes) -> tuple[dict, list[Problem]] | None:
         """Decode ``payload`` if it fits: (fields, problems), or None."""
         m = self.regex.fullmatch(payload)
         if m is None:
             return None
         groups = m.groups()
         values = {f.name: f.decode(raw) for f, raw in zip(self.fields, groups)}
-        problems: list[str] = []
+        problems: list[Problem] = []
         for f in self._checked:
             problem = f.check(values[f.name])
             if problem:
@@ -183,7 +185,7 @@ class Layout:
             hexes = self._hex_groups
             lower = bool(hexes) and any(groups[k] != groups[k].upper() for k in hexes)
         if lower:
-            problems.append(f"{P_LOWERCASE}: numbers must be upper-case ASCII hex (§1.4.1.2)")
+            problems.append(_LOWERCASE)
         if self.derive is not None:
             extra = self.derive(values)
             if extra:

@@ -6,6 +6,12 @@ import sys
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+# the sample captures (captures/README.md says how they were made)
+CAPTURES = os.path.join(ROOT, "captures")
+SOCAT_LOG = os.path.join(CAPTURES, "demo-socat.log")
+BUS = os.path.join(CAPTURES, "demo-bus.bin")
+CTL = os.path.join(CAPTURES, "demo-ctl.bin")
+DEV = os.path.join(CAPTURES, "demo-dev.bin")
 
 
 def frame(dst, src, payload) -> bytes:

@@ -9,7 +9,10 @@ import sys
 
 from ..capture import Capture, Options, open as open_capture
 from ..filter import FilterError, Predicate, compile_filter
+from ..info import CaptureInfo
+from ..listeners import NotePrinter
 from ..pairing import Timeouts
+from ..runner import Listener, TapRunner
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
 
@@ -123,9 +126,18 @@ def warn(msg: str) -> None:
 
 
 def open_inputs(args: argparse.Namespace) -> Capture:
-    return open_capture(*args.inputs, options=options_from(args), on_warning=warn)
+    """The capture the inputs name; its warnings reach the runner's listeners."""
+    return open_capture(*args.inputs, options=options_from(args))
 
 
-def warn_if_empty(capture: Capture, seen: int) -> None:
-    if seen == 0:
-        warn(f"{capture.source.description}: no bytes in this capture")
+def run_tap(capture: Capture, command: str, *listeners: Listener, info: CaptureInfo | None = None,
+            notes: bool = True, say_empty: bool = True) -> TapRunner:
+    """Run ``capture`` to its end through ``listeners``, the capture's warnings
+    printed on standard error (``notes``); an empty capture is said (``say_empty``)."""
+    if notes:
+        listeners = (*listeners, NotePrinter())
+    runner = TapRunner(capture, listeners, info=info or CaptureInfo.of(capture, command=command))
+    runner.run()
+    if say_empty and runner.events == 0:
+        warn(f"{runner.info.source}: no bytes in this capture")
+    return runner

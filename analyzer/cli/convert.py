@@ -1,5 +1,5 @@
 """``gimbalscope convert``: captures to an MCAP recording or to JSON Lines, the
-format chosen by the output's suffix (``WRITERS``).
+format chosen by the output's suffix (the writer registry, analyzer/writers).
 
 MCAP holds what a live recording holds (the MCAP topics of analyzer/recording):
 raw bytes per line, decoded events (Tables 4-18 via the command table),
@@ -14,17 +14,11 @@ a failed conversion leaves no file behind (analyzer/outfile.py).
 from __future__ import annotations
 
 import argparse
-import os
-import socket
-import time
-from typing import Callable
 
-from .. import __version__
-from ..capture import Capture
-from ..outfile import AtomicOutput, OutputRefused, check_output, show
-from ..output import JsonLinesSink
-from ..recording import McapRecorder
-from .common import add_input_args, open_inputs, warn_if_empty
+from ..info import CaptureInfo
+from ..outfile import AtomicOutput, check_output
+from ..writers import WRITERS, open_writer, writer_class
+from .common import add_input_args, open_inputs, run_tap
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,67 +32,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def metadata_for(capture, args: argparse.Namespace) -> dict[str, str]:
-    o = capture.options
-    start = capture.source.start_time
-    return {
-        "tool": f"gimbalscope {__version__}",
-        "host": socket.gethostname(),
-        "inputs": " ".join(args.inputs),
-        "source": capture.source.description,
-        "lines": ",".join(capture.lines),
-        "line_roles": "A=controller→device, B=device→controller, AB=single-line tap (both directions)",
-        "baud": str(o.baud), "data_bits": str(o.data_bits), "parity": o.parity, "stop_bits": f"{o.stop_bits:g}",
-        "start_time": time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(start)) if start else "unknown",
-        "timed": "yes" if capture.timed else "no",
-    }
-
-
-def write_mcap(capture: Capture, args: argparse.Namespace, target: AtomicOutput) -> int:
-    recorder = McapRecorder(args.output, metadata={}, start_time=capture.source.start_time,
-                            lines=capture.lines, file=target.file)
-    capture.on_chunk = recorder.raw
-    seen = 0
-    for ev in capture:
-        seen += 1
-        recorder.event(ev)
-    recorder.close(metadata_for(capture, args))
-    return seen
-
-
-def write_jsonl(capture: Capture, args: argparse.Namespace, target: AtomicOutput) -> int:
-    sink = JsonLinesSink(target.file, name=args.output)
-    seen = 0
-    for ev in capture:
-        seen += 1
-        sink(ev)
-    sink.close()
-    return seen
-
-
-# Output suffix -> writer(capture, args, target) -> events written.
-WRITERS: dict[str, Callable[[Capture, argparse.Namespace, AtomicOutput], int]] = {
-    ".mcap": write_mcap,
-    ".jsonl": write_jsonl,
-    ".ndjson": write_jsonl,
-}
-
-
-def writer_for(path: str) -> Callable[[Capture, argparse.Namespace, AtomicOutput], int]:
-    """The writer for ``path``'s suffix; any other suffix is refused, naming those there are."""
-    suffix = os.path.splitext(path)[1].lower()
-    writer = WRITERS.get(suffix)
-    if writer is None:
-        what = f"unknown output format {show(suffix)!r}" if suffix else "no suffix to choose the output format"
-        raise OutputRefused(f"{show(path)}: {what}; use one of {', '.join(WRITERS)}")
-    return writer
-
-
 def run(args: argparse.Namespace) -> int:
     check_output(args.output, args.inputs, force=args.force)   # first: an output over an input is worst
-    write = writer_for(args.output)
+    writer_class(args.output)                                    # then: a format we write
     capture = open_inputs(args)
+    info = CaptureInfo.of(capture, command="convert")
     with AtomicOutput(args.output) as target:   # a failure on the way removes it
-        seen = write(capture, args, target)
-    warn_if_empty(capture, seen)
+        run_tap(capture, "convert", open_writer(args.output, info, target.file), info=info)
     return 0

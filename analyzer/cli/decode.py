@@ -8,8 +8,9 @@ from __future__ import annotations
 
 import argparse
 
+from ..listeners import EventPrinter
 from ..output import JsonLinesSink, TextSink
-from .common import add_filter_arg, add_input_args, build_filter, open_inputs, warn_if_empty
+from .common import add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,13 +30,5 @@ def run(args: argparse.Namespace) -> int:
         sink = JsonLinesSink()
     else:
         sink = TextSink(color={"auto": None, "always": True, "never": False}[args.color])
-    seen = 0
-    try:
-        for ev in capture:
-            seen += 1
-            if keep is None or keep(ev):
-                sink(ev)
-    finally:
-        sink.close()
-    warn_if_empty(capture, seen)
+    run_tap(capture, "decode", EventPrinter(sink, keep))
     return 0

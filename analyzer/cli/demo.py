@@ -10,7 +10,7 @@ import threading
 
 from ..capture import Options, open_live
 from ..simulation import scenario
-from .common import UsageError, add_filter_arg, non_negative_float, non_negative_int, warn
+from .common import UsageError, add_filter_arg, non_negative_float, non_negative_int
 from .live import add_record_args, add_tui_args, tap, wants_tui
 
 
@@ -44,8 +44,7 @@ def run(args: argparse.Namespace) -> int:
         site = scenario.build(set(args.fault), clean=args.clean, seed=args.seed)
     except ValueError as e:
         raise UsageError(f"--fault: {e}") from None
-    capture = open_live(list(site.link.tap_ports), Options(), on_warning=warn)
-    capture.command = "demo"   # the doctor's advice names what this command takes
+    capture = open_live(list(site.link.tap_ports), Options())
     site.start()
     timer = None
     if args.seconds > 0:
@@ -53,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
         timer.daemon = True
         timer.start()
     try:
-        return tap(capture, args, args.record)
+        # the doctor's advice names what "demo" takes (no --swap-lines: it picks its ports)
+        return tap(capture, args, args.record, command="demo")
     finally:
         if timer is not None:
             timer.cancel()

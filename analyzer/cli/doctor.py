@@ -19,8 +19,11 @@ import threading
 from dataclasses import replace
 
 from ..capture import Capture, open as open_capture, open_live
-from ..doctor import ERROR, INFO, WARNING, Finding, LiveDoctor, WiringDoctor
-from .common import STANDARD_BAUDS, UsageError, add_serial_args, non_negative_float, options_from, positive_float, warn
+from ..doctor import INFO, Finding, WiringDoctor
+from ..listeners import DoctorListener, NotePrinter
+from ..runner import DOCTOR, Listener, Note
+from ..styles import SEVERITY_STYLE
+from .common import STANDARD_BAUDS, UsageError, add_serial_args, non_negative_float, options_from, positive_float, run_tap
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -64,23 +67,27 @@ def run(args: argparse.Namespace) -> int:
     if ports:
         if len(ports) > 2:
             raise UsageError(f"{len(ports)} ports given: a tap reads one port or two (line A, line B)")
-        capture = open_live(ports, options, on_warning=warn)
-        capture.command = "doctor"
-        return diagnose(capture, args, live=True)
-    capture = open_capture(*args.inputs, options=options, on_warning=warn)
-    capture.command = "doctor"
-    return diagnose(capture, args, live=False)
+        return diagnose(open_live(ports, options), args, live=True)
+    return diagnose(open_capture(*args.inputs, options=options), args, live=False)
 
 
-def examine(capture: Capture, on_new=None) -> tuple[WiringDoctor, int]:
-    """Run a capture through the doctor; ``on_new(finding)`` hears each finding the
-    first time it shows (checked about once a second of capture time)."""
-    live = LiveDoctor(capture, on_new)
-    events = 0
-    for batch in capture.batches():
-        live.add_batch(batch)
-        events += len(batch)
-    return live.doctor, events
+class FindingTeller(Listener):
+    """Live: each finding on standard output the first time it shows."""
+
+    def on_note(self, note: Note) -> None:
+        if note.origin == DOCTOR:
+            f = note.finding
+            print(f"{f.severity.upper():8} {f.title}", flush=True)
+
+
+def examine(capture: Capture, *listeners: Listener, notes: bool = True) -> tuple[WiringDoctor, int]:
+    """Run a capture through the doctor (and ``listeners``, which hear each finding
+    the first time it shows, checked about once a second of capture time)."""
+    doctor = DoctorListener()
+    if notes:   # the capture's warnings; findings are printed by the report (or FindingTeller)
+        listeners = (*listeners, NotePrinter(findings=False))
+    runner = run_tap(capture, "doctor", doctor, *listeners, notes=False, say_empty=False)
+    return doctor.doctor, runner.events
 
 
 def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
@@ -97,19 +104,14 @@ def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
         print(f"gimbalscope doctor: listening on {capture.source.description} "
               f"({'until Ctrl-C' if not args.seconds else f'{args.seconds:g} s'})", file=sys.stderr, flush=True)
 
-    def tell(f: Finding) -> None:   # live: each finding as it appears
-        if args.format == "text":
-            print(f"{f.severity.upper():8} {f.title}", flush=True)
-
+    tell = [FindingTeller()] if live and args.format == "text" else []
     try:
-        doctor, events = examine(capture, tell if live else (lambda _f: None))
+        doctor, events = examine(capture, *tell)
     finally:
         if timer is not None:
             timer.cancel()
         for sig, handler in old.items():
             signal.signal(sig, handler)
-        if live:
-            capture.source.close()
     findings = doctor.findings()
     if args.format == "json":
         print(json.dumps({"source": capture.source.description, "events": events,
@@ -150,10 +152,9 @@ def report(findings: list[Finding], doctor: WiringDoctor, events: int) -> None:
     amount = (f"{doctor.span:.1f} s of traffic ({events:,} events)" if doctor.timed
               else f"{events:,} events (no time in this capture)")
     console.print(Text(f"gimbalscope doctor: {head} in {amount}", style="bold"))
-    colours = {ERROR: "bold red", WARNING: "yellow", INFO: "cyan"}
     for f in findings:
         after = _found_after(f, doctor)
-        line = Text(f"{f.severity.upper():8} ", style=colours[f.severity])
+        line = Text(f"{f.severity.upper():8} ", style=SEVERITY_STYLE[f.severity])
         line.append(f.title, style="bold")
         if after is not None and f.severity != INFO:
             line.append(f"  [found after {after}]", style="dim")
@@ -170,15 +171,14 @@ def scan_baud(ports: list[str], options, args: argparse.Namespace) -> int:
     """Listen at each standard rate; the one whose bytes decode is the line's rate."""
     rows = []
     for rate in STANDARD_BAUDS:
-        capture = open_live(ports, replace(options, baud=rate), on_warning=lambda _m: None)
+        capture = open_live(ports, replace(options, baud=rate))
         timer = threading.Timer(args.dwell, capture.source.stop)
         timer.daemon = True
         timer.start()
         try:
-            doctor, events = examine(capture)
+            doctor, events = examine(capture, notes=False)   # other rates' warnings are noise
         finally:
             timer.cancel()
-            capture.source.close()
         total = sum(line.bytes for line in doctor.lines.values())
         good = sum(line.good_bytes for line in doctor.lines.values())
         frames = sum(line.frames - line.bad_frames for line in doctor.lines.values())

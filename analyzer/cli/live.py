@@ -8,23 +8,23 @@ so live output for the same bytes equals ``decode`` of the recording.
 a killed tap leaves its file under the name given; an existing file is replaced,
 but a folder, a missing folder or one of the ports is refused before the tap
 starts. A recording that fails (a full disk) is said once and stopped, and the
-tap goes on printing (analyzer/recording).
+tap goes on printing (analyzer/writers/mcap.py).
 """
 
 from __future__ import annotations
 
 import argparse
 import signal
-import socket
 import sys
 
-from .. import __version__
 from ..capture import Capture, open_live
-from ..doctor import LiveDoctor, log_level, one_line
+from ..info import CaptureInfo
+from ..listeners import DoctorListener, EventPrinter, NotePrinter
 from ..outfile import check_output
 from ..output import JsonLinesSink, TextSink
-from ..recording import McapRecorder, RotatingRecorder
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float, warn
+from ..runner import TapRunner
+from ..writers.mcap import McapWriter
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -53,40 +53,19 @@ def add_record_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
 
 
-def live_metadata(capture: Capture, ports: list[str]) -> dict[str, str]:
-    o = capture.options
-    roles = ({"AB": "single-line tap (both directions)"} if len(ports) == 1 else
-             {"A": "controller→device", "B": "device→controller"})
-    return {
-        "tool": f"gimbalscope {__version__}", "host": socket.gethostname(), "mode": "live",
-        "ports": " ".join(ports), "lines": ",".join(capture.lines),
-        "line_roles": ", ".join(f"{line}={port} ({roles[line]})" for line, port in zip(capture.lines, ports)),
-        "baud": str(o.baud), "data_bits": str(o.data_bits), "parity": o.parity, "stop_bits": f"{o.stop_bits:g}",
-        "start_time": f"{capture.source.start_time:.6f}",
-    }
-
-
-def status(msg: str) -> None:
-    """A plain status line on stderr (not a warning: nothing went wrong)."""
-    print(f"gimbalscope: {msg}", file=sys.stderr, flush=True)
-
-
-def open_recorder(capture: Capture, args: argparse.Namespace, record: str | None, on_error=warn):
-    """The --record recorder (rotating with --rotate-*), or None; a path that cannot
-    be written is a one-line error before anything starts. A failure later goes
-    to ``on_error`` once (the recording stops, the tap goes on)."""
+def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
+                  record: str | None) -> McapWriter | None:
+    """The --record writer (in parts with --rotate-*), or None; a path that cannot
+    be written is a one-line error before anything starts. A failure later is
+    said once (the recording stops, the tap goes on)."""
     if not record:
         return None
-    kw = dict(metadata=live_metadata(capture, capture.source.ports), start_time=capture.source.start_time,
-              flush_interval=1.0, lines=capture.lines, on_error=on_error)
     mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
     try:
         # replacing a file is the documented behaviour; a port, a folder or a missing folder is not
-        check_output(record, capture.source.ports, force=True, role="port")
-        if mb or minutes:
-            return RotatingRecorder(record, max_bytes=int(mb * 1e6) if mb else None,
-                                    max_seconds=minutes * 60 if minutes else None, **kw)
-        return McapRecorder(record, **kw)
+        check_output(record, info.inputs if info.live else (), force=True, role="port")
+        return McapWriter(record, info, live=True, rotate_bytes=int(mb * 1e6) if mb else None,
+                          rotate_seconds=minutes * 60 if minutes else None)
     except BaseException:
         capture.source.close()
         raise
@@ -98,10 +77,11 @@ def wants_tui(args: argparse.Namespace) -> bool:
     return not args.no_tui and args.format == "text" and sys.stdout.isatty() and sys.stdin.isatty()
 
 
-def tap(capture: Capture, args: argparse.Namespace, record: str | None) -> int:
+def tap(capture: Capture, args: argparse.Namespace, record: str | None, command: str = "live") -> int:
     """Run a live capture: the TUI, or printed events (see ``wants_tui``)."""
+    info = CaptureInfo.of(capture, command=command)
     if not wants_tui(args):
-        return tap_and_print(capture, args, record)
+        return tap_and_print(capture, info, args, record)
     from ..tui.run import KeymapError, load_keymap, run_app
 
     try:
@@ -109,65 +89,39 @@ def tap(capture: Capture, args: argparse.Namespace, record: str | None) -> int:
     except KeymapError as e:
         capture.source.close()
         raise UsageError(str(e)) from None
-    recorder = open_recorder(capture, args, record)
-    ports = capture.source.ports
-    if recorder is not None:
-        capture.on_chunk = recorder.raw
-    return run_app(capture, mode="live", ports=ports, recorder=recorder, record_path=record,
-                   metadata=lambda: live_metadata(capture, ports), keymap=keymap)
+    recorder = open_recorder(capture, info, args, record)
+    return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder, record_path=record,
+                   info=info, keymap=keymap)
 
 
-def tap_and_print(capture: Capture, args: argparse.Namespace, record: str | None) -> int:
-    """Run a live capture to the end, printing events (SIGINT/SIGTERM stop it cleanly)."""
+def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace, record: str | None) -> int:
+    """Run a live capture to the end, printing events and notes, with the wiring
+    doctor alongside (SIGINT/SIGTERM stop it cleanly)."""
     keep = build_filter(getattr(args, "filter", None))
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
-    recorder = open_recorder(capture, args, record)
-    if recorder is not None:
-        capture.on_chunk = recorder.raw
-
-        def warn_and_log(msg: str) -> None:   # a lost port is marked in the recording too
-            warn(msg)
-            recorder.note(msg, capture.latest)
-
-        capture.on_warning = warn_and_log
+    recorder = open_recorder(capture, info, args, record)
+    listeners = [l for l in (recorder, DoctorListener(), EventPrinter(sink, keep), NotePrinter()) if l is not None]
+    runner = TapRunner(capture, listeners, info=info)
 
     def stop(_signum, _frame):
-        capture.source.stop()
+        runner.stop()
 
     old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
     # Reader threads stamp each read with the host clock; the interpreter's default
     # 5 ms thread switch interval would delay them by as much. Switch more often.
     switch = sys.getswitchinterval()
     sys.setswitchinterval(0.0002)
-    def found(f) -> None:   # the wiring doctor runs alongside: new findings are said once
-        print(f"gimbalscope: {one_line(f)}", file=sys.stderr, flush=True)
-        if recorder is not None:
-            recorder.note(one_line(f), capture.latest, log_level(f))
-    doctor = LiveDoctor(capture, found)
     try:
-        for batch in capture.batches():
-            for ev in batch:
-                if recorder is not None:
-                    recorder.event(ev)
-                if keep is None or keep(ev):
-                    sink(ev)
-            doctor.add_batch(batch)
+        runner.run()
     finally:
         sys.setswitchinterval(switch)
         for sig, handler in old.items():
             signal.signal(sig, handler)
-        capture.source.close()
-        if recorder is not None:
-            recorder.end_marker(capture.latest)
-            recorder.close()
-            if not recorder.failed:   # a failure was said when it happened
-                status(recorder.summary())
-        sink.close()
     return 0
 
 
 def run(args: argparse.Namespace) -> int:
     if len(args.ports) > 2:
         raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
-    capture = open_live(args.ports, options_from(args), on_warning=warn)
+    capture = open_live(args.ports, options_from(args))
     return tap(capture, args, args.record)

@@ -8,9 +8,10 @@ import argparse
 import math
 import time
 
+from ..listeners import EventPrinter
 from ..outfile import show
 from ..output import JsonLinesSink, TextSink
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs, warn_if_empty
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs, run_tap
 from .live import add_tui_args, wants_tui
 
 
@@ -49,18 +50,19 @@ def run(args: argparse.Namespace) -> int:
         from ..tui.run import open_tui
         return open_tui(capture, args, mode="replay", speed=args.speed)
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
-    start = time.monotonic()
-    seen = 0
-    try:
-        for ev in capture:
-            seen += 1
-            if args.speed and ev.t is not None:
-                delay = start + ev.t / args.speed - time.monotonic()
-                if delay > 0:
-                    time.sleep(delay)
-            if keep is None or keep(ev):
-                sink(ev)
-    finally:
-        sink.close()
-    warn_if_empty(capture, seen)
+    run_tap(capture, "replay", EventPrinter(sink, keep, pace=pacer(args.speed)))
     return 0
+
+
+def pacer(speed: float):
+    """Waits until each event's recorded time, ``speed`` times faster (None: no waiting)."""
+    if not speed:
+        return None
+    start = time.monotonic()
+
+    def pace(ev) -> None:
+        if ev.t is not None:
+            delay = start + ev.t / speed - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+    return pace

@@ -6,9 +6,12 @@ from __future__ import annotations
 import argparse
 import sys
 
+from dissectors.event import P_CHECKSUM, P_NOISE, P_TRUNCATED, STATUSES
+
 from ..output import dumps, fmt_seconds
+from ..runner import Listener
 from ..stats import Stats
-from .common import add_filter_arg, add_input_args, build_filter, open_inputs, warn_if_empty
+from .common import add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,14 +26,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    stats = Stats()
-    seen = 0
-    for ev in capture:
-        seen += 1
-        if keep is None or keep(ev):
-            stats.add(ev)
-    warn_if_empty(capture, seen)
-    data = stats.to_dict()
+    counter = StatsListener(keep)
+    run_tap(capture, "stats", counter)
+    data = counter.stats.to_dict()
     if args.format == "json":
         sys.stdout.buffer.write(dumps(data) + b"\n")
     else:
@@ -38,9 +36,23 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+class StatsListener(Listener):
+    """Counts every event ``keep`` accepts (all without a filter)."""
+
+    def __init__(self, keep=None) -> None:
+        self.stats = Stats()
+        self.keep = keep
+
+    def on_events(self, events) -> None:
+        add, keep = self.stats.add, self.keep
+        for ev in events:
+            if keep is None or keep(ev):
+                add(ev)
+
+
 # what a noise event is, by its problem category (the deframer's: docs/decoding.md)
-_NOISE_NAMES = {"noise": ("noise run", "noise runs"), "bad checksum": ("broken frame", "broken frames"),
-                "truncated frame": ("truncated frame", "truncated frames")}
+_NOISE_NAMES = {P_NOISE: ("noise run", "noise runs"), P_CHECKSUM: ("broken frame", "broken frames"),
+                P_TRUNCATED: ("truncated frame", "truncated frames")}
 
 
 def _broken(data: dict) -> str:
@@ -57,7 +69,7 @@ def _noise_kinds(data: dict) -> str:
     """Noise events are unframed bytes (the problems line's `noise`) and frames
     broken or cut short: say how many of each when they are not all noise runs."""
     kinds = data["noise"]["by_problem"]
-    if set(kinds) <= {"noise"}:
+    if set(kinds) <= {P_NOISE}:
         return ""
     parts = []
     for cat, n in kinds.items():
@@ -82,8 +94,7 @@ def render(data: dict) -> None:
     console.print(f"[bold]{data['events']}[/] events, {data['commands']} commands"
                   + (f" over {dur:.3f} s" if dur is not None else " (no time in this capture)")
                   + "  bytes: " + ", ".join(f"line {k} {v}" for k, v in data["bytes"].items()))
-    console.print(f"ok {s['ok']}  nak {s['nak']}  nic {s['nic']}  no_ack {s['no_ack']}  "
-                  f"no_result {s['no_result']}  pending {s['pending']}  "
+    console.print("  ".join(f"{status} {s[status]}" for status in STATUSES) + "  "
                   f"retransmissions {data['retransmissions']}  orphans {data['orphans']}")
     console.print(f"checksum errors {data['checksum_errors']}{_broken(data)}  "
                   f"noise {data['noise']['events']} events / {data['noise']['bytes']} bytes{_noise_kinds(data)}")
@@ -97,8 +108,7 @@ def render(data: dict) -> None:
             table.add_column(col, justify="left" if not col else "right")
         for name, c in data[key].items():
             res = c["result_latency"]
-            table.add_row(name, *(str(c[k]) for k in ("commands", "ok", "nak", "nic", "no_ack", "no_result",
-                                                      "pending", "retransmissions", "checksum_errors")),
+            table.add_row(name, *(str(c[k]) for k in ("commands", *STATUSES, "retransmissions", "checksum_errors")),
                           *_lat(c["ack_latency"]),
                           fmt_seconds(res["median"]) if res["count"] else "",
                           fmt_seconds(res["max"]) if res["count"] else "")

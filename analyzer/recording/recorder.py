@@ -33,7 +33,7 @@ from mcap.data_stream import RecordBuilder
 from mcap.records import DataEnd, Footer
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
-from dissectors.event import COMMAND, NOISE, Event
+from dissectors.event import COMMAND, NO_ACK, NOISE, ST_NAK, Event
 
 from ..outfile import OutputError, reason, show
 from ..output import dumps
@@ -174,7 +174,7 @@ class McapRecorder:
         self._events = self._writer.register_channel(S.EVENTS_TOPIC, "json", ids["event"])
         self._txns = self._writer.register_channel(S.TRANSACTIONS_TOPIC, "json", ids["txn"])
         self._log = self._writer.register_channel(S.LOG_TOPIC, "json", ids["log"])
-        self._open_txn: dict[str, Any] | None = None
+        self._open_txn: _OpenTransaction | None = None
         self._offsets: dict[str, int] = {}
         if metadata:   # written first, so a killed recording still says what it is
             self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
@@ -352,7 +352,7 @@ class McapRecorder:
 
     @staticmethod
     def _log_message(ev: Event, ts: int) -> dict:
-        level = S.ERROR if ev.kind == NOISE or ev.checksum_ok is False or ev.status in ("nak", "no_ack") \
+        level = S.ERROR if ev.kind == NOISE or ev.checksum_ok is False or ev.status in (ST_NAK, NO_ACK) \
             else S.WARNING
         what = ev.command or ev.kind
         return {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000}, "level": level,
@@ -360,31 +360,54 @@ class McapRecorder:
                 "name": "gimbalscope", "file": f"line {ev.line}", "line": ev.offset}
 
     def _transaction(self, ev: Event, ts: int) -> None:
-        """A command opens a transaction; its answers (which follow it in the
-        stream) fill it; the next command or the end writes it."""
+        """A command opens a transaction message; the next command, or the end,
+        writes it from the command's pairing record. Its answers are those the
+        stream brought before that next command: an answer can come much later
+        (an optional result), and a live tap and a re-decode of its recording
+        must write the same message, whatever their batches."""
         if ev.kind == COMMAND:
             self._end_txn()
-            self._open_txn = {"ts": ts, "msg": {
-                "txn": ev.txn, "number": ev.number, "t": ev.t, "command": ev.command, "device": ev.device,
-                "status": ev.status, "retransmission": ev.retransmission, "ack_latency": None,
-                "result_latency": None, "answers": [], "fields": dict(ev.fields), "problems": list(ev.problems)}}
+            self._open_txn = _OpenTransaction(ts, ev)
             return
+        record = ev.transaction
         txn = self._open_txn
-        if txn is None or ev.txn is None or ev.txn != txn["msg"]["txn"]:
-            return
-        msg = txn["msg"]
-        msg["answers"].append(ev.number)
-        if ev.kind in ("ack", "nak") and msg["ack_latency"] is None:
-            msg["ack_latency"] = ev.latency
-        elif ev.kind == "result":
-            msg["result_latency"] = ev.latency
-            msg["fields"].update(ev.fields)
-        msg["problems"].extend(ev.problems)
+        if record is not None and txn is not None and record is txn.record:
+            txn.answers.append(ev)
 
     def _end_txn(self) -> None:
         if self._open_txn is not None:
-            self._write(self._txns, self._open_txn["ts"], self._open_txn["msg"])
+            self._write(self._txns, self._open_txn.ts, self._open_txn.message())
             self._open_txn = None
+
+
+class _OpenTransaction:
+    """A command recorded, and those of its answers recorded since."""
+
+    __slots__ = ("ts", "command", "record", "answers")
+
+    def __init__(self, ts: int, command: Event) -> None:
+        self.ts = ts
+        self.command = command
+        self.record = command.transaction
+        self.answers: list[Event] = []
+
+    def message(self) -> dict[str, Any]:
+        """The /transactions message (schemas.TRANSACTION): the record's facts, as
+        far as the answers recorded so far go; fields and problems are the
+        command's, then its answers'."""
+        cmd, record, answers = self.command, self.record, self.answers
+        numbers = [a.number for a in answers]
+        fields = dict(cmd.fields)
+        problems = list(cmd.problems)
+        for answer in answers:
+            if answer.number == record.result:
+                fields.update(answer.fields)
+            problems.extend(answer.problems)
+        return {"txn": record.number, "number": cmd.number, "t": cmd.t, "command": record.command,
+                "device": record.device, "status": record.status, "retransmission": record.retransmission,
+                "ack_latency": record.ack_latency if record.ack in numbers else None,
+                "result_latency": record.result_latency if record.result in numbers else None,
+                "answers": numbers, "fields": fields, "problems": problems}
 
 
 def encodable(metadata: dict[str, str]) -> dict[str, str]:

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 
+from dissectors.event import KINDS, STATUSES
+
 RAW_TOPIC = "/serial/{line}/raw"     # line A, B, or AB (single-line tap)
 EVENTS_TOPIC = "/events"
 TRANSACTIONS_TOPIC = "/transactions"
@@ -46,7 +48,7 @@ EVENT = {
         "t_end": _NULLABLE_NUMBER,
         "line": {"type": "string"},
         "offset": {"type": "integer"},
-        "kind": {"type": "string", "enum": ["command", "result", "ack", "nak", "nic", "noise"]},
+        "kind": {"type": "string", "enum": list(KINDS)},
         "command": _NULLABLE_STRING,
         "dst": _ADDRESS,
         "device": {**_NULLABLE_STRING, "description": "the gimbal's address group.port.device: a command's "
@@ -75,7 +77,7 @@ TRANSACTION = {
         "t": _NULLABLE_NUMBER,
         "command": {"type": "string"},
         "device": {"type": "string", "description": "group.port.device"},
-        "status": {"type": "string", "enum": ["ok", "nak", "nic", "no_ack", "no_result", "pending"]},
+        "status": {"type": "string", "enum": list(STATUSES)},
         "retransmission": {"type": "boolean"},
         "ack_latency": _NULLABLE_NUMBER,
         "result_latency": _NULLABLE_NUMBER,
@@ -105,7 +107,7 @@ LOG = {
     },
 }
 
-WARNING, ERROR = 3, 4
+INFO, WARNING, ERROR = 2, 3, 4
 
 
 def encoded(schema: dict) -> bytes:

@@ -13,7 +13,7 @@ import serial
 
 from dissectors import Deframer, dissect_command
 from dissectors.commands import DUE
-from dissectors.event import ACK, NAK, NIC, RESULT
+from dissectors.event import ACK, NAK, NIC, NO_RESULT, OK, RESULT, ST_NIC
 from dissectors.wire import build_frame
 
 
@@ -95,11 +95,11 @@ class SimController(threading.Thread):
                 time.sleep(self.retry_pause)
                 continue   # retransmit after a timeout or a NAK
             if self._peek_nic(time.monotonic() + 0.02):
-                return "nic"
+                return ST_NIC
             if entry is not None and entry.result_due == DUE:
                 res = self._next(time.monotonic() + result_timeout, (RESULT,))
-                return "ok" if res is not None else "no_result"
-            return "ok"
+                return OK if res is not None else NO_RESULT
+            return OK
         return "gave up"
 
     # --------------------------------------------------------------- script

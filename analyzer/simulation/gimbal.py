@@ -5,7 +5,8 @@ bytes to send back and when: ACK or NAK (§1.4.2), NIC after the ACK for what it
 does not implement, and the result frame for queries (§1.4.3, groups swapped per
 Table 3). Position moves toward go-to targets at the set rates (Tables 11-15);
 presets, software limits, gains, lens, relays, device ID, and IX initialisation
-that takes seconds (Table 9) are modelled.
+that takes seconds (Table 9) are modelled. What each command does is one entry of
+the table in ``answers``.
 """
 
 from __future__ import annotations
@@ -15,16 +16,14 @@ from dataclasses import dataclass, field
 
 from dissectors import dissect_command
 from dissectors.event import Event
+from dissectors.problems import MALFORMED, RESERVED
 from dissectors.wire import ACK, NAK, NIC, WILDCARD, build_frame
+
+from .answers import ANSWERS
 
 # What this firmware does not implement: answered with ACK then NIC.
 NOT_IMPLEMENTED = {"FA", "FX", "ZA-ZF", "L0", "L1", "L8", "L9", "VS", "F?", "Z?", "C?", "*dA", "*di", "*do",
                    "*dl", "*dm", "*mr", "*me", "*mp", "*mu", "*sa", "*sgr", "*sgp", "*sl", "HP", "VP"}
-
-
-def h4(value: float) -> str:
-    """Hundredths as 4 upper-case hex digits, two's complement (Table 15)."""
-    return f"{int(round(value * 100)) & 0xFFFF:04X}"
 
 
 @dataclass
@@ -116,9 +115,9 @@ class GimbalModel:
         decoded = dissect_command(ev.payload)
         cid = decoded.command
         if decoded.entry is None or cid in NOT_IMPLEMENTED or any(
-                p.startswith(("malformed", "reserved")) for p in decoded.problems):
+                p.category is MALFORMED or p.category is RESERVED for p in decoded.problems):
             return [Reply(at, bytes([ACK, NIC]))]
-        result = self._execute(cid, decoded.fields, now)
+        result = self._execute(cid, decoded.fields)
         replies = [Reply(at, bytes([ACK]))]
         if result is not None:
             delay, payload = result
@@ -126,95 +125,14 @@ class GimbalModel:
             replies.append(Reply(at + 0.001 + delay, build_frame((ev.src, p, d), g, payload)))
         return replies
 
-    def _execute(self, cid: str, v: dict, now: float) -> tuple[float, str] | None:
-        """Apply a command; return (extra delay, result payload) when one is due."""
-        if cid == "P":
-            self.target = (v["azimuth_deg"], v["elevation_deg"])
-        elif cid in ("P?",):
-            return 0.0, h4(self.az) + h4(self.el)
-        elif cid == "Pnn":
-            self.target = self.presets.get(v["preset"], (0.0, 0.0))
-        elif cid in ("P?nn", "S?nn"):
-            a, e = self.presets.get(v["preset"], (0.0, 0.0))
-            return 0.0, h4(a) + h4(e)
-        elif cid == "Snn":
-            self.presets[v["preset"]] = (self.az, self.el)
-        elif cid in ("PL", "PR"):
-            self.target, self.sweep = None, (-1.0 if cid == "PL" else 1.0, self.sweep[1])
-        elif cid in ("TD", "TU"):
-            self.target, self.sweep = None, (self.sweep[0], -1.0 if cid == "TD" else 1.0)
-        elif cid == "PS":
-            self.sweep = (0.0, self.sweep[1])
-        elif cid == "TS":
-            self.sweep = (self.sweep[0], 0.0)
-        elif cid in ("PT", "HS"):
-            self.target, self.sweep = None, (0.0, 0.0)
-        elif cid == "HO":
-            self.target = (0.0, 0.0)
-        elif cid == "HA":
-            self.presets[0xFF] = (self.az, self.el)
-            self.target, self.sweep, self.motors_on = None, (0.0, 0.0), False
-        elif cid == "HV":
-            ok = 3 if all(self.initialized) else 0
-            return 0.0, f"{ok:X}{ok:X}{ok:X}"
-        elif cid in ("RP", "RT"):
-            self.rate[cid == "RT"] = v["rate_deg_s"]
-        elif cid in ("AP", "AT"):
-            self.accel[cid == "AT"] = v["accel_deg_s2"]
-        elif cid in ("RP?", "RT?"):
-            return 0.0, h4(self.rate[cid == "RT?"])
-        elif cid in ("AP?", "AT?"):
-            return 0.0, h4(self.accel[cid == "AT?"])
-        elif cid == "R?":
-            return 0.0, h4(self.rate[0]) + h4(self.rate[1])
-        elif cid == "A?":
-            return 0.0, h4(self.accel[0]) + h4(self.accel[1])
-        elif cid in ("GRP", "GRT"):
-            self.gain[cid == "GRT"] = v["gain"]
-        elif cid == "G?":
-            return 0.0, f"G?{round(self.gain[0] * 10):02X}{round(self.gain[1] * 10):02X}0000"
-        elif cid in ("SP", "ST"):
-            self.speed[cid == "ST"] = v["speed"]
-        elif cid == "VM":
-            self.vector = bool(v["vector"])
-        elif cid == "AW":
-            status = (0 if self.initialized[0] else 1) | (0 if self.initialized[1] else 2) | \
-                (0 if self.motors_on else 4)
-            return 0.0, f"{status:X}"
-        elif cid == "B?":
-            return 0.0, "C7"
-        elif cid == "D?":
-            return 0.0, f"{self.address[2]:02X} 9{self.name:<20.20}{self.serial:<20.20}"
-        elif cid == "E?":
-            return 0.0, "0000"
-        elif cid == "I?":
-            az = 0 if self.initialized[0] else 1
-            el = 0 if self.initialized[1] else 1
-            return 0.0, f"{az:02X}{el:02X}"
-        elif cid == "IX":
-            self.initialized = [True, True]
-            self.motors_on = True
-            self.target = (0.0, 0.0)
-            return self.init_seconds, "09090909"
-        elif cid in ("L2", "L3", "LA", "LB"):
-            bit = 1 << int(cid[1], 16) % 8
-            self.relays = self.relays & ~bit if cid in ("L2", "L3") else self.relays | bit
-        elif cid == "LR":
-            return 0.0, f"L{self.relays & 0xF:X}"
-        elif cid == "LC":
-            self.limits = [0x000, 0xFFF, 0x000, 0xFFF]
-        elif cid == "LS":
-            self.limits = [v["pan_ccw"], v["pan_cw"], v["tilt_ccw"], v["tilt_cw"]]
-        elif cid == "L?":
-            return 0.0, "".join(f"{x:03X}" for x in self.limits)
-        elif cid == "V":
-            self.zoom, self.focus = v["zoom"], v["focus"]
-        elif cid == "V?":
-            return 0.0, f"{self.zoom:03X}{self.focus:03X}"
-        elif cid == "#NN":
-            self.address = (self.address[0], self.address[1], v["new_address"])
-        # C (data rate), CN/CX, F, FF/FN/FS, Z, ZI/ZO/ZS: acknowledged, nothing to report
-        return None
+    def _execute(self, cid: str, v: dict) -> tuple[float, str] | None:
+        """Apply a command (``answers.ANSWERS``); return (extra delay, result
+        payload) when one is due."""
+        handler = ANSWERS.get(cid)
+        answer = handler(self, v) if handler is not None else None
+        if answer is None or isinstance(answer, tuple):
+            return answer
+        return 0.0, answer
 
 
 def _approach(x: float, target: float, step: float) -> float:

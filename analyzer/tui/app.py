@@ -21,6 +21,7 @@ from textual.message import Message
 from textual.widgets import Footer, Input, Static
 
 from ..filter import FilterError, compile_filter
+from ..styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
 from .feed import Feed, FeedBatch
 from .model import CaptureModel
 from .widgets import DetailTree, EventList, HexView, TimelineView
@@ -224,7 +225,7 @@ class GimbalscopeApp(App):
             line1.append(self.source_name + "  ")
         elif b is not None:
             for st in b.lines:
-                colour = {"open": "green", "lost": "red", "reconnecting": "yellow"}.get(st.state, "white")
+                colour = PORT_STATE_STYLE.get(st.state, "white")
                 state = "" if self.mode != "live" else f" {st.state}"
                 line1.append(f"{st.line} ", style="bold")
                 line1.append(f"{st.port}")
@@ -245,13 +246,13 @@ class GimbalscopeApp(App):
         errors = len(m.errors)
         shown = len(m.events) + len(m.unsettled)
         line2.append(f"{shown:,} event{'' if shown == 1 else 's'}", style="bold")
-        line2.append(f"  {errors:,} error{'' if errors == 1 else 's'}", style="bold red" if errors else "")
+        line2.append(f"  {errors:,} error{'' if errors == 1 else 's'}", style=SEVERITY_BADGE[ERROR] if errors else "")
         line2.append(f"  {m.stats.checksum_errors} checksum")
-        problems = [f for f in m.findings if f.severity != "info"]
+        problems = [f for f in m.findings if f.severity != INFO]
         if problems:
-            worst = "error" if any(f.severity == "error" for f in problems) else "warning"
+            worst = ERROR if any(f.severity == ERROR for f in problems) else WARNING
             line2.append(f"  ⚠ {len(problems)} finding{'s' if len(problems) != 1 else ''} (w): {problems[0].title}",
-                         style="bold red" if worst == "error" else "bold yellow")
+                         style=SEVERITY_BADGE[worst])
         if m.filter_text:
             line2.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")
         if m.playback is not None:
@@ -373,16 +374,14 @@ class GimbalscopeApp(App):
             self._go(number, "such event shown yet")
 
     def action_swap_lines(self) -> None:
-        """The tap's ports were the other way round: read A as B from now on."""
-        cap = self.feed.capture if self.feed is not None else None
-        if cap is None or tuple(cap.lines) != ("A", "B"):
+        """The tap's ports were the other way round: read A as B from now on (the
+        runner says so on screen and on the recording's /log topic)."""
+        feed = self.feed
+        if feed is None or tuple(feed.lines) != ("A", "B"):
             self.notify("swapping needs a two-line tap", timeout=2)
             return
-        cap.swap_lines = not cap.swap_lines
-        msg = (f"lines swapped: {self.feed.lines['A'].port} is read as line B, {self.feed.lines['B'].port} as line A"
-               if cap.swap_lines else "lines as given again")
-        cap._warn(msg)   # on screen, and on the recording's /log topic
-        self.notify(msg, timeout=3)
+        feed.swap_lines()
+        self.notify("swapping lines A and B", timeout=3)
 
     def action_help(self) -> None:
         from .screens import HelpScreen

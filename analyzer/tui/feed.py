@@ -1,32 +1,30 @@
-"""The TUI's capture thread: runs a capture (live tap, replay, or file), hands
-every settled event to the recorder in this thread, and delivers batches to the
+"""The TUI's capture thread: runs the tap runner (live tap, replay, or file) with
+the doctor, any recording, and ``Feed``, the listener that delivers batches to the
 screen at most every ``interval`` seconds, so recording never waits for the
 screen and the screen is never flooded with one message per event.
 
 No Textual here: ``deliver`` is any callable (the app posts a message with it).
 
 A recording that fails (a full disk) is said once, on screen and after the
-screen closes, and dropped; the capture goes on (analyzer/recording closes the
-file as well as it can).
+screen closes, and dropped; the capture goes on (analyzer/writers/mcap.py).
 """
 
 from __future__ import annotations
 
 import os
-import queue
-from collections import deque
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Callable
 
 from dissectors.event import Event
 
-from .. import __version__
-from ..capture import Capture
-from ..doctor import LiveDoctor, log_level, one_line
+from ..listeners import DoctorListener
 from ..outfile import show
-from ..recording import McapRecorder, RecordingError, RotatingRecorder
+from ..recording import RecordingError
+from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
+from ..writers.mcap import McapWriter
 
 
 MAX_BATCH = 20_000
@@ -55,160 +53,130 @@ class FeedBatch:
     error: str | None = None
 
 
-class Feed(threading.Thread):
-    def __init__(self, capture: Capture, deliver: Callable[[FeedBatch], None], *, ports: list[str] | None = None,
-                 interval: float = 0.03, metadata: Callable[[], dict[str, str]] | None = None,
-                 recorder: McapRecorder | RotatingRecorder | None = None, recording: str | None = None) -> None:
-        super().__init__(daemon=True, name="gimbalscope-feed")
-        self.capture = capture
+class Feed(Listener):
+    """Collects what the runner hears and hands it to ``deliver`` in batches.
+    ``start()`` runs the runner in a thread of its own; the screen's thread calls
+    only ``start_recording``, ``stop_recording``, ``swap_lines`` and ``stop``
+    (requests to the runner)."""
+
+    def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener, *,
+                 interval: float = 0.03, recorder: McapWriter | None = None) -> None:
+        self.runner = runner
         self.deliver = deliver
+        self.doctor = doctor
         self.interval = interval
-        self._metadata = metadata or (lambda: {})
-        names = ports or [capture.source.description] * len(capture.lines)
-        self.lines = {line: LineStatus(line, port) for line, port in zip(capture.lines, names)}
-        self._window: dict[str, deque[tuple[float, int]]] = {line: deque() for line in capture.lines}
-        self._requests: queue.Queue = queue.Queue()
-        self._stopped = threading.Event()   # a file source has no stop of its own
+        names = runner.info.line_names
+        self.lines = {line: LineStatus(line, names[line]) for line in runner.lines}
+        self._window: dict[str, deque[tuple[float, int]]] = {line: deque() for line in runner.lines}
+        self._pending: list[Event] = []
+        self._last = time.monotonic()
         self._sent_any = False
         self._warnings: list[str] = []
-        self.recorder: McapRecorder | RotatingRecorder | None = recorder   # --record: made (and checked)
-        self.recording: str | None = recording                              # before the screen opens
-        if recorder is not None:
-            recorder.on_error = self._recording_failed
-        self.notes: list[str] = []   # what to say when the screen has closed (recordings written)
-        capture.on_chunk = self._chunk
-        capture.on_warning = self._warn
-        self.doctor = LiveDoctor(capture, self._found, tui=True)
         self._findings: list | None = None
-
-    # ------------------------------------------------------------ controls
-    def start_recording(self, path: str) -> None:
-        """Record from now on (handled in the capture thread, between batches)."""
-        self._requests.put(("record", path))
-
-    def stop_recording(self) -> None:
-        self._requests.put(("stop", None))
-
-    def stop(self) -> None:
-        self._stopped.set()
-        stop = getattr(self.capture.source, "stop", None)
-        if stop is not None:
-            stop()
+        self.recorder = recorder             # --record: made (and checked) before the screen opens
+        self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
+        self._thread = threading.Thread(target=self._run, daemon=True, name="gimbalscope-feed")
 
     # ------------------------------------------------------------- thread
-    def _chunk(self, chunk, offset: int) -> None:
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        """End the run (a file stops at the next step)."""
+        self.runner.stop()
+
+    def join(self, timeout: float | None = None) -> None:
+        self._thread.join(timeout)
+
+    def is_alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def _run(self) -> None:
+        error = None
+        try:
+            self.runner.run()
+        except Exception as e:   # a source failing mid-capture: say it on screen, keep what came
+            error = f"{type(e).__name__}: {e}"
+            self.notes.append(f"capture stopped: {error}")
+        self._send(done=True, error=error)
+
+    # ------------------------------------------------------------ controls
+    @property
+    def recording(self) -> str | None:
+        rec = self.recorder
+        return rec.path if rec is not None and not rec.failed else None
+
+    def start_recording(self, path: str) -> None:
+        """Record from the next step on; a path that cannot be written is said on screen."""
+        if self.recorder is not None and not self.recorder.failed:
+            return
+        try:
+            self.recorder = McapWriter(path, self.runner.info, live=True,
+                                       metadata={"recorded_from": "the TUI's record key"})
+        except RecordingError as e:
+            self.runner.post(str(e))
+            return
+        self.runner.add_listener(self.recorder)
+        self.runner.post(f"recording to {show(path)}")
+
+    def stop_recording(self) -> None:
+        rec, self.recorder = self.recorder, None
+        if rec is not None:
+            self.runner.remove_listener(rec)   # it closes in the runner's thread and says so
+
+    def swap_lines(self) -> None:
+        self.runner.request_swap()
+
+    # ------------------------------------------------------------ listener
+    def on_chunk(self, chunk, offset: int) -> None:
         st = self.lines.get(chunk.line)
         if st is not None:
             st.bytes += len(chunk.data)
             self._window[chunk.line].append((time.monotonic(), len(chunk.data)))
-        if self.recorder is not None:
-            self.recorder.raw(chunk, offset)
 
-    def _warn(self, msg: str) -> None:
-        self._warnings.append(msg)
-        if self.recorder is not None:
-            self.recorder.note(msg, self.capture.latest)
+    def on_note(self, note: Note) -> None:
+        if note.origin == DOCTOR:
+            return   # findings reach the screen as the doctor's list
+        self._warnings.append(note.text)
+        if note.origin == RECORDING:
+            self.notes.append(note.text)
+            if self.recorder is not None and self.recorder.failed:
+                self.recorder = None
 
-    def _found(self, f) -> None:
-        if self.recorder is not None:
-            self.recorder.note(one_line(f), self.capture.latest, log_level(f))
+    def on_events(self, events: list[Event]) -> None:
+        if events:
+            self._pending.extend(events)
+        if self.doctor.checked:
+            self._findings = self.doctor.findings
+        now = time.monotonic()
+        pending = self._pending
+        # the first events go out at once (the first screen), then at most every
+        # interval; a file loading flat out sends at most MAX_BATCH events a message
+        if now - self._last >= self.interval or (pending and not self._sent_any) or len(pending) >= MAX_BATCH:
+            self._sent_any = self._sent_any or bool(pending)
+            self._send()
+            self._last = now
 
-    def _handle_requests(self) -> None:
-        while True:
-            try:
-                what, path = self._requests.get_nowait()
-            except queue.Empty:
-                return
-            if what == "record" and self.recorder is None:
-                cap = self.capture
-                # a recording always says what it is (and readers expect a metadata record)
-                meta = {"tool": f"gimbalscope {__version__}", "lines": ",".join(cap.lines),
-                        "recorded_from": "the TUI's record key", **self._metadata()}
-                try:
-                    self.recorder = McapRecorder(path, metadata=meta, flush_interval=1.0,
-                                                 start_time=cap.source.start_time, lines=cap.lines,
-                                                 on_error=self._recording_failed)
-                    self.recording = path
-                    self._warnings.append(f"recording to {show(path)}")
-                except RecordingError as e:
-                    self._warnings.append(str(e))
-            elif what == "stop" and self.recorder is not None:
-                self._close_recorder()
+    def on_stop(self) -> None:
+        self._findings = self.doctor.findings   # the last word
 
-    def _recording_failed(self, message: str) -> None:
-        """The recorder stopped (it has closed its file): say it once, record no
-        more; the capture goes on. Called in this thread, from inside the recorder."""
-        self._warnings.append(message)
-        self.notes.append(message)
-        self.recorder = None
-        self.recording = None
-
-    def _close_recorder(self) -> None:
-        rec, self.recorder = self.recorder, None
-        rec.end_marker(self.capture.latest)
-        rec.close()
-        if rec.failed:   # failed while closing: _recording_failed said so
-            return
-        note = rec.summary()
-        self._warnings.append(note)
-        self.notes.append(note)
-        self.recording = None
-
+    # ------------------------------------------------------------- batches
     def _status(self) -> list[LineStatus]:
         now = time.monotonic()
-        state = getattr(self.capture.source, "state", None)
+        state = self.runner.line_states()
         for line, st in self.lines.items():
             win = self._window[line]
             while win and win[0][0] < now - 1.0:
                 win.popleft()
             st.rate = float(sum(n for _t, n in win))
-            if state is not None:
-                st.state = state.get(line, st.state)
+            st.state = state.get(line, st.state)
         return [LineStatus(s.line, s.port, s.state, s.bytes, s.rate) for s in self.lines.values()]
 
-    def _send(self, events: list[Event], done: bool = False, error: str | None = None) -> None:
-        rec = self.recorder
-        size = 0
-        if rec is not None and self.recording and os.path.exists(self.recording):
-            size = os.path.getsize(self.recording)
+    def _send(self, done: bool = False, error: str | None = None) -> None:
+        path = self.recording
+        size = os.path.getsize(path) if path and os.path.exists(path) else 0
+        events, self._pending = self._pending, []
         warnings, self._warnings = self._warnings, []
         findings, self._findings = self._findings, None
-        self.deliver(FeedBatch(events, [] if done else self.capture.unsettled(), self._status(),
-                               self.capture.skew, self.recording, size, warnings, findings, done, error))
-
-    def run(self) -> None:
-        pending: list[Event] = []
-        last = time.monotonic()
-        error = None
-        try:
-            for batch in self.capture.batches():
-                if self._stopped.is_set() and not getattr(self.capture.source, "live", False):
-                    break
-                if batch:
-                    rec = self.recorder
-                    if rec is not None:
-                        for ev in batch:
-                            rec.event(ev)
-                    pending.extend(batch)
-                if self.doctor.add_batch(batch):
-                    self._findings = self.doctor.findings
-                now = time.monotonic()
-                # the first events go out at once (the first screen), then at most every
-                # interval; a file loading flat out sends at most MAX_BATCH events a message
-                if now - last >= self.interval or (pending and not self._sent_any) or len(pending) >= MAX_BATCH:
-                    self._sent_any = self._sent_any or bool(pending)
-                    self._handle_requests()
-                    self._send(pending)
-                    pending = []
-                    last = now
-        except Exception as e:   # a source failing mid-capture: say it on screen, keep what came
-            error = f"{type(e).__name__}: {e}"
-            self.notes.append(f"capture stopped: {error}")
-        finally:
-            close = getattr(self.capture.source, "close", None)
-            if close is not None:
-                close()
-            self._findings = self.doctor.findings = self.doctor.doctor.findings()   # the last word
-            if self.recorder is not None:
-                self._close_recorder()
-            self._send(pending, done=True, error=error)
+        self.deliver(FeedBatch(events, [] if done else self.runner.unsettled(), self._status(),
+                               self.runner.skew, path, size, warnings, findings, done, error))

@@ -14,10 +14,12 @@ from bisect import bisect_left, bisect_right
 from dataclasses import dataclass, field
 from typing import Callable
 
-from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event, format_address
+from dissectors.event import (
+    ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RESULT, ST_NAK, ST_NIC, Event, format_address,
+)
 
 from ..filter import compile_filter
-from ..output import fmt_seconds, summary
+from ..output import device_address, fmt_seconds, summary
 from ..stats import Stats
 
 TIME_MODES = ("absolute", "relative", "delta")
@@ -26,30 +28,7 @@ TIME_MODES = ("absolute", "relative", "delta")
 def is_error(ev: Event) -> bool:
     """Rows the error keys jump between: anything with a problem, NAKs, and
     commands that did not end ok."""
-    return bool(ev.problems) or ev.kind in (NAK, NOISE) or ev.status in ("nak", "nic", "no_ack", "no_result")
-
-
-def row_style(ev: Event, slow: float) -> str:
-    """The colouring rule a row follows (names of TUI styles, in priority order)."""
-    if ev.checksum_ok is False:
-        return "checksum"
-    if ev.kind == NOISE:
-        return "noise"
-    if ev.kind == NAK or ev.status == "nak":
-        return "nak"
-    if ev.kind == NIC or ev.status == "nic":
-        return "nic"
-    if ev.status in ("no_ack", "no_result"):
-        return "unanswered"
-    if ev.retransmission:
-        return "retransmission"
-    if ev.latency is not None and ev.latency > slow:
-        return "slow"
-    if ev.problems:
-        return "problem"
-    if ev.kind == COMMAND:
-        return "command" if ev.status is not None else "waiting"
-    return ""
+    return bool(ev.problems) or ev.kind in (NAK, NOISE) or ev.status in (ST_NAK, ST_NIC, NO_ACK, NO_RESULT)
 
 
 @dataclass
@@ -181,7 +160,7 @@ class CaptureModel:
         kind = ev.kind
         if kind not in (COMMAND, RESULT, ACK, NAK, NIC):
             return
-        if kind != COMMAND and ev.request is None:
+        if kind != COMMAND and ev.transaction is None:
             return   # an unpaired answer says nothing about where a device answers
         addr = ev.device
         if addr is None:
@@ -191,7 +170,7 @@ class CaptureModel:
             info = self.devices[addr] = DeviceInfo(addr)
         if kind == COMMAND:
             info.commands += 1
-            if ev.status == "nic" and ev.command:
+            if ev.status == ST_NIC and ev.command:
                 info.nic.add(ev.command)
             fields = ev.fields
             if ev.command == "P" and fields and "azimuth_deg" in fields:   # go to (Table 11)
@@ -328,7 +307,7 @@ class CaptureModel:
         text = summary(ev)
         if ev.problems:
             text += "  ! " + "; ".join(ev.problems)
-        return (str(ev.number), self.time_text(ev, row), lane, self._address(ev), ev.kind,
+        return (str(ev.number), self.time_text(ev, row), lane, device_address(ev), ev.kind,
                 ev.command or "", text, status, fmt_seconds(ev.latency))
 
     def cycle_time_mode(self) -> str:
@@ -370,7 +349,7 @@ class CaptureModel:
         ev = self.event(number)
         if ev is None:
             return None
-        addr = self._address(ev)
+        addr = ev.device
         if not addr:
             return None
         row = self.row_of(number)
@@ -380,15 +359,10 @@ class CaptureModel:
         r = row + step
         while 0 <= r < self.row_count:
             other = self.row(r)
-            if other is not None and self._address(other) == addr:
+            if other is not None and other.device == addr:
                 return other.number
             r += step
         return None
-
-    @staticmethod
-    def _address(ev: Event) -> str:
-        """The device column: ``Event.device`` (answers carry their command's)."""
-        return ev.device or ""
 
     def toggle_mark(self, number: int) -> bool:
         if number in self.marks:

@@ -14,7 +14,10 @@ from textual.binding import Binding
 from textual.dom import DOMNode
 
 from ..capture import Capture
-from ..recording import McapRecorder, RotatingRecorder
+from ..info import CaptureInfo
+from ..listeners import DoctorListener
+from ..runner import TapRunner
+from ..writers.mcap import McapWriter
 from .app import GimbalscopeApp
 from .feed import Feed
 from .model import CaptureModel
@@ -89,29 +92,30 @@ def check_ids(path: str, keymap: dict[str, object]) -> None:
     raise KeymapError(f"{path}: unknown binding id{s} {', '.join(parts)}; `?` in the TUI lists the ids")
 
 
-def settings_text(capture: Capture) -> str:
-    o = capture.options
-    return f"{o.baud} {o.data_bits}{o.parity}{o.stop_bits:g}"
-
-
 def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, speed: float = 1.0,
-             recorder: McapRecorder | RotatingRecorder | None = None, record_path: str | None = None,
-             metadata=None, keymap: dict[str, str] | None = None,
+             recorder: McapWriter | None = None, record_path: str | None = None,
+             info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
              filter_text: str | None = None) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
-    follow off). The capture starts in its own thread when the app mounts."""
+    follow off). The capture runs in the feed's thread when the app mounts, with
+    the doctor, ``recorder`` (``--record``) and the feed as the runner's listeners;
+    ``info`` is the one ``recorder`` was made with."""
     model = CaptureModel(follow=mode != "view")
     if filter_text:
         model.set_filter(filter_text)   # already checked by the CLI
     if mode == "replay":
         model.start_playback(speed)
+    info = info or CaptureInfo.of(capture, command=mode)
 
     def make_feed(deliver) -> Feed:
-        return Feed(capture, deliver, ports=ports, metadata=metadata, recorder=recorder,
-                    recording=record_path if recorder is not None else None)
+        doctor = DoctorListener(tui=True)
+        runner = TapRunner(capture, [l for l in (recorder, doctor) if l is not None], info=info)
+        feed = Feed(runner, deliver, doctor, recorder=recorder)
+        runner.add_listener(feed)   # last: it reads the doctor's findings of each step
+        return feed
 
-    source = " + ".join(ports) if ports else capture.source.description
-    return GimbalscopeApp(model, make_feed, mode=mode, source=source, settings=settings_text(capture),
+    source = " + ".join(ports) if ports else info.source
+    return GimbalscopeApp(model, make_feed, mode=mode, source=source, settings=info.serial_settings,
                           record_path=record_path, keymap=keymap)
 
 

@@ -13,7 +13,10 @@ from textual.containers import VerticalScroll
 from textual.screen import Screen
 from textual.widgets import Footer, Static
 
+from dissectors.event import NO_ACK, NO_RESULT, OK, ST_NAK, ST_NIC
+
 from ..output import fmt_seconds
+from ..styles import INFO, LEGEND, ROW_STYLE, SEVERITY_STYLE
 from .model import CaptureModel
 
 _BACK = [Binding("escape,q", "app.pop_screen", "Back", id="screen.back")]
@@ -30,8 +33,8 @@ def counts_table(title: str, rows: dict) -> Table:
         t.add_column(col, justify="left" if not col else "right")
     for key, c in sorted(rows.items()):
         lat = c.ack_latency
-        t.add_row(key, str(c.commands), str(c.status.get("ok", 0)), str(c.status.get("nak", 0)),
-                  str(c.status.get("nic", 0)), str(c.status.get("no_ack", 0)), str(c.status.get("no_result", 0)),
+        t.add_row(key, str(c.commands), str(c.status.get(OK, 0)), str(c.status.get(ST_NAK, 0)),
+                  str(c.status.get(ST_NIC, 0)), str(c.status.get(NO_ACK, 0)), str(c.status.get(NO_RESULT, 0)),
                   str(c.checksum_errors), str(c.retransmissions),
                   _ms(lat.min if lat.n else None), _ms(lat.quantile(0.5)), _ms(lat.quantile(0.95)),
                   _ms(lat.max if lat.n else None))
@@ -98,8 +101,8 @@ class StatsScreen(Screen):
         d = m.stats.to_dict()
         s = d["status"]
         self.query_one("#summary", Static).update(Text(
-            f"{d['events']:,} events, {d['commands']:,} commands: {s['ok']:,} ok, {s['nak']} NAK, {s['nic']} NIC, "
-            f"{s['no_ack']} no ACK, {s['no_result']} no result; {d['checksum_errors']} checksum errors, "
+            f"{d['events']:,} events, {d['commands']:,} commands: {s[OK]:,} ok, {s[ST_NAK]} NAK, {s[ST_NIC]} NIC, "
+            f"{s[NO_ACK]} no ACK, {s[NO_RESULT]} no result; {d['checksum_errors']} checksum errors, "
             f"{d['noise']['events']} noise runs ({d['noise']['bytes']} bytes), {d['retransmissions']} retransmissions",
             style="bold"))
         self.query_one("#by-command", Static).update(counts_table("Per command", m.stats.by_command))
@@ -192,10 +195,8 @@ class HelpScreen(Screen):
         for b in list(EventList.BINDINGS) + list(type(self._app).BINDINGS):
             t.add_row(b.key, b.description, b.id or "")
         rules = Text("\nRow colours: ", style="bold")
-        for name, style in (("bad checksum", "bold white on red"), ("noise", "red"), ("NAK", "bright_red"),
-                            ("NIC", "magenta"), ("no answer", "yellow"), ("slow answer", "yellow"),
-                            ("retransmission", "dark_orange"), ("command", "cyan"), ("waiting", "dim cyan")):
-            rules.append(f" {name} ", style=style)
+        for name, row in LEGEND:
+            rules.append(f" {name} ", style=ROW_STYLE[row])
         with VerticalScroll():
             yield Static(t)
             yield Static(rules)
@@ -234,15 +235,14 @@ class FindingsScreen(Screen):
         tree = self.query_one("#findings", Tree)
         tree.clear()
         tree.show_root = False
-        colours = {"error": "bold red", "warning": "yellow", "info": "cyan"}
         if not findings:
             tree.root.add_leaf(Text("no findings yet: the doctor checks the traffic once a second", style="dim"))
         for f in findings:
-            label = Text(f"{f.severity.upper():8}", style=colours.get(f.severity, ""))
+            label = Text(f"{f.severity.upper():8}", style=SEVERITY_STYLE.get(f.severity, ""))
             label.append(f" {f.title}", style="bold")
-            if f.first_seen is not None and f.severity != "info":
+            if f.first_seen is not None and f.severity != INFO:
                 label.append(f"  (at {f.first_seen:.1f} s)", style="dim")
-            node = tree.root.add(label, expand=f.severity != "info")
+            node = tree.root.add(label, expand=f.severity != INFO)
             for part in f.detail.splitlines():
                 node.add_leaf(part)
             if f.fix:

@@ -18,23 +18,12 @@ from textual.scroll_view import ScrollView
 from textual.strip import Strip
 from textual.widgets import Static, Tree
 
+from ..styles import ROW_STYLE, TIMELINE_STYLE, row_class
 from .model import CaptureModel, DetailNode, hex_lines
 from .timeline import SCALES, layout
 
-# row colouring rules (model.row_style names them)
-ROW_STYLES = {
-    "checksum": Style(color="white", bgcolor="red", bold=True),
-    "noise": Style(color="red"),
-    "nak": Style(color="bright_red", bold=True),
-    "nic": Style(color="magenta"),
-    "unanswered": Style(color="yellow", bold=True),
-    "retransmission": Style(color="dark_orange"),
-    "slow": Style(color="yellow"),
-    "problem": Style(color="yellow"),
-    "command": Style(color="cyan"),
-    "waiting": Style(color="cyan", dim=True),
-    "": Style(),
-}
+# the rows' styles (analyzer.styles), parsed once: rows are drawn on every scroll
+ROW_STYLES = {name: Style.parse(style) for name, style in ROW_STYLE.items()}
 CURSOR = Style(reverse=True)
 MARK = Style(underline=True)
 HEADER = Style(bold=True, color="bright_white", bgcolor="grey23")
@@ -94,11 +83,9 @@ class EventList(ScrollView, can_focus=True):
         ev = self.model.row(row)
         if ev is None:
             return Strip.blank(width)
-        from .model import row_style
-
         cells = self.model.cells(ev, row)
         text = " ".join(_fit(c, w, right=k in (0, 8)) for k, (c, w) in enumerate(zip(cells, self._widths())))
-        style = ROW_STYLES.get(row_style(ev, self.model.slow), Style())
+        style = ROW_STYLES[row_class(ev, self.model.slow)]
         if ev.number in self.model.marks:
             style = style + MARK
         if row == self.cursor:
@@ -244,14 +231,6 @@ class HexView(Static):
             self.show(*shown)
 
 
-TIMELINE_STYLES = {
-    "axis": "dim", "link": "grey50", "gap": "dim italic", "selected": "bold reverse",
-    "checksum": "bold white on red", "noise": "red", "nak": "bright_red", "nic": "magenta",
-    "unanswered": "yellow", "retransmission": "dark_orange", "slow": "yellow", "problem": "yellow",
-    "command": "cyan", "waiting": "cyan", "ack": "green", "result": "bright_green", "": "",
-}
-
-
 class TimelineView(Static):
     """Lanes A and B on a time axis around the selected event; z / Z zoom."""
 
@@ -271,22 +250,21 @@ class TimelineView(Static):
         self.redraw()
 
     def redraw(self) -> None:
-        from .model import row_style
-
         width = max(20, self.size.width - 8)
         if self.center is None:
             self.update(Text("timeline: no timed event selected", style="dim"))
             return
         start = self.center - width * self.scale / 2
         events = self.model.window(start, start + width * self.scale)
-        rows = layout(events, start, self.scale, width, self.selected, lambda e: row_style(e, self.model.slow))
+        slow = self.model.slow
+        rows = layout(events, start, self.scale, width, self.selected, lambda e: row_class(e, slow))
         labels = [f"{self.scale * 1000:g} ms/c"[:7].ljust(7), "A →".ljust(7), "".ljust(7), "B ←".ljust(7)]
         out = Text()
         for label, lane in zip(labels, rows):
             out.append(label + " ", style="bold")
             # runs of one style as one span: the same picture whatever Rich's caches hold
             for style, run in groupby(zip(lane.chars, lane.styles), key=lambda cs: cs[1]):
-                out.append("".join(ch for ch, _ in run), style=TIMELINE_STYLES.get(style, ""))
+                out.append("".join(ch for ch, _ in run), style=TIMELINE_STYLE.get(style, ""))
             out.append("\n")
         self.update(out)
 

@@ -24,13 +24,8 @@ import zlib
 
 import pytest
 
-from tests.conftest import ROOT, frame
+from tests.conftest import BUS, CTL, DEV, ROOT, SOCAT_LOG, frame
 
-CAPTURES = os.path.join(ROOT, "captures")
-SOCAT_LOG = os.path.join(CAPTURES, "demo-socat.log")
-BUS = os.path.join(CAPTURES, "demo-bus.bin")
-CTL = os.path.join(CAPTURES, "demo-ctl.bin")
-DEV = os.path.join(CAPTURES, "demo-dev.bin")
 BT = 10 / 9600
 
 

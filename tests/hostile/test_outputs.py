@@ -195,17 +195,24 @@ def test_live_recording_onto_a_full_disk_stops_it_and_the_tap_goes_on(small_fs):
 def test_tui_feed_recording_onto_a_full_disk_is_said_once_and_the_capture_goes_on(small_fs):
     """The TUI's capture thread (no screen needed): the same as the printing tap."""
     from analyzer.capture import open_live
-    from analyzer.recording import McapRecorder
+    from analyzer.info import CaptureInfo
+    from analyzer.listeners import DoctorListener
+    from analyzer.runner import TapRunner
     from analyzer.tui.feed import Feed
+    from analyzer.writers.mcap import McapWriter
 
     ma, sa, pa = pty_pair()
     mb, sb, pb = pty_pair()
     rec = small_fs / "tui.mcap"
     capture = open_live([pa, pb])
-    recorder = McapRecorder(str(rec), metadata={"tool": "test"}, flush_interval=0.2, lines=capture.lines,
-                            start_time=capture.source.start_time)
+    info = CaptureInfo.of(capture, command="live")
+    recorder = McapWriter(str(rec), info, live=True)
+    recorder.recorder._flush_interval = 0.2   # reach the full disk sooner
     batches = []
-    feed = Feed(capture, batches.append, ports=[pa, pb], recorder=recorder, recording=str(rec))
+    doctor = DoctorListener(tui=True)
+    runner = TapRunner(capture, [recorder, doctor], info=info)
+    feed = Feed(runner, batches.append, doctor, recorder=recorder)
+    runner.add_listener(feed)
 
     def events() -> int:
         return sum(len(b.events) for b in list(batches))

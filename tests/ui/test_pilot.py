@@ -256,7 +256,7 @@ def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
             start = len(app.model.events)
             await settle(pilot, app, lambda a: sum(1 for e in a.model.events[start:]
                                                    if e.kind == "command" and e.status == "ok") >= 5)
-            assert app.feed.capture.swap_lines
+            assert app.feed.runner.swapped
             # the doctor starts again on the new wiring: the swap finding goes, and no
             # wiring error is left. (Timing warnings are not asserted: the simulated
             # controller runs in this process, and on a loaded machine it really is

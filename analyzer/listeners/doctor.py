@@ -1,0 +1,86 @@
+"""The wiring doctor alongside a run (analyzer/doctor.py): fed every event, it
+checks about once a second of capture time (every ``UNTIMED_CHECK_EVERY`` events
+when the capture has no time) and posts each new finding (not the device map)
+once, as a note the printer prints and a recording keeps on ``/log``.
+
+Used by ``live``, ``demo``, ``doctor`` and the TUI (``tui=True``: findings are
+read where the swap key is at hand, which a fix may mention)."""
+
+from __future__ import annotations
+
+from dissectors.event import Event
+
+from ..doctor import INFO, UNTIMED_CHECK_EVERY, Finding, Invocation, WiringDoctor, one_line
+from ..runner import DOCTOR, Listener
+
+
+class DoctorListener(Listener):
+    def __init__(self, every: float = 1.0, *, tui: bool = False) -> None:
+        self.every = every
+        self.tui = tui
+        self.runner = None
+        self.doctor: WiringDoctor | None = None
+        self.findings: list[Finding] = []   # as of the last check
+        self.checked = False                # the last step re-checked the findings
+        self._told: set[tuple[str, str]] = set()
+        self._swapped = False
+
+    def on_start(self, runner) -> None:
+        self.runner = runner
+        self._swapped = runner.swapped
+        self._restart()
+
+    def _restart(self) -> None:
+        runner = self.runner
+        info = runner.info
+        self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
+                                   Invocation(info.inputs, info.live, info.command, self.tui))
+        self._told.clear()
+        self._next: float | None = None
+        self._next_event = UNTIMED_CHECK_EVERY
+
+    def on_events(self, events: list[Event]) -> None:
+        runner = self.runner
+        if runner.swapped != self._swapped:
+            # the lines were swapped while capturing (the TUI's key): a new wiring,
+            # so start again rather than mix evidence from both
+            self._swapped = runner.swapped
+            self._restart()
+        doctor = self.doctor
+        skew_from = runner.skew_from
+        if skew_from is not None and skew_from != doctor.trend_from:
+            doctor.restart_ack_trend(skew_from)
+        self.checked = self._add(doctor, events)
+        for cmd in runner.echoed:
+            doctor.echoed(cmd)
+        t = doctor.last_t
+        if t is None or (self._next is not None and t < self._next):
+            return
+        self._next = t + self.every
+        self._check()
+        self.checked = True
+
+    def _add(self, doctor: WiringDoctor, events: list[Event]) -> bool:
+        add = doctor.add
+        checked = False
+        for ev in events:
+            add(ev)
+            # without time, check by event count, inside the batch: an untimed
+            # capture's batches can be tens of thousands of events long
+            if ev.t is None and doctor.events >= self._next_event:
+                self._next_event = doctor.events + UNTIMED_CHECK_EVERY
+                self._check()
+                checked = True
+        return checked
+
+    def _check(self) -> None:
+        self.findings = self.doctor.findings()
+        for f in self.findings:
+            if f.severity != INFO and f.key not in self._told:
+                self._told.add(f.key)
+                self.runner.post(one_line(f), f.severity, finding=f, origin=DOCTOR)
+
+    def on_stop(self) -> None:
+        if self.doctor is not None:
+            self.findings = self.doctor.findings()   # the last word
+            self.checked = True

@@ -1,0 +1,46 @@
+"""Output formats by suffix, like python-can's ``MESSAGE_WRITERS``.
+
+A writer is a listener of the tap runner (analyzer/runner.py) that writes what it
+hears to a file: ``Writer(path, info, file=...)``, with ``info`` the run's
+``CaptureInfo`` and ``file`` an open binary file it writes into (``convert`` gives
+the temporary file that is renamed onto ``path`` when whole). A new format is one
+module here and one line in ``WRITERS``. Entries name their class as
+``module:Class`` so that a command imports only the writer it uses (MCAP pulls
+in the mcap and zstd packages).
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from typing import BinaryIO
+
+from ..info import CaptureInfo
+from ..outfile import OutputRefused, show
+from ..runner import Listener
+
+WRITERS: dict[str, str] = {
+    ".mcap": "analyzer.writers.mcap:McapWriter",
+    ".jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
+    ".ndjson": "analyzer.writers.jsonl:JsonLinesWriter",
+}
+
+
+def suffixes() -> list[str]:
+    return list(WRITERS)
+
+
+def writer_class(path: str) -> type[Listener]:
+    """The writer for ``path``'s suffix; any other suffix is refused, naming those there are."""
+    suffix = os.path.splitext(path)[1].lower()
+    entry = WRITERS.get(suffix)
+    if entry is None:
+        what = f"unknown output format {show(suffix)!r}" if suffix else "no suffix to choose the output format"
+        raise OutputRefused(f"{show(path)}: {what}; use one of {', '.join(WRITERS)}")
+    module, _, name = entry.partition(":")
+    return getattr(importlib.import_module(module), name)
+
+
+def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None) -> Listener:
+    """A writer of ``path``'s format, writing into ``file`` (or ``path`` itself)."""
+    return writer_class(path)(path, info, file=file)

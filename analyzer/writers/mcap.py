@@ -1,0 +1,94 @@
+"""MCAP output: the recording of a run (analyzer/recording): raw bytes per line,
+events, transactions and the run's notes on ``/log``, with the run's
+``CaptureInfo`` as the ``gimbalscope`` metadata record.
+
+Two ways to record:
+
+- a conversion (``convert``, the default): written into the file given, metadata
+  at the end (a socat log learns its start time as it is read); a write error
+  raises ``RecordingError`` and the caller throws the file away;
+- a live recording (``live=True``: ``--record``, the TUI's record key): written in
+  place and flushed every second, so a killed tap leaves a file that opens;
+  metadata first; optionally in parts (``rotate_bytes``, ``rotate_seconds``). A
+  write error stops the recording, not the tap: it is posted as a note once.
+
+Either way, the file is created when the writer is made: a path that cannot be
+written is an error before the tap starts.
+"""
+
+from __future__ import annotations
+
+from typing import BinaryIO
+
+from dissectors.event import Event
+
+from ..info import CaptureInfo
+from ..recording import McapRecorder, RotatingRecorder
+from ..recording import schemas as S
+from ..runner import ERROR, INFO, RECORDING, WARNING, Listener, Note
+from ..sources import Chunk
+
+# note level -> foxglove.Log level
+LOG_LEVELS = {ERROR: S.ERROR, WARNING: S.WARNING, INFO: S.INFO}
+
+
+class McapWriter(Listener):
+    def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, live: bool = False,
+                 rotate_bytes: int | None = None, rotate_seconds: float | None = None,
+                 metadata: dict[str, str] | None = None) -> None:
+        self.path = path
+        self.info = info
+        self.live = live
+        self._runner = None
+        self._extra = metadata or {}
+        kw = dict(start_time=info.start_time, lines=info.lines)
+        if live:
+            kw.update(metadata=info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
+        else:
+            kw.update(metadata={}, file=file)
+        if rotate_bytes or rotate_seconds:
+            self.recorder = RotatingRecorder(path, max_bytes=rotate_bytes, max_seconds=rotate_seconds, **kw)
+        else:
+            self.recorder = McapRecorder(path, **kw)
+
+    @property
+    def failed(self) -> str | None:
+        return self.recorder.failed
+
+    def summary(self) -> str:
+        return self.recorder.summary()
+
+    # ------------------------------------------------------------ listener
+    def on_start(self, runner) -> None:
+        self._runner = runner
+
+    def on_chunk(self, chunk: Chunk, offset: int) -> None:
+        self.recorder.raw(chunk, offset)
+
+    def on_events(self, events: list[Event]) -> None:
+        event = self.recorder.event
+        for ev in events:
+            event(ev)
+
+    def on_note(self, note: Note) -> None:
+        if note.origin != RECORDING:   # its own word is for people, not for the file
+            self.recorder.note(note.text, note.t, LOG_LEVELS.get(note.level, S.WARNING))
+
+    def on_stop(self) -> None:
+        rec = self.recorder
+        runner = self._runner
+        if self.live:
+            if runner is not None:
+                # time ran on to here: decoding the file expires the timeouts the tap did
+                rec.end_marker(runner.latest)
+            rec.close()
+            if not rec.failed and runner is not None:   # a failure was said when it happened
+                runner.post(rec.summary(), INFO, origin=RECORDING)
+        else:
+            info = runner.info if runner is not None else self.info
+            rec.close(info.metadata(**self._extra))
+
+    def _failed(self, message: str) -> None:
+        """The recording stopped (the file closed as well as it could); the tap goes on."""
+        if self._runner is not None:
+            self._runner.post(message, WARNING, origin=RECORDING)

@@ -1,0 +1,153 @@
+"""Every problem gimbalscope attaches to an event, in one table (like a dissector's
+expert-info fields): an id, the category text JSON Lines shows, a severity and a
+one-line summary for people.
+
+A problem on an event is a ``Problem``: a ``str`` whose text is "category: detail"
+(the JSON Lines contract, docs/decoding.md "Problems"; filters match the text,
+``"bad checksum" in problems``), which also carries its id, so code tests
+``p.id is UNANSWERED_SUPERSEDED`` rather than searching the prose. Some categories
+have sub-cases with ids of their own; they share their category's text.
+
+Make one with ``CHECKSUM.problem("expected 0x12, got 0x34")`` or
+``Event.add_problem(CHECKSUM, detail)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+ERROR = "error"       # the bytes or the exchange are broken
+WARNING = "warning"   # readable, but not what the protocol says
+NOTE = "note"         # worth knowing, nothing wrong on the wire
+
+
+class Problem(str):
+    """A problem's text, "category: detail", carrying its ``id`` (a ``ProblemInfo``).
+
+    Each table entry has its own subclass holding the id as a class attribute, so a
+    problem carries no per-instance dictionary (noise floods make millions)."""
+    __slots__ = ()
+    id: ProblemInfo
+
+    @property
+    def category(self) -> ProblemInfo:
+        """The id of the problem's category (itself when it has no sub-cases)."""
+        return self.id.category
+
+    def __reduce__(self):
+        # by the id's name: unpickled, ``p.id`` is the very table entry again
+        return _restore, (self.id.name, str(self))
+
+
+@dataclass(frozen=True, eq=False)
+class ProblemInfo:
+    """One entry of the table. Compared by identity: ``p.id is CHECKSUM``."""
+    name: str        # the id as code and docs name it, "UNANSWERED_SUPERSEDED"
+    text: str        # the category as JSON Lines writes it, "unanswered"
+    severity: str    # ERROR, WARNING or NOTE
+    summary: str
+    parent: ProblemInfo | None = None   # the category of a sub-case
+    _cls: type = field(init=False, repr=False)     # this entry's Problem subclass
+    _prefix: str = field(init=False, repr=False)  # "category: "
+
+    def __post_init__(self) -> None:
+        cls = type("Problem_" + self.name, (Problem,), {"__slots__": (), "id": self})
+        object.__setattr__(self, "_cls", cls)
+        object.__setattr__(self, "_prefix", self.text + ": ")
+
+    @property
+    def category(self) -> ProblemInfo:
+        return self.parent if self.parent is not None else self
+
+    def problem(self, detail: str = "") -> Problem:
+        """This problem with its detail, as events carry it."""
+        return self._cls(self._prefix + detail if detail else self.text)
+
+    def matches(self, p: str) -> bool:
+        """Is ``p`` this problem, or one of its sub-cases? A plain string (an event
+        built by hand) carries no id: its category text decides, for categories."""
+        info = getattr(p, "id", None)
+        if info is not None:
+            return info is self or info.parent is self
+        return self.parent is None and (p == self.text or p.startswith(self.text + ":"))
+
+    def __reduce__(self):
+        return by_name, (self.name,)
+
+
+TABLE: list[ProblemInfo] = []
+
+
+def _info(name: str, text: str, severity: str, summary: str,
+          parent: ProblemInfo | None = None) -> ProblemInfo:
+    info = ProblemInfo(name, text, severity, summary, parent)
+    TABLE.append(info)
+    return info
+
+
+# ---------------------------------------------------------------- frames (deframer)
+CHECKSUM = _info("CHECKSUM", "bad checksum", ERROR,
+                 "a frame's checksum does not hold, or a broken frame's bytes")
+LENGTH = _info("LENGTH", "bad length byte", ERROR,
+               "the length byte was corrupted: the checksum holds with another length")
+TRUNCATED = _info("TRUNCATED", "truncated frame", ERROR,
+                  "a frame cut short by a silence, the end of the capture or bytes not decoded")
+NOISE = _info("NOISE", "noise", WARNING, "bytes outside any frame")
+
+# ---------------------------------------------------------------- payloads (dissection)
+MALFORMED = _info("MALFORMED", "malformed payload", ERROR,
+                  "a known command or result whose payload does not fit its layout")
+OUT_OF_RANGE = _info("OUT_OF_RANGE", "value out of range", WARNING,
+                     "a field's value is outside what the document allows")
+RESERVED = _info("RESERVED", "reserved code", WARNING,
+                 "a code or bits the document marks reserved")
+LOWERCASE_HEX = _info("LOWERCASE_HEX", "lower-case hex", NOTE,
+                      "numbers must be upper-case ASCII hex (§1.4.1.2)")
+UNKNOWN_COMMAND = _info("UNKNOWN_COMMAND", "unknown command", WARNING,
+                        "a command code that is not in protocol rev 1.9")
+
+# ---------------------------------------------------------------- exchanges (pairing)
+UNANSWERED = _info("UNANSWERED", "unanswered", ERROR, "a command whose ACK/NAK did not come")
+UNANSWERED_TIMEOUT = _info("UNANSWERED_TIMEOUT", UNANSWERED.text, ERROR,
+                           "no ACK/NAK within the ACK timeout (or, untimed, within the event window)",
+                           UNANSWERED)
+UNANSWERED_SUPERSEDED = _info("UNANSWERED_SUPERSEDED", UNANSWERED.text, ERROR,
+                              "the next command came before any ACK/NAK", UNANSWERED)
+UNANSWERED_NO_ACK = _info("UNANSWERED_NO_ACK", UNANSWERED.text, WARNING,
+                          "the result arrived, but no ACK was seen before it", UNANSWERED)
+NO_RESULT = _info("NO_RESULT", "missing result", ERROR, "an ACKed command's due result did not come")
+NO_RESULT_TIMEOUT = _info("NO_RESULT_TIMEOUT", NO_RESULT.text, ERROR,
+                          "no result within the result timeout (or, untimed, within the window)",
+                          NO_RESULT)
+NO_RESULT_SENT_AGAIN = _info("NO_RESULT_SENT_AGAIN", NO_RESULT.text, WARNING,
+                             "the same command was sent again before its result came", NO_RESULT)
+NO_RESULT_OVERFLOW = _info("NO_RESULT_OVERFLOW", NO_RESULT.text, WARNING,
+                           "given up: too many commands were waiting for results", NO_RESULT)
+RETRANSMISSION = _info("RETRANSMISSION", "retransmission", NOTE,
+                       "a command repeating the previous one after it failed")
+ORPHAN = _info("ORPHAN", "orphan", WARNING, "an ACK, NAK, NIC or result that no command awaits")
+LATE = _info("LATE", "late answer", WARNING, "an ACK/NAK that came after the ACK timeout")
+
+BY_NAME: dict[str, ProblemInfo] = {info.name: info for info in TABLE}
+# category text -> the category's entry (sub-cases share their category's text)
+BY_TEXT: dict[str, ProblemInfo] = {info.text: info for info in TABLE if info.parent is None}
+
+
+def by_name(name: str) -> ProblemInfo:
+    return BY_NAME[name]
+
+
+def parse(text: str) -> Problem:
+    """A problem from its text, "category: detail": for problems made as plain
+    strings (by hand, in tests). Raises ``ValueError`` for a category not in the
+    table, so no problem goes without an id."""
+    if isinstance(text, Problem):
+        return text
+    info = BY_TEXT.get(text.split(":", 1)[0])
+    if info is None:
+        raise ValueError(f"{text!r} does not start with a problem category of the table")
+    return info._cls(text)
+
+
+def _restore(name: str, text: str) -> Problem:
+    return BY_NAME[name]._cls(text)
