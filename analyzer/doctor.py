@@ -55,11 +55,6 @@ class Invocation:
     command: str | None = None    # "decode", "live", "demo", "doctor"...; None: not known
     tui: bool = False
 
-    @classmethod
-    def of(cls, capture, tui: bool = False) -> "Invocation":
-        live = bool(getattr(capture.source, "live", False))
-        return cls(tuple(getattr(capture, "inputs", ()) or ()), live, getattr(capture, "command", None), tui)
-
     def swap_fix(self) -> str:
         """How to read the two lines the other way round, here."""
         ins = self.inputs
