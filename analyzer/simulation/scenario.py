@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from dissectors.event import format_address
+
 from .bus import GimbalBus
 from .controller import SimController
 from .gimbal import Faults, GimbalModel
@@ -19,7 +21,7 @@ WIRE_BAUD = 19200          # the wrong-baud fault: the link runs here, the tap l
 FAULTS = {
     "swapped": "the tap's two ports are on the other wires (line A carries the answers)",
     "echo": "the device-side adapter echoes: line B repeats line A",
-    "silent": f"gimbal {'.'.join(map(str, SILENT_DEVICE))} never answers",
+    "silent": f"gimbal {format_address(SILENT_DEVICE)} never answers",
     "dead-line-b": "the device→controller wire is cut: nothing comes back",
     "wrong-baud": f"the link runs at {WIRE_BAUD} baud; the tap listens at --baud (9600)",
     "noisy": "bit errors (1%) and noise bursts on both wires",

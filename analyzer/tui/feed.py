@@ -174,6 +174,11 @@ class Feed(Listener):
 
     def _send(self, done: bool = False, error: str | None = None) -> None:
         path = self.recording
+        rec = self.recorder
+        # a recording in parts: the status bar shows the part being written, and its size
+        current = rec.current_path if rec is not None and path else None
+        if current:
+            path = current
         size = os.path.getsize(path) if path and os.path.exists(path) else 0
         events, self._pending = self._pending, []
         warnings, self._warnings = self._warnings, []

@@ -58,6 +58,15 @@ class McapWriter(Listener):
     def summary(self) -> str:
         return self.recorder.summary()
 
+    @property
+    def current_path(self) -> str | None:
+        """The file being written now: the current part of a recording in parts
+        (None once it has stopped)."""
+        rec = self.recorder
+        if isinstance(rec, RotatingRecorder):
+            return rec.current.path if rec.current is not None else None
+        return None if rec.failed else rec.path
+
     # ------------------------------------------------------------ listener
     def on_start(self, runner) -> None:
         self._runner = runner

@@ -199,3 +199,31 @@ def test_convert_of_an_empty_capture_is_a_whole_recording(tmp_path, lines):
         r = run_cli(*cmd)
         assert r.returncode == 0 and r.stdout.strip() == "" or cmd[0] == "stats", (cmd, r.stdout, r.stderr)
         assert "no bytes in this capture" in r.stderr and "error" not in r.stderr, (cmd, r.stderr)
+
+
+def test_a_recording_in_parts_names_the_part_being_written(tmp_path):
+    """A live recording rotated by size: every part is a whole recording, the writer
+    names the part it writes now (the TUI shows it and its size), and the parts
+    together hold every event."""
+    from analyzer.info import CaptureInfo
+    from analyzer.runner import Listener, TapRunner
+    from analyzer.writers.mcap import McapWriter
+
+    sample = os.path.join(ROOT, "captures", "demo-socat.log")
+    capture = analyzer.open(sample)
+    info = CaptureInfo.of(capture, command="live")
+    writer = McapWriter(str(tmp_path / "rec.mcap"), info, live=True, rotate_bytes=20_000)
+    seen: list[str | None] = []
+
+    class Watch(Listener):
+        def on_events(self, events):
+            seen.append(writer.current_path)
+
+    n = TapRunner(capture, [writer, Watch()], info=info).run()
+    parts = sorted(str(p) for p in tmp_path.glob("rec-*.mcap"))
+    assert len(parts) >= 3 and parts == writer.recorder.paths
+    assert seen[0] == parts[0] and seen[-1] == parts[-1] and set(seen) <= set(parts)
+    assert writer.current_path is None   # stopped
+    for part in parts:
+        assert doctor(part) == []
+    assert sum(1 for p in parts for _ in analyzer.open(p)) >= n - len(parts)
