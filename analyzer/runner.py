@@ -93,8 +93,7 @@ class TapRunner:
                  info: CaptureInfo | None = None) -> None:
         self._capture = capture
         self.info = info or CaptureInfo.of(capture)
-        self.listeners: list[Listener] = list(listeners)
-        self._chunk_hooks = [l.on_chunk for l in self.listeners if _hears_chunks(l)]
+        self._set_listeners(list(listeners))
         self._requests: queue.SimpleQueue = queue.SimpleQueue()
         self._stopping = threading.Event()
         self._warnings_said = 0
@@ -106,10 +105,6 @@ class TapRunner:
     @property
     def lines(self) -> tuple[str, ...]:
         return self._capture.lines
-
-    @property
-    def timed(self) -> bool:
-        return self._capture.timed
 
     @property
     def live(self) -> bool:
@@ -165,8 +160,7 @@ class TapRunner:
         """Feed ``listener`` too: before ``run()``, from the start; while running,
         from the next step (it hears ``on_start`` then)."""
         if not self.running:
-            self.listeners.append(listener)
-            self._chunk_hooks = [l.on_chunk for l in self.listeners if _hears_chunks(l)]
+            self._set_listeners([*self.listeners, listener])
         else:
             self._requests.put(("add", listener))
 
@@ -218,6 +212,12 @@ class TapRunner:
         self._finish(raise_failure=True)
         return self.events
 
+    def _set_listeners(self, listeners: list[Listener]) -> None:
+        """The listeners, and which of them hear chunks (a new list each time: the
+        chunk hook may be iterating the old one)."""
+        self.listeners = listeners
+        self._chunk_hooks = [l.on_chunk for l in listeners if _hears_chunks(l)]
+
     def _fan_chunk(self, chunk: Chunk, offset: int) -> None:
         for hook in self._chunk_hooks:
             hook(chunk, offset)
@@ -246,12 +246,10 @@ class TapRunner:
             elif what == "swap":
                 self._swap()
             elif what == "add" and arg not in self.listeners:
-                self.listeners.append(arg)
-                self._chunk_hooks = [l.on_chunk for l in self.listeners if _hears_chunks(l)]
+                self._set_listeners([*self.listeners, arg])
                 arg.on_start(self)
             elif what == "remove" and arg in self.listeners:
-                self.listeners.remove(arg)
-                self._chunk_hooks = [l.on_chunk for l in self.listeners if _hears_chunks(l)]
+                self._set_listeners([l for l in self.listeners if l is not arg])
                 arg.on_stop()
 
     def _swap(self) -> None:
@@ -273,8 +271,7 @@ class TapRunner:
         if close is not None:
             close()
         self._say_warnings()
-        while not self._requests.empty():   # notes posted as the run ended
-            self._handle_requests()
+        self._handle_requests()   # notes posted as the run ended
         if self.info.start_time is None and cap.source.start_time is not None:
             # a socat log learns its start time from its first line
             self.info = replace(self.info, start_time=cap.source.start_time)

@@ -131,11 +131,12 @@ def open_inputs(args: argparse.Namespace) -> Capture:
 
 
 def run_tap(capture: Capture, command: str, *listeners: Listener, info: CaptureInfo | None = None,
-            notes: bool = True, say_empty: bool = True) -> TapRunner:
+            notes: bool = True, findings: bool = True, say_empty: bool = True) -> TapRunner:
     """Run ``capture`` to its end through ``listeners``, the capture's warnings
-    printed on standard error (``notes``); an empty capture is said (``say_empty``)."""
+    printed on standard error (``notes``), with the doctor's findings among them
+    (``findings``); an empty capture is said (``say_empty``)."""
     if notes:
-        listeners = (*listeners, NotePrinter())
+        listeners = (*listeners, NotePrinter(findings=findings))
     runner = TapRunner(capture, listeners, info=info or CaptureInfo.of(capture, command=command))
     runner.run()
     if say_empty and runner.events == 0:

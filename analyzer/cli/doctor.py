@@ -20,7 +20,7 @@ from dataclasses import replace
 
 from ..capture import Capture, open as open_capture, open_live
 from ..doctor import INFO, Finding, WiringDoctor
-from ..listeners import DoctorListener, NotePrinter
+from ..listeners import DoctorListener
 from ..runner import DOCTOR, Listener, Note
 from ..styles import SEVERITY_STYLE
 from .common import STANDARD_BAUDS, UsageError, add_serial_args, non_negative_float, options_from, positive_float, run_tap
@@ -84,9 +84,8 @@ def examine(capture: Capture, *listeners: Listener, notes: bool = True) -> tuple
     """Run a capture through the doctor (and ``listeners``, which hear each finding
     the first time it shows, checked about once a second of capture time)."""
     doctor = DoctorListener()
-    if notes:   # the capture's warnings; findings are printed by the report (or FindingTeller)
-        listeners = (*listeners, NotePrinter(findings=False))
-    runner = run_tap(capture, "doctor", doctor, *listeners, notes=False, say_empty=False)
+    # findings are printed by the report (or FindingTeller), not as notes
+    runner = run_tap(capture, "doctor", doctor, *listeners, notes=notes, findings=False, say_empty=False)
     return doctor.doctor, runner.events
 
 

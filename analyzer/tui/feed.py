@@ -103,8 +103,9 @@ class Feed(Listener):
     # ------------------------------------------------------------ controls
     @property
     def recording(self) -> str | None:
+        """The file being recorded to now (a recording in parts: the current part)."""
         rec = self.recorder
-        return rec.path if rec is not None and not rec.failed else None
+        return rec.current_path if rec is not None else None
 
     def start_recording(self, path: str) -> None:
         """Record from the next step on; a path that cannot be written is said on screen."""
@@ -174,11 +175,6 @@ class Feed(Listener):
 
     def _send(self, done: bool = False, error: str | None = None) -> None:
         path = self.recording
-        rec = self.recorder
-        # a recording in parts: the status bar shows the part being written, and its size
-        current = rec.current_path if rec is not None and path else None
-        if current:
-            path = current
         size = os.path.getsize(path) if path and os.path.exists(path) else 0
         events, self._pending = self._pending, []
         warnings, self._warnings = self._warnings, []
