@@ -8,12 +8,13 @@
             print(ev.number, ev.command, ev.status, ev.problems)
 """
 
+__version__ = "0.1.0"   # before the imports: analyzer.info reads it while they load
+
 from dissectors.event import Event
 
 from .capture import Capture, Options, open
 from .pairing import Pairer, Timeouts, Transaction
 from .sources import CaptureError
 
-__version__ = "0.1.0"
 __all__ = ["Capture", "CaptureError", "Event", "Options", "Pairer", "Timeouts", "Transaction", "open",
            "__version__"]

@@ -1,9 +1,15 @@
 """From a source to paired events: deframe each line, put the lines in wire order,
 pair. This is what ``analyzer.open`` returns and what every CLI command reads.
 
-- timed two-line input (socat logs): events of both lines merged by wire time;
+- timed two-line input (socat logs, live taps): events of both lines merged by wire time;
 - untimed two-line input (two raw dumps): the lines aligned by ``align``;
 - a single-line tap: one stream, frames classified by pairing.
+
+Time follows one model (docs/time.md): chunk times are placed so that no chunk
+starts before an earlier chunk of its line ended, nor (one clock) before an
+earlier chunk of the other line was read ("Byte order"); skew between the lines
+is corrected only when each line had its own clock ("Clocks"); and the link's
+rate is followed when a rate-set command is ACKed ("Rate changes").
 
 A live source that falls behind marks chunks as not to be decoded (``undecoded``):
 they still reach the ``on_chunk`` hook (the recording), the deframer is told of the gap,
@@ -24,9 +30,12 @@ from dissectors.wire import byte_time
 
 from .align import align
 from .echo import EchoStripper
+from .info import recorded_options
 from .pairing import Pairer, Timeouts
+from .rate import RATE_MARK, RateChange, RateFollower
 from .skew import SkewEstimator
-from .sources import LINE_AB, Chunk, Source, detect
+from .sources import LINE_AB, Chunk, ReadSettings, Source, detect
+from .sources.files import display_name
 
 
 @dataclass
@@ -41,10 +50,20 @@ class Options:
     tune_gc: bool = True                  # raise the GC's young threshold while iterating
     strip_echo: bool = True               # drop line B's copies of line A's frames (analyzer.echo)
     swap_lines: bool = False              # the tap's ports were given the other way round
+    follow_rate: bool = True              # follow ACKed rate-set commands (docs/time.md, "Rate changes")
+    tz: str | None = None                 # the zone of a socat log's stamps (None: this machine's)
+    start_time: float | None = None       # epoch of a raw dump's first byte (None: from its mtime)
+    # the options the user gave (flags, keywords): they win over what a recording
+    # says of itself (docs/time.md, "Recordings"); the rest may be taken from it
+    explicit: frozenset[str] = frozenset()
 
     @property
     def byte_time(self) -> float:
         return byte_time(self.baud, self.data_bits, self.parity, self.stop_bits)
+
+    @property
+    def read_settings(self) -> ReadSettings:
+        return ReadSettings(self.byte_time, tz=self.tz, start_time=self.start_time)
 
 
 class Capture:
@@ -70,6 +89,19 @@ class Capture:
         # earlier ones an older one: latencies are comparable only on one side of it
         self.skew_from: float | None = None
         self._pairer: Pairer | None = None
+        # the link's rate now (docs/time.md, "Rate changes"): it starts at the
+        # options' and follows ACKed rate-set commands
+        self.baud = self.options.baud
+        self._bt = self.options.byte_time
+        source.byte_time = self._bt
+        self.follower = RateFollower(self.baud) if self.options.follow_rate else None
+        self.rate_changes: list[RateChange] = []
+        # rate-set frames seen in the bytes (RATE_MARK) and not yet in the events:
+        # the events are watched only then (a live tap's always: its reads are small)
+        self._marks = 0
+        self._tails: dict[str, int] = {}   # each line's last byte (a mark split between reads)
+        self._watch_all = bool(getattr(source, "live", False))
+        self._deframers: list[Deframer] = []
         # two lines: copies of line A's frames on line B are dropped (analyzer.echo)
         # (timed input only: a copy is told from a real frame by overlapping its original)
         self.echo = (EchoStripper() if tuple(source.lines) == ("A", "B") and source.timed and self.options.strip_echo
@@ -115,9 +147,62 @@ class Capture:
     def timed(self) -> bool:
         return self.source.timed
 
+    @property
+    def clocks(self) -> int:
+        """How many clocks stamped the chunks (docs/time.md, "Clocks")."""
+        return self.source.clocks if self.source.timed else 0
+
     def _deframer(self, line: str) -> Deframer:
+        d = Deframer(line, byte_time=self._bt, frame_gap=self.options.frame_gap)
+        self._deframers.append(d)
+        return d
+
+    # ------------------------------------------------------------ rate changes
+    def _marked(self, line: str, data: bytes) -> None:
+        """Count the rate-set frames ``data`` may hold (on a line commands travel)."""
+        if line != "B":
+            if RATE_MARK in data or (data[0] == 0x43 and self._tails.get(line) == 2):
+                self._marks += 1
+            self._tails[line] = data[-1]
+
+    def _watching(self) -> bool:
+        return self._watch_all or self._marks > 0 or self.follower.busy
+
+    def _follow(self, events: list[Event]) -> list[Event]:
+        """The rate events ``events`` cause (usually none), each with the
+        link's new byte time applied from here on."""
+        follower = self.follower
+        seen = follower.rate_sets
+        out = [self._rate_changed(change) for change in follower.scan(events)]
+        if follower.rate_sets != seen:
+            self._marks = max(0, self._marks - (follower.rate_sets - seen))
+        if follower.unconfirmed:
+            self._unconfirmed()
+        return out
+
+    def _rate_changed(self, change: RateChange) -> Event:
+        """Deframing, the source's back-dating and a live tap's ports all take the
+        new rate at once; the change becomes an event of the output."""
         o = self.options
-        return Deframer(line, byte_time=o.byte_time, frame_gap=o.frame_gap)
+        self.baud = change.baud
+        self._bt = bt = byte_time(change.baud, o.data_bits, o.parity, o.stop_bits)
+        for d in self._deframers:
+            d.set_byte_time(bt)
+        self.source.byte_time = bt
+        set_rate = getattr(self.source, "set_rate", None)
+        if set_rate is not None:   # a live tap: its ports listen at the new rate
+            set_rate(change.baud)
+        self.rate_changes.append(change)
+        if change.taken_back:
+            self._warn(f"the device answered NIC to the rate change at line {change.command.line} byte "
+                       f"{change.command.offset}: back to {change.baud} bps")
+        return change.event()
+
+    def _unconfirmed(self) -> None:
+        for cmd, baud in self.follower.unconfirmed:
+            self._warn(f"a broadcast rate change to {baud} bps (line {cmd.line} byte {cmd.offset}) got no "
+                       f"ACK: decoding stays at {self.baud} bps; if the devices switched, give --baud {baud}")
+        self.follower.unconfirmed.clear()
 
     def __iter__(self) -> Iterator[Event]:
         for batch in self.batches():
@@ -166,13 +251,22 @@ class Capture:
             return self._single()
         if src.timed:
             return self._merged()
-        return align(self._line_batches("A"), self._line_batches("B"))
+        aligned = align(self._line_batches("A"), self._line_batches("B"))
+        return self._followed(aligned) if self.follower is not None else aligned
+
+    def _followed(self, batches: Iterator[list[Event]]) -> Iterator[list[Event]]:
+        """Untimed lines: the rate changes of the aligned stream, each right after
+        the answer that made it (no byte times to change: the event is the news)."""
+        for batch in batches:
+            rates = self._follow(batch) if self._watching() else None
+            yield _inserted(batch, rates) if rates else batch
 
     def _line_batches(self, line: str) -> Iterator[list[Event]]:
         """One line's events, a list per chunk read."""
         d = self._deframer(line)
         feed = d.feed
         tap = self._tap
+        follow = self.follower is not None and line == "A"
         physical = _SWAP[line] if self.swap_lines else line
         for chunk in self.source.line_chunks(physical):
             if not chunk.data:
@@ -181,12 +275,16 @@ class Capture:
                 chunk = Chunk(line, chunk.data, chunk.t)
             if tap is not None:
                 tap(chunk, d.offset)
+            if follow:
+                self._marked(line, chunk.data)
             yield feed(chunk.data, chunk.t)
         yield d.finish()
 
     def _single(self) -> Iterator[list[Event]]:
         d = self._deframer(LINE_AB)
         tap = self._tap
+        place = _Placement(one_clock=True)
+        follow = self.follower is not None
         for chunk in self.source.chunks():
             if not chunk.data:            # an idle tick: time passed
                 if chunk.t is not None:
@@ -199,12 +297,24 @@ class Capture:
                 continue
             if tap is not None:
                 tap(chunk, d.offset)
-            if chunk.t is not None:
-                self._seen(chunk.t + len(chunk.data) * self.options.byte_time)
             if chunk.undecoded:
+                if chunk.t is not None:
+                    self._seen(place.skipped(chunk, self._bt))
                 yield self._skip(d, chunk)
                 continue
-            yield d.feed(chunk.data, chunk.t)
+            if follow:
+                self._marked(LINE_AB, chunk.data)
+            if chunk.t is None:
+                out = d.feed(chunk.data)
+            else:
+                t, bt, end = place(chunk, self._bt)
+                self._seen(end)
+                out = d.feed(chunk.data, t, bt)
+            if follow and out and self._watching():
+                rates = self._follow(out)
+                if rates:
+                    out = _inserted(out, rates)
+            yield out
         yield d.finish()
         self._say_undecoded(final=True)
         yield self._at_end()
@@ -224,12 +334,16 @@ class Capture:
         # release every 32 chunks (per-chunk bookkeeping was most of the cost of a
         # file); a live tap releases every 4, so the screen stays close to the wire
         release_every = 4 if live else 32
-        margin = chunks_ahead * self.options.byte_time + 0.05
-        merge = _Merge(self)
+        merge = _Merge(self, skew=self.clocks == 2)
         arrived = merge.arrived
+        # the common case, a chunk's events with no skew to apply and no rate-set
+        # near, is merge.arrived inline: this loop runs once per chunk
+        plain = merge.estimator is None
+        follow = self.follower is not None
         tap = self._tap
         since_release = 0
-        byte_time = self.options.byte_time
+        # one clock: a chunk read later started after the earlier ones were read
+        place = _Placement(one_clock=self.clocks < 2)
         for chunk in self.source.chunks():
             data = chunk.data
             if not data:                  # an idle tick: time passed
@@ -239,21 +353,33 @@ class Capture:
                 self._now, self._tick = chunk.t, True
                 for d in deframers.values():
                     arrived(d.idle(chunk.t))
+                t = chunk.t
             else:
                 if self.swap_lines:
                     chunk = Chunk(_SWAP[chunk.line], data, chunk.t)
+                if follow:
+                    self._marked(chunk.line, data)
                 d = deframers[chunk.line]
                 if tap is not None:
                     tap(chunk, d.offset)
-                end = chunk.t + len(data) * byte_time
+                if chunk.undecoded:
+                    end = place.skipped(chunk, self._bt)
+                    t = chunk.t
+                    arrived(self._skip(d, chunk))
+                else:
+                    t, bt, end = place(chunk, self._bt)
+                    events = d.feed(data, t, bt)
+                    if plain and not (follow and self._watching()):
+                        merge.held += events
+                    else:
+                        arrived(events)
                 if self._latest is None or end > self._latest:
                     self._latest = end
-                arrived(self._skip(d, chunk) if chunk.undecoded else d.feed(data, chunk.t))
             since_release += 1
             if not self._tick and since_release < release_every:
                 continue
             since_release = 0
-            mark = chunk.t - margin
+            mark = t - (chunks_ahead * self._bt + 0.05)
             for d in deframers.values():
                 p = d.pending_since
                 if p is not None and p < mark:
@@ -316,29 +442,40 @@ _SKEW_KINDS = frozenset((COMMAND, ACK, NAK))
 
 class _Merge:
     """The events of a timed two-line capture not yet released (``Capture._merged``),
-    in arrival order, with line B's skew correction applied as it is learnt.
+    in arrival order, with line B's skew correction applied as it is learnt
+    (``skew``: only when each line had its own clock, docs/time.md "Clocks") and
+    the link's rate changes found as they arrive.
 
     They are sorted by time (stably: ties keep arrival order) at each release.
     They arrive nearly in time order, so the sort is a merge of a few runs:
     cheaper than a heap operation per event."""
 
-    def __init__(self, capture: "Capture") -> None:
+    def __init__(self, capture: "Capture", skew: bool) -> None:
         self.capture = capture
         self.held: list[Event] = []
-        self.estimator = SkewEstimator()
+        self.estimator = SkewEstimator() if skew else None
         self.reported = 0.0   # the correction last said
 
     def arrived(self, events: list[Event]) -> None:
+        if not events:
+            return
         cap = self.capture
         held = self.held
-        observe = self.estimator.observe
-        for ev in events:
-            # only commands and ACK/NAK bytes inform the estimate; it sees the times as read
-            if ev.kind in _SKEW_KINDS and observe(ev):
-                self._learnt(ev)
-            if cap.skew and ev.line == "B":
-                _shift(ev, cap.skew)
-            held.append(ev)
+        if self.estimator is None:
+            held += events
+        else:
+            observe = self.estimator.observe
+            for ev in events:
+                # only commands and ACK/NAK bytes inform the estimate; it sees the times as read
+                if ev.kind in _SKEW_KINDS and observe(ev):
+                    self._learnt(ev)
+                if cap.skew and ev.line == "B":
+                    _shift(ev, cap.skew)
+                held.append(ev)
+        if cap.follower is not None and cap._watching():
+            rates = cap._follow(events)
+            if rates:
+                held += rates   # after their answers: sorting by time keeps them there
 
     def _learnt(self, ev: Event) -> None:
         """The skew estimate moved. Line B events held back move with it, but only
@@ -372,6 +509,68 @@ class _Merge:
         ready = held[:k]
         del held[:k]
         return ready
+
+
+class _Placement:
+    """Where each timed chunk goes on the time line (docs/time.md, "Byte order").
+
+    A chunk's time says when its first byte started, derived from when it was
+    read (read time less its length in byte times). Bytes can arrive faster than
+    the rate allows (ptys, adapters that buffer), and then that start lies before
+    bytes already placed. Within one line, byte order is the truth: a chunk never
+    starts before the previous chunk of its line was read. With one clock (a socat
+    log, a single-line tap) it also never starts before an earlier chunk of the
+    other line was read: socat forwards a command before the device can answer it,
+    so an answer is never placed before its command. A chunk moved later keeps
+    its read time as its end: its bytes are spread over the time they really took.
+    """
+
+    __slots__ = ("one_clock", "line_end", "last_read")
+
+    def __init__(self, one_clock: bool) -> None:
+        self.one_clock = one_clock
+        self.line_end: dict[str, float] = {}   # each line's last read time
+        self.last_read = float("-inf")         # the latest read time of any line
+
+    def __call__(self, chunk: Chunk, bt: float) -> tuple[float, float | None, float]:
+        """(start, byte time of its bytes or None for the line's, end)."""
+        t = chunk.t
+        n = len(chunk.data)
+        read = t + n * bt
+        floor = self.line_end.get(chunk.line, t)
+        if self.one_clock and self.last_read > floor:
+            floor = self.last_read
+        if t >= floor:
+            self._read(chunk.line, read)
+            return t, None, read
+        end = read if read > floor else floor
+        self._read(chunk.line, end)
+        return floor, (end - floor) / n, end
+
+    def skipped(self, chunk: Chunk, bt: float) -> float:
+        """A chunk that is not decoded still moves its line on; its end."""
+        end = max(chunk.t + len(chunk.data) * bt, self.line_end.get(chunk.line, chunk.t))
+        self._read(chunk.line, end)
+        return end
+
+    def _read(self, line: str, end: float) -> None:
+        self.line_end[line] = end
+        if end > self.last_read:
+            self.last_read = end
+
+
+def _inserted(events: list[Event], rates: list[Event]) -> list[Event]:
+    """``events`` with each rate event right after the answer that made it (it
+    sits one byte past the answer on the answer's line)."""
+    out = list(events)
+    for rate in rates:
+        at = len(out)
+        for k, ev in enumerate(out):
+            if ev.line == rate.line and ev.offset + len(ev.raw) == rate.offset and ev.kind != "rate":
+                at = k + 1
+                break
+        out.insert(at, rate)
+    return out
 
 
 def _bytes(n: int) -> str:
@@ -414,7 +613,6 @@ def open_live(ports: list[str], options: Options | None = None,
     options = options or Options()
     tap = SerialTap(ports, baud=options.baud, data_bits=options.data_bits, parity=options.parity,
                     stop_bits=options.stop_bits)
-    tap.byte_time = options.byte_time
     capture = Capture(tap, options, on_warning)
     capture.inputs = tuple(ports)
     return capture
@@ -422,13 +620,25 @@ def open_live(ports: list[str], options: Options | None = None,
 
 def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,
          **kw) -> Capture:
-    """Open a capture: one socat log, one raw single-line dump, or two raw dumps
-    (line A then line B). Keyword arguments set ``Options`` fields (``baud=19200``).
+    """Open a capture: one socat log, one raw single-line dump, two raw dumps
+    (line A then line B), or MCAP recordings of one tap (one, or its parts).
+    Keyword arguments set ``Options`` fields (``baud=19200``); those given, like
+    the ``explicit`` fields of ``options``, win over what a recording says of its
+    own settings, and each that differs from it is said once (a warning).
     Raises ``CaptureError`` with a one-line message for anything unreadable."""
     if options is None:
-        timeouts = kw.pop("timeouts", None) or Timeouts()
-        options = Options(timeouts=timeouts, **kw)
-    source = detect(list(paths), options.byte_time)
+        timeouts = kw.pop("timeouts", None)
+        given = frozenset(kw) | ({"ack_timeout", "result_timeout", "timeouts"} if timeouts else frozenset())
+        options = Options(timeouts=timeouts or Timeouts(), explicit=given, **kw)
+    source = detect(list(paths), options.read_settings)
+    try:
+        name = paths[0] if len(paths) == 1 else f"{paths[0]} (and {len(paths) - 1} more)"
+        options, said = recorded_options(options, source, display_name(name))
+    except BaseException:
+        source.close()
+        raise
+    for message in said:
+        source.warn_later(message)
     capture = Capture(source, options, on_warning)
     capture.inputs = tuple(paths)
     return capture

@@ -17,6 +17,9 @@ line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 - controller: commands before the previous ACK, retries sooner than the device
   answers, giving up on IX before it ends (it takes up to a minute);
 - slow answers: a device's ACK latency drifting up;
+- rate change: a device that stops answering once the link's rate was changed
+  (Table 4; docs/time.md, "Rate changes"): it ACKed and did not switch, or
+  cannot talk at the new rate;
 - device map: who answers, what each NICs (its firmware), D? identity.
 """
 
@@ -27,7 +30,8 @@ from dataclasses import dataclass, field
 from statistics import median
 
 from dissectors import dissect_command
-from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, NO_ACK, NO_RESULT, OK, RESULT, ST_NAK, ST_NIC, Event
+from dissectors.event import (ACK, COMMAND, NAK, NIC, NOISE, NO_ACK, NO_RESULT, OK, RATE, RESULT, ST_NAK, ST_NIC,
+                              Event)
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
 from .stats import Latency
@@ -204,6 +208,10 @@ class _Device:
         self.first_acks: list[float] = []                  # the first ACK latencies (up to 200)
         self.last_acks: deque[float] = deque(maxlen=200)   # and the latest
         self.unanswered = _Tally()
+        # since the link's latest rate change: commands to it, and its answers
+        self.commands_since_rate = 0
+        self.answers_since_rate = 0
+        self.unanswered_since_rate = _Tally()
 
 
 class WiringDoctor:
@@ -245,6 +253,8 @@ class WiringDoctor:
         self.ack_latency = Latency()               # every device's ACKs: the 95th percentile
         self.trend_from = float("-inf")            # ACKs before this time are left out of the trend
         self._first_seen: dict[tuple[str, str], tuple[float | None, int]] = {}   # (time, events seen)
+        # the link's latest rate change: (rate event, the rate-set command's number, its device)
+        self.rate_change: tuple[Event, int | None, str | None] | None = None
 
     # ------------------------------------------------------------------ input
     def add(self, ev: Event) -> None:
@@ -260,6 +270,9 @@ class WiringDoctor:
         n = len(ev.raw)
         line.bytes += n
         kind = ev.kind
+        if kind == RATE:
+            self._rate(ev)
+            return
         if kind == NOISE:
             line.noise_bytes += n
             line.noise_runs += 1
@@ -283,6 +296,14 @@ class WiringDoctor:
             self._command(ev)
         elif kind in (ACK, NAK, NIC, RESULT):
             self._answer(ev)
+
+    def _rate(self, ev: Event) -> None:
+        """The link changed rate: every device starts over at the new rate."""
+        txn = ev.transaction
+        self.rate_change = (ev, ev.request, txn.device if txn is not None else None)
+        for dev in self.devices.values():
+            dev.commands_since_rate = dev.answers_since_rate = 0
+            dev.unanswered_since_rate = _Tally()
 
     def echoed(self, command: Event) -> None:
         """The capture stripped line B's copy of this command (an echo)."""
@@ -320,8 +341,10 @@ class WiringDoctor:
 
     def _count(self, dev: _Device, ev: Event) -> None:
         dev.commands += 1
+        dev.commands_since_rate += 1
         if ev.status == NO_ACK:
             dev.unanswered.add(ev.number)
+            dev.unanswered_since_rate.add(ev.number)
         elif ev.status == ST_NIC and ev.command and len(dev.nic) < _MAX_NIC:
             dev.nic.add(ev.command)
 
@@ -388,6 +411,7 @@ class WiringDoctor:
         if dev is None:
             return     # an address past _MAX_DEVICES
         dev.answers += 1
+        dev.answers_since_rate += 1
         dev.lines.add(ev.line)
         if ev.kind == ACK and ev.latency is not None and ev.t is not None:
             if ev.t >= self.trend_from:   # measured under the current skew correction
@@ -404,14 +428,18 @@ class WiringDoctor:
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
         out: list[Finding] = []
-        for rule in (self._swapped, self._garbled, self._echo, self._silent, self._noisy, self._controller,
-                     self._slow, self._device_map):
+        for rule in (self._swapped, self._garbled, self._echo, self._silent_after_rate, self._silent, self._noisy,
+                     self._controller, self._slow, self._device_map):
             found = rule()
             # a root cause explains its consequences: swapped or garbled lines leave
             # every command unanswered and look like a controller in trouble
             if out and any(f.code in ("lines_swapped", "wrong_baud") for f in out):
                 found = [f for f in found if f.code not in ("dead_link", "silent_device", "nak_burst", "noisy_link")
                          and not f.code.startswith("controller_")]
+            after_rate = {f.subject for f in out if f.code == "silent_after_rate"}
+            if after_rate:   # the rate change explains the silence, and what the controller does about it
+                found = [f for f in found if not (f.code in ("silent_device", "dead_link")
+                                                  or f.code.startswith("controller_") or f.subject in after_rate)]
             if any(f.code == "dead_link" for f in out):
                 found = [f for f in found if not f.code.startswith("controller_")]
             if any(f.code == "controller_no_wait" for f in out):
@@ -505,6 +533,30 @@ class WiringDoctor:
                     f"{d.commands} commands to {addr}, no ACK or NAK, while {', '.join(answering)} answer",
                     f"check {addr}'s power and address setting, and its drop on the bus",
                     d.unanswered.evidence(), addr))
+        return out
+
+    def _silent_after_rate(self) -> list[Finding]:
+        """Devices that answered before the link's rate changed and not since."""
+        if self.rate_change is None:
+            return []
+        rate, number, target = self.rate_change
+        baud, before = rate.fields.get("baud"), rate.fields.get("previous_baud")
+        at = f"#{number}" if number is not None else f"#{rate.number}"
+        out = []
+        for addr, d in sorted(self.devices.items()):
+            if d.commands_since_rate < 3 or d.answers_since_rate or d.answers == 0:
+                continue
+            if addr == target:
+                title = f"{addr} was set to {baud} bps at {at} and has not answered since"
+            else:
+                title = f"{addr} has not answered since the link was set to {baud} bps at {at}"
+            out.append(Finding(
+                "silent_after_rate", ERROR, title,
+                f"{d.commands_since_rate} commands to {addr} since the rate change, no ACK or NAK; it answered "
+                f"{d.answers - d.answers_since_rate} times at {before} bps before",
+                f"the device ACKed the change but does not talk at {baud} bps: ask it for its highest rate (B?) "
+                f"at {before} bps, set the controller back to {before} bps, or power-cycle the device (it "
+                f"starts at its default rate)", d.unanswered_since_rate.evidence(), addr))
         return out
 
     def _noisy(self) -> list[Finding]:

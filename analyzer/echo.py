@@ -32,7 +32,7 @@ class EchoStripper:
         for ev in (*self._recent, *commands):
             by_raw.setdefault(ev.raw, []).append(ev)
         self._recent.extend(commands)
-        out = []
+        copies: set[int] | None = None   # ids of the copies; usually none, and the batch is kept as it is
         window = self.window
         for ev in batch:
             if ev.kind == RESULT and ev.line == "B" and ev.t is not None:
@@ -44,9 +44,12 @@ class EchoStripper:
                         self.count += 1
                         if len(self._echoed) < 10_000:   # nobody taking them: keep memory flat
                             self._echoed.append(match)
-                        continue
-            out.append(ev)
-        return out
+                        if copies is None:
+                            copies = set()
+                        copies.add(id(ev))
+        if copies is None:
+            return batch
+        return [ev for ev in batch if id(ev) not in copies]
 
     def take_echoed(self) -> list[Event]:
         """The commands whose copies were dropped since the last call (the doctor's evidence)."""

@@ -2,13 +2,16 @@
 
 Built from the capture when a run starts (``TapRunner``); recordings write it as
 their ``gimbalscope`` metadata record, the doctor names the inputs in its advice,
-the TUI names the ports.
+the TUI names the ports. Reading a recording takes its settings back from that
+record (``recorded_options``; docs/time.md, "Recordings").
 """
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import socket
+import uuid
 from dataclasses import dataclass, field
 
 from . import __version__
@@ -32,20 +35,44 @@ class CaptureInfo:
     command: str | None = None         # the subcommand reading it ("live", "convert", …)
     tool: str = f"gimbalscope {__version__}"
     host: str = field(default_factory=socket.gethostname)
+    # how the capture is decoded (docs/time.md): what reading its recording needs again
+    clocks: int = 0                    # 0 untimed, 1 one clock, 2 a clock per line
+    time_origin: str = ""              # where start_time came from
+    swap_lines: bool = False
+    follow_rate: bool = True
+    ack_timeout: float = 0.5
+    result_timeout: float = 2.0
+    timeouts: tuple[tuple[str, float], ...] = ()   # per command id
+    frame_gap: float | None = None
+    tz: str | None = None
+    # one id per run, shared by every part of a recording in parts: how parts are
+    # told to belong together (a recording of a recording keeps its source's)
+    capture_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+    input_per_line: bool = False       # each input is one line (two raw dumps, two ports)
 
     @classmethod
     def of(cls, capture, command: str | None = None) -> "CaptureInfo":
         o = capture.options
         src = capture.source
+        recorded = getattr(src, "metadata", None) or {}
+        t = o.timeouts
+        kw = {}
+        if recorded.get("capture_id"):
+            kw["capture_id"] = recorded["capture_id"]
         return cls(inputs=tuple(capture.inputs), lines=tuple(capture.lines), source=src.description,
                    live=bool(getattr(src, "live", False)), timed=bool(capture.timed), baud=o.baud,
                    data_bits=o.data_bits, parity=o.parity, stop_bits=o.stop_bits,
-                   start_time=src.start_time, command=command)
+                   start_time=src.start_time, command=command, clocks=capture.clocks,
+                   time_origin=getattr(src, "time_origin", "") or recorded.get("time_origin", ""),
+                   swap_lines=o.swap_lines, follow_rate=o.follow_rate, ack_timeout=t.ack,
+                   result_timeout=t.result, timeouts=tuple(sorted(t.result_by_command.items())),
+                   frame_gap=o.frame_gap, tz=o.tz, input_per_line=getattr(src, "input_per_line", False), **kw)
 
     @property
     def line_names(self) -> dict[str, str]:
-        """Each line's port or file as given (a socat log or a recording names both)."""
-        if len(self.inputs) == len(self.lines):
+        """Each line's port or file as given (a socat log or a recording names both,
+        and so do the parts of a recording)."""
+        if len(self.inputs) == len(self.lines) and self.input_per_line:
             return dict(zip(self.lines, self.inputs))
         return {line: self.source for line in self.lines}
 
@@ -63,12 +90,23 @@ class CaptureInfo:
             "line_roles": ", ".join(f"{line}={names[line]} ({LINE_ROLES.get(line, '?')})" for line in self.lines),
             "baud": str(self.baud), "data_bits": str(self.data_bits), "parity": self.parity,
             "stop_bits": f"{self.stop_bits:g}", "timed": "yes" if self.timed else "no",
-            "start_time": _iso(self.start_time),
+            "start_time": _iso(self.start_time), "time_origin": self.time_origin or "unknown",
+            "clocks": str(self.clocks), "capture_id": self.capture_id,
+            "swap_lines": _yes(self.swap_lines), "follow_rate": _yes(self.follow_rate),
+            "ack_timeout": f"{self.ack_timeout:g}", "result_timeout": f"{self.result_timeout:g}",
+            "timeouts": ",".join(f"{cmd}={secs:g}" for cmd, secs in self.timeouts),
+            "frame_gap": "default" if self.frame_gap is None else f"{self.frame_gap:g}",
         }
+        if self.tz is not None:
+            meta["tz"] = self.tz
         if self.live:
             meta["ports"] = " ".join(self.inputs)
         meta.update(extra)
         return meta
+
+
+def _yes(flag: bool) -> str:
+    return "yes" if flag else "no"
 
 
 def _iso(epoch: float | None) -> str:
@@ -76,3 +114,120 @@ def _iso(epoch: float | None) -> str:
     if epoch is None:
         return "unknown"
     return datetime.datetime.fromtimestamp(epoch, datetime.timezone.utc).isoformat(timespec="microseconds")
+
+
+# ---------------------------------------------------------------- reading back
+# Options a recording's metadata gives back, with the flag that overrides each.
+FLAGS = {"baud": "--baud", "data_bits": "--data-bits", "parity": "--parity", "stop_bits": "--stop-bits",
+         "ack_timeout": "--ack-timeout", "result_timeout": "--result-timeout", "timeouts": "--timeout",
+         "frame_gap": "--frame-gap", "follow_rate": "--no-follow-rate"}
+
+
+class BadMetadata(ValueError):
+    """A value of the metadata record that cannot be what it says."""
+
+
+def _number(meta: dict[str, str], key: str, kind: type, ok) -> float:
+    try:
+        value = kind(meta[key])
+    except (TypeError, ValueError):
+        raise BadMetadata(f"{key}={meta[key]!r}") from None
+    if value != value or value in (float("inf"), float("-inf")) or not ok(value):
+        raise BadMetadata(f"{key}={meta[key]!r}")
+    return value
+
+
+def _per_command(text: str) -> dict[str, float]:
+    per = {}
+    for item in text.split(","):
+        cmd, _, secs = item.partition("=")
+        try:
+            value = float(secs)
+        except ValueError:
+            raise BadMetadata(f"timeouts={text!r}") from None
+        if not cmd or not 0 < value < float("inf"):
+            raise BadMetadata(f"timeouts={text!r}")
+        per[cmd] = value
+    return per
+
+
+def recorded_settings(meta: dict[str, str]) -> dict:
+    """The decoding settings ``meta`` holds (only those present), checked:
+    ``BadMetadata`` names the first value that cannot be."""
+    out: dict = {}
+    if "baud" in meta:
+        out["baud"] = _number(meta, "baud", int, lambda v: v > 0)
+    if "data_bits" in meta:
+        out["data_bits"] = _number(meta, "data_bits", int, lambda v: v in (5, 6, 7, 8))
+    if "parity" in meta:
+        if meta["parity"] not in ("N", "E", "O", "M", "S"):
+            raise BadMetadata(f"parity={meta['parity']!r}")
+        out["parity"] = meta["parity"]
+    if "stop_bits" in meta:
+        out["stop_bits"] = _number(meta, "stop_bits", float, lambda v: v in (1, 1.5, 2))
+    for key in ("ack_timeout", "result_timeout"):
+        if key in meta:
+            out[key] = _number(meta, key, float, lambda v: v > 0)
+    if meta.get("frame_gap") not in (None, "default"):
+        out["frame_gap"] = _number(meta, "frame_gap", float, lambda v: v > 0)
+    if meta.get("timeouts"):
+        out["timeouts"] = _per_command(meta["timeouts"])
+    if "follow_rate" in meta:
+        if meta["follow_rate"] not in ("yes", "no"):
+            raise BadMetadata(f"follow_rate={meta['follow_rate']!r}")
+        out["follow_rate"] = meta["follow_rate"] == "yes"
+    return out
+
+
+def recorded_options(options, source, name: str):
+    """The options to decode a recording with: what its metadata says, except
+    where the user gave an option explicitly (``options.explicit``). Returns
+    (options, messages): one message per explicit option that differs from the
+    recording, or one saying the metadata is missing or garbled (then the options
+    given and the defaults stand). Sources without metadata (logs, dumps, ports)
+    get ``options`` back unchanged."""
+    if not hasattr(source, "metadata"):
+        return options, []
+    meta = source.metadata
+    if meta is None:
+        why = getattr(source, "metadata_problem", None) or "it has no gimbalscope metadata record"
+        return options, [f"{name}: {why}: decoding with the options given and the defaults "
+                         f"({_described(options)})"]
+    try:
+        recorded = recorded_settings(meta)
+    except BadMetadata as e:
+        return options, [f"{name}: the gimbalscope metadata is garbled ({e}): decoding with the options "
+                         f"given and the defaults ({_described(options)})"]
+    t = options.timeouts
+    current = {"baud": options.baud, "data_bits": options.data_bits, "parity": options.parity,
+               "stop_bits": options.stop_bits, "ack_timeout": t.ack, "result_timeout": t.result,
+               "timeouts": t.result_by_command, "frame_gap": options.frame_gap,
+               "follow_rate": options.follow_rate}
+    changes: dict = {}
+    said: list[str] = []
+    for key, value in recorded.items():
+        if key not in options.explicit:
+            changes[key] = value
+        elif current[key] != value:
+            said.append(f"{FLAGS[key]} {_shown(key, current[key])} overrides the {_shown(key, value)} "
+                        f"{name} was recorded with")
+    timeouts = dataclasses.replace(
+        t, ack=changes.pop("ack_timeout", t.ack), result=changes.pop("result_timeout", t.result),
+        result_by_command=changes.pop("timeouts", t.result_by_command))
+    return dataclasses.replace(options, timeouts=timeouts, **changes), said
+
+
+def _shown(key: str, value) -> str:
+    if key == "follow_rate":
+        return "(rate changes followed)" if value else "(rate kept fixed)"
+    if key == "timeouts":
+        return ",".join(f"{c}={s:g}" for c, s in sorted(value.items())) or "(none)"
+    if key == "frame_gap" and value is None:
+        return "(default)"
+    if isinstance(value, float):
+        return f"{value:g}"
+    return str(value)
+
+
+def _described(options) -> str:
+    return f"{options.baud} {options.data_bits}{options.parity}{options.stop_bits:g}"

@@ -16,7 +16,7 @@ from .outfile import OutputError, reason, write_error
 
 from dissectors import summarize
 from dissectors.wire import payload_text
-from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
+from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RATE, RESULT, Event
 from dissectors.problems import MALFORMED
 
 from .styles import ROW_STYLE, row_class
@@ -160,7 +160,7 @@ def direction(ev: Event) -> str:
         return "←"
     if ev.kind == COMMAND:
         return "→"
-    return "·" if ev.kind == NOISE else "←"
+    return "·" if ev.kind in (NOISE, RATE) else "←"
 
 
 def summary(ev: Event) -> str:
@@ -179,6 +179,9 @@ def summary(ev: Event) -> str:
         return f"'{payload_text(ev.payload)}'"
     if kind in (ACK, NAK, NIC):
         return kind.upper()
+    if kind == RATE:
+        f = ev.fields
+        return f"link rate {f.get('previous_baud')} → {f.get('baud')} bps"
     preview = ev.raw[:12].hex(" ")
     n = len(ev.raw)
     return f"{n} byte{'' if n == 1 else 's'}: {preview}{' …' if n > 12 else ''}"

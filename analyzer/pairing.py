@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from dissectors import apply_command, dissect_command, dissect_result, result_fits
 from dissectors.commands import DUE, OPTIONAL
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, RESULT, Event, format_address,
+    ACK, COMMAND, FRAME, NAK, NIC, RATE, RESULT, Event, format_address,
     NO_ACK, NO_RESULT, OK, PENDING, ST_NAK, ST_NIC,
 )
 from dissectors.problems import (
@@ -179,6 +179,15 @@ class Pairer:
             number += 1
             ev.number = number
             kind = ev.kind
+            if kind == RATE:
+                # the link's rate changed after an ACK (analyzer.rate): it answers
+                # nothing, and must not settle an ACK whose NIC may follow it
+                self._rate(ev)
+                if held:
+                    held.append(ev)
+                else:
+                    append(ev)
+                continue
             if self._provisional is not None and kind != NIC:
                 self._settle()
             if ev.t is not None:
@@ -212,6 +221,14 @@ class Pairer:
                 append(held.popleft())
         self._number = number
         return out
+
+    def _rate(self, ev: Event) -> None:
+        """A rate event belongs to the rate-set command whose ACK came just before it."""
+        prev = self._prev
+        if prev is not None and prev.kind in (ACK, NIC) and prev.transaction is not None:
+            ev.transaction = prev.transaction
+            ev.request = prev.request
+            ev.txn = prev.txn
 
     def _give_up(self, cmd: Event) -> None:
         """Untimed input: ``cmd`` has waited behind ``untimed_hold`` events; its

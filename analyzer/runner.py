@@ -126,6 +126,13 @@ class TapRunner:
         return self._capture.skew_from
 
     @property
+    def serial_settings(self) -> str:
+        """The link's settings now, ``115200 8N1``: the rate follows rate changes
+        (docs/time.md, "Rate changes")."""
+        o = self._capture.options
+        return f"{self._capture.baud} {o.data_bits}{o.parity}{o.stop_bits:g}"
+
+    @property
     def swapped(self) -> bool:
         """The lines are read the other way round (``--swap-lines``, the TUI's key)."""
         return self._capture.swap_lines

@@ -18,7 +18,7 @@ from collections import Counter
 from typing import Any
 
 from dissectors.event import (
-    ACK, COMMAND, NAK, NIC, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, PENDING, NO_ACK, NO_RESULT, RESULT,
+    ACK, COMMAND, NAK, NIC, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, PENDING, NO_ACK, NO_RESULT, RATE, RESULT,
     STATUSES, Event,
 )
 
@@ -116,6 +116,7 @@ class Stats:
         self.checksum_errors = 0     # events with a checksum problem (frames and broken frames)
         self.broken_frames = 0       # of which: noise events, a frame broken beyond reading
         self.orphans = 0
+        self.rate_changes: list[dict[str, Any]] = []   # the link's rate changes (docs/time.md)
         self.first_t: float | None = None
         self.last_t: float | None = None
         self.by_command: dict[str, Counts] = {}
@@ -137,6 +138,9 @@ class Stats:
             checksum = checksum or cat in _CHECKSUM_PROBLEMS
         if checksum:
             self.checksum_errors += 1
+        if kind == RATE:
+            self.rate_changes.append({"number": ev.number, "t": ev.t, "request": ev.request, **ev.fields})
+            return
         if kind == NOISE:
             self.noise_bytes += len(ev.raw)
             self.noise_kinds[cats[0] if cats else P_NOISE] += 1
@@ -195,6 +199,7 @@ class Stats:
             "noise": {"events": self.kinds.get(NOISE, 0), "bytes": self.noise_bytes,
                       "by_problem": dict(self.noise_kinds.most_common())},
             "orphans": self.orphans,
+            "rate_changes": self.rate_changes,
             "problems": dict(self.problems.most_common()),
             "by_command": {k: v.to_dict() for k, v in sorted(self.by_command.items())},
             "by_device": {k: v.to_dict() for k, v in sorted(self.by_device.items())},

@@ -9,7 +9,7 @@ problems are coloured by their severity (``SEVERITY_STYLE``).
 
 from __future__ import annotations
 
-from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RESULT, ST_NAK, ST_NIC, Event
+from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RATE, RESULT, ST_NAK, ST_NIC, Event
 from dissectors.problems import ERROR, NOTE, WARNING
 
 # A finding that only informs (the device map): the doctor's third severity. The
@@ -36,6 +36,7 @@ ROW_COMMAND = COMMAND
 ROW_WAITING = "waiting"
 ROW_ACK = ACK
 ROW_RESULT = RESULT
+ROW_RATE = RATE
 ROW_PLAIN = ""
 
 ROW_STYLE = {
@@ -51,6 +52,7 @@ ROW_STYLE = {
     ROW_WAITING: "dim cyan",
     ROW_ACK: "green",
     ROW_RESULT: "bright_green",
+    ROW_RATE: "bold blue",
     ROW_PLAIN: "",
 }
 
@@ -75,6 +77,7 @@ LEGEND = (
     ("other problem", ROW_PROBLEM),
     ("command", ROW_COMMAND),
     ("waiting", ROW_WAITING),
+    ("rate change", ROW_RATE),
 )
 
 
@@ -92,6 +95,8 @@ def row_class(ev: Event, slow: float | None = None) -> str:
     kind = ev.kind
     if kind == NOISE:
         return ROW_NOISE
+    if kind == RATE:
+        return ROW_RATE
     status = ev.status
     if kind == NAK or status == ST_NAK:
         return ROW_NAK

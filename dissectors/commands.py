@@ -325,4 +325,5 @@ BY_ID = {c.id: c for c in COMMANDS}
 DERIVED_FIELDS = ("baud", "max_baud", "azimuth_not_initialized", "elevation_not_initialized", "motors_off",
                   "error", "azimuth_errors", "elevation_errors", "azimuth_status", "elevation_status",
                   "relays_on", "azimuth_ccw_ok", "azimuth_cw_ok", "elevation_ccw_ok", "elevation_cw_ok",
-                  "azimuth_initialized", "elevation_initialized", "data_length")
+                  "azimuth_initialized", "elevation_initialized", "data_length",
+                  "previous_baud")   # a rate event's (docs/time.md): the rate before it

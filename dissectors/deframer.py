@@ -78,11 +78,13 @@ class Deframer:
         self.frame_kind = _FRAME_KIND.get(line, FRAME)
         self.simple = (line != "A") if simple_responses is None else simple_responses
         self.byte_time = byte_time
+        self._default_gap = frame_gap is None
         self.frame_gap = frame_gap if frame_gap is not None else max(0.05, 20 * byte_time)
         self._buf = b""
         self._base = 0              # absolute offset of _buf[0]
         self._seg_off: list[int] = []   # absolute offset where each timed chunk starts
         self._seg_t: list[float] = []   # wire time of that chunk's first byte
+        self._seg_bt: list[float] = []  # and the time each of its bytes took (its byte time)
         self._gaps: list[int] = []      # absolute offsets preceded by a silence > frame_gap
         self._last_end: float | None = None  # wire time the last fed byte ended
         self._noise_start: int | None = None  # absolute offset of a pending noise run
@@ -103,10 +105,22 @@ class Deframer:
             return None
         return self._time_at(self._base)
 
-    def feed(self, data: bytes, t: float | None = None) -> list[Event]:
-        """Add bytes; ``t`` is the wire time the first of them started (None: untimed)."""
+    def set_byte_time(self, byte_time: float) -> None:
+        """The line's rate changed (a rate-set command was ACKed): bytes fed from
+        now on take ``byte_time`` each; bytes already fed keep theirs. The default
+        frame gap follows the rate; one given explicitly stays."""
+        if self._default_gap:
+            self.frame_gap = max(0.05, 20 * byte_time)
+        self.byte_time = byte_time
+
+    def feed(self, data: bytes, t: float | None = None, byte_time: float | None = None) -> list[Event]:
+        """Add bytes; ``t`` is the wire time the first of them started (None: untimed).
+        ``byte_time``: what each of these bytes took, when not the line's byte time
+        (bytes that came faster than the rate allows are spread over the time they
+        took, so they end when they were read: docs/time.md, "Byte order")."""
         if not data:
             return []
+        bt = self.byte_time if byte_time is None else byte_time
         if t is not None:
             self._timed = True
             last = self._last_end
@@ -115,14 +129,14 @@ class Deframer:
                     # Bytes on one line cannot overlap, so the estimate was early; but
                     # bytes cannot end after they were read either (t + n·bt is the read
                     # time): move at most two byte times, then allow the overlap.
-                    t = min(last, t + 2 * self.byte_time)
+                    t = min(last, t + 2 * bt)
                 elif t - last > self.frame_gap and self._buf:
                     self._gaps.append(self._base + len(self._buf))
-            self._last_end = t + len(data) * self.byte_time
+            self._last_end = t + len(data) * bt
         if not self._buf and self._noise_start is None and not self._gaps:
             # the usual read: one whole token with nothing pending becomes its event
             # directly (no segment bookkeeping: nothing of it stays buffered)
-            ev = self._whole(bytes(data), t)
+            ev = self._whole(bytes(data), t, bt)
             if ev is not None:
                 self._base += len(data)
                 self._resume = self._base
@@ -130,10 +144,11 @@ class Deframer:
         if t is not None:
             self._seg_off.append(self._base + len(self._buf))
             self._seg_t.append(t)
+            self._seg_bt.append(bt)
         self._buf = self._buf + data if self._buf else bytes(data)
         return self._parse(final=False)
 
-    def _whole(self, data: bytes, t: float | None) -> Event | None:
+    def _whole(self, data: bytes, t: float | None, bt: float) -> Event | None:
         """The event ``_parse`` would make of ``data`` when it is exactly one valid
         frame or one simple response byte, else None."""
         n = len(data)
@@ -142,12 +157,12 @@ class Deframer:
             kind = _SIMPLE.get(data[0]) if self.simple else None
             if kind is None:
                 return None
-            return Event(self.line, base, kind, data, t, None if t is None else t + self.byte_time)
+            return Event(self.line, base, kind, data, t, None if t is None else t + bt)
         if data[0] != START or n < 8 or (data[5] or 256) + 7 != n:
             return None
         if sum(data[1:-1]) & 0xFF != data[-1] or data.find(START, 6, n - 1) >= 0:
             return None
-        t1 = None if t is None else t + n * self.byte_time
+        t1 = None if t is None else t + n * bt
         return Event(self.line, base, self.frame_kind, data, t, t1,
                      (data[1], data[2], data[3]), data[4], data[6:-1], True)
 
@@ -177,6 +192,7 @@ class Deframer:
         self._noise_start = None
         self._seg_off.clear()
         self._seg_t.clear()
+        self._seg_bt.clear()
         self._gaps.clear()
         self._last_end = None   # the skipped bytes ended later; the next chunk's time stands
         return out
@@ -188,7 +204,14 @@ class Deframer:
         k = bisect_right(self._seg_off, off) - 1
         if k < 0:
             k = 0
-        return self._seg_t[k] + (off - self._seg_off[k]) * self.byte_time
+        return self._seg_t[k] + (off - self._seg_off[k]) * self._seg_bt[k]
+
+    def _end_at(self, off: int) -> float:
+        """When the byte at ``off`` ended (timed input)."""
+        k = bisect_right(self._seg_off, off) - 1
+        if k < 0:
+            k = 0
+        return self._seg_t[k] + (off - self._seg_off[k] + 1) * self._seg_bt[k]
 
     def _gap_in(self, start: int, end: int) -> int | None:
         """First gap boundary g with start < g < end (absolute offsets), if any."""
@@ -207,7 +230,7 @@ class Deframer:
         raw = self._buf[start - base:end - base]
         if self._timed:
             t0 = self._time_at(start)
-            t1 = self._time_at(end - 1) + self.byte_time
+            t1 = self._end_at(end - 1)
             ev = Event(self.line, start, kind, raw, t0, t1)
         else:
             ev = Event(self.line, start, kind, raw)
@@ -270,7 +293,7 @@ class Deframer:
                         raw = buf[i:end]
                         if timed:
                             t0 = self._time_at(base + i)
-                            t1 = self._time_at(base + end - 1) + self.byte_time
+                            t1 = self._end_at(base + end - 1)
                         else:
                             t0 = t1 = None
                         append(Event(line, base + i, frame_kind, raw, t0, t1,
@@ -289,7 +312,7 @@ class Deframer:
                     self._flush_noise(out, abs_i)
                 if timed:
                     t = self._time_at(abs_i)
-                    append(Event(line, abs_i, kind, buf[i:i + 1], t, t + self.byte_time))
+                    append(Event(line, abs_i, kind, buf[i:i + 1], t, self._end_at(abs_i)))
                 else:
                     append(Event(line, abs_i, kind, buf[i:i + 1]))
                 i += 1
@@ -318,6 +341,7 @@ class Deframer:
             if k > 0:
                 del self._seg_off[:k]
                 del self._seg_t[:k]
+                del self._seg_bt[:k]
         if self._gaps:
             k = bisect_right(self._gaps, base)
             if k:

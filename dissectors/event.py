@@ -21,6 +21,9 @@ NAK = "nak"
 NIC = "nic"
 NOISE = "noise"
 FRAME = "frame"
+# Not seen on the wire: the link's rate changed here (a rate-set command, Table 4,
+# was ACKed; docs/time.md, "Rate changes"). Its fields say from and to what.
+RATE = "rate"
 
 # Command statuses (set by pairing).
 OK = "ok"
@@ -32,7 +35,7 @@ PENDING = "pending"
 
 # Every kind an event has once paired, and every status a command ends with, in
 # the order JSON Schemas, filters and reports list them.
-KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE)
+KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE, RATE)
 STATUSES = (OK, ST_NAK, ST_NIC, NO_ACK, NO_RESULT, PENDING)
 
 # Problem categories as text: every problem string starts with one of these,

@@ -78,23 +78,74 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
     add_serial_args(p)
 
 
-def add_serial_args(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("serial settings (byte timing; the port settings of a live tap)")
-    g.add_argument("--baud", type=positive_int, default=9600, help="line rate in bit/s (default 9600, §1.5.1)")
-    g.add_argument("--data-bits", type=int, default=8, choices=(5, 6, 7, 8))
-    g.add_argument("--parity", default="N", choices=("N", "E", "O", "M", "S"))
-    g.add_argument("--stop-bits", type=float, default=1, choices=(1, 1.5, 2))
-    g.add_argument("--swap-lines", action="store_true",
+# The serial and pairing options and their defaults. The parser's defaults are None,
+# so an option given on the command line is told from one left at its default: a
+# recording's own settings win over defaults, and lose to options given
+# (docs/time.md, "Recordings").
+DEFAULTS = {"baud": 9600, "data_bits": 8, "parity": "N", "stop_bits": 1.0, "ack_timeout": 0.5,
+            "result_timeout": 2.0, "frame_gap": None, "follow_rate": True, "swap_lines": False}
+
+
+def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
+    """The serial, time and pairing options; ``files``: the command reads capture
+    files (the time options are about files)."""
+    g = p.add_argument_group("serial settings (byte timing; the port settings of a live tap; a recording "
+                             "brings its own, which these override)")
+    g.add_argument("--baud", type=positive_int, help="line rate in bit/s at the start (default 9600, §1.5.1)")
+    g.add_argument("--data-bits", type=int, choices=(5, 6, 7, 8), help="(default 8)")
+    g.add_argument("--parity", choices=("N", "E", "O", "M", "S"), help="(default N)")
+    g.add_argument("--stop-bits", type=float, choices=(1, 1.5, 2), help="(default 1)")
+    g.add_argument("--swap-lines", action="store_const", const=True,
                    help="the two ports/inputs were given the other way round: read the first as line B")
-    t = p.add_argument_group("pairing")
-    t.add_argument("--ack-timeout", type=positive_float, default=0.5, metavar="S",
+    g.add_argument("--no-follow-rate", dest="follow_rate", action="store_const", const=False,
+                   help="keep the rate fixed when the controller changes it (C0-C7, Table 4; by default "
+                        "decoding and a live tap follow an ACKed change)")
+    if files:
+        add_time_args(p)
+    _pairing_args(p.add_argument_group("pairing"))
+
+
+def add_time_args(p: argparse.ArgumentParser) -> None:
+    c = p.add_argument_group("time (docs/time.md)")
+    c.add_argument("--tz", type=zone, metavar="ZONE",
+                   help="the time zone a socat log's stamps are in, e.g. Europe/Berlin (default: this machine's)")
+    c.add_argument("--start-time", type=iso_time, metavar="ISO8601",
+                   help="when a raw dump's first byte was sent, e.g. 2026-11-21T08:35:52Z (default: the "
+                        "file's modification time less the capture's duration at the baud rate)")
+
+
+def _pairing_args(t) -> None:
+    t.add_argument("--ack-timeout", type=positive_float, metavar="S",
                    help="seconds a command waits for its ACK/NAK (default 0.5)")
-    t.add_argument("--result-timeout", type=positive_float, default=2.0, metavar="S",
+    t.add_argument("--result-timeout", type=positive_float, metavar="S",
                    help="seconds an ACKed command waits for its result (default 2; IX 60)")
-    t.add_argument("--timeout", action="append", type=command_timeout, default=[], metavar="CMD=S",
+    t.add_argument("--timeout", action="append", type=command_timeout, metavar="CMD=S",
                    help="result timeout for one command id, e.g. --timeout IX=90 (repeatable)")
-    t.add_argument("--frame-gap", type=positive_float, default=None, metavar="S",
+    t.add_argument("--frame-gap", type=positive_float, metavar="S",
                    help="silence that cuts a frame short (default max(50 ms, 20 characters))")
+
+
+def zone(text: str) -> str:
+    """``--tz``: an IANA zone name this machine knows."""
+    from ..sources.socatlog import time_zone
+    try:
+        time_zone(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return text
+
+
+def iso_time(text: str) -> float:
+    """``--start-time``: ISO 8601, as epoch seconds; without a zone it is UTC."""
+    import datetime
+    try:
+        when = datetime.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected an ISO 8601 time such as "
+                                         "2026-11-21T08:35:52Z") from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=datetime.timezone.utc)
+    return when.timestamp()
 
 
 def add_filter_arg(p: argparse.ArgumentParser, help: str) -> None:
@@ -112,13 +163,23 @@ def build_filter(expr: str | None) -> Predicate | None:
 
 
 def options_from(args: argparse.Namespace) -> Options:
-    """The capture options; the numbers were checked by their argparse types."""
-    if args.baud not in STANDARD_BAUDS:
-        print(f"gimbalscope: warning: --baud {args.baud} is not a rate of §1.5.1 "
+    """The capture options; the numbers were checked by their argparse types.
+    ``Options.explicit`` names those given on the command line."""
+    given = {key for key in DEFAULTS if getattr(args, key, None) is not None}
+    per_command = getattr(args, "timeout", None) or []
+    if per_command:
+        given.add("timeouts")
+    value = {key: getattr(args, key) if key in given else default for key, default in DEFAULTS.items()}
+    if "baud" in given and value["baud"] not in STANDARD_BAUDS:
+        print(f"gimbalscope: warning: --baud {value['baud']} is not a rate of §1.5.1 "
               f"({', '.join(map(str, STANDARD_BAUDS))})", file=sys.stderr)
-    timeouts = Timeouts(ack=args.ack_timeout, result=args.result_timeout, result_by_command=dict(args.timeout))
-    return Options(baud=args.baud, data_bits=args.data_bits, parity=args.parity, stop_bits=args.stop_bits,
-                   frame_gap=args.frame_gap, timeouts=timeouts, swap_lines=getattr(args, "swap_lines", False))
+    timeouts = Timeouts(ack=value["ack_timeout"], result=value["result_timeout"],
+                        result_by_command=dict(per_command))
+    return Options(baud=value["baud"], data_bits=value["data_bits"], parity=value["parity"],
+                   stop_bits=value["stop_bits"], frame_gap=value["frame_gap"], timeouts=timeouts,
+                   swap_lines=value["swap_lines"], follow_rate=value["follow_rate"],
+                   tz=getattr(args, "tz", None), start_time=getattr(args, "start_time", None),
+                   explicit=frozenset(given))
 
 
 def warn(msg: str) -> None:

@@ -34,14 +34,30 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="a clean installation with this fault (repeatable): " + fault_help())
     add_tui_args(p)
     p.add_argument("--seed", type=non_negative_int, default=5, help="the faults' random seed (default 5)")
+    p.add_argument("--rate-change", type=rate_change, metavar="RATE@S",
+                   help="the controller switches the link to RATE (a rate of Table 4) after S seconds, "
+                        "e.g. 115200@3; the tap follows it (docs/time.md, \"Rate changes\")")
     p.set_defaults(run=run)
+
+
+def rate_change(text: str) -> tuple[int, float]:
+    """``--rate-change 115200@3``."""
+    from ..simulation.controller import rate_set_payload
+    rate, sep, seconds = text.partition("@")
+    try:
+        value = (int(rate), non_negative_float(seconds) if sep else 2.0)
+        rate_set_payload(value[0])
+    except (ValueError, argparse.ArgumentTypeError) as e:
+        raise argparse.ArgumentTypeError(f"{text!r}: {e}" if isinstance(e, ValueError) and rate.isdigit()
+                                         else f"{text!r}: expected RATE@SECONDS, e.g. 115200@3") from None
+    return value
 
 
 def run(args: argparse.Namespace) -> int:
     if args.seconds is None:
         args.seconds = 0.0 if wants_tui(args) else 12.0
     try:
-        site = scenario.build(set(args.fault), clean=args.clean, seed=args.seed)
+        site = scenario.build(set(args.fault), clean=args.clean, seed=args.seed, rate_change=args.rate_change)
     except ValueError as e:
         raise UsageError(f"--fault: {e}") from None
     capture = open_live(list(site.link.tap_ports), Options())

@@ -33,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "line B device→controller). Ports are device names or pyserial URLs "
                                    "(socket://, rfc2217://, loop://). The tap never writes to the line.")
     p.add_argument("ports", nargs="+", metavar="PORT", help="one or two ports")
-    add_serial_args(p)
+    add_serial_args(p, files=False)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events (everything is still recorded)")
     add_record_args(p)

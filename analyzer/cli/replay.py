@@ -29,8 +29,9 @@ def speed(text: str) -> float:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="play an MCAP recording back at its pace",
-                       description="Replay an MCAP recording: events at their recorded pace.")
-    p.add_argument("inputs", nargs=1, metavar="FILE.mcap")
+                       description="Replay an MCAP recording, or the parts of one (in any order): events "
+                                   "at their recorded pace.")
+    p.add_argument("inputs", nargs="+", metavar="FILE.mcap")
     add_serial_args(p)
     p.add_argument("--speed", type=speed, default=1.0, metavar="N|max", help="pace factor (default 1) or max")
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
@@ -43,8 +44,9 @@ def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
     from ..sources.mcapfile import McapSource   # here: every other command starts without it
+    from ..sources.mcapparts import McapPartsSource
 
-    if not isinstance(capture.source, McapSource):
+    if not isinstance(capture.source, (McapSource, McapPartsSource)):
         raise UsageError(f"{show(args.inputs[0])}: replay takes an MCAP recording (use decode for other captures)")
     if wants_tui(args):
         from ..tui.run import open_tui

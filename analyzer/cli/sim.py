@@ -1,6 +1,10 @@
 """``gimbalscope sim``: simulated gimbals answering on a serial port per the
 protocol (ACK/NAK/NIC §1.4.2, results §1.4.3 with Table 3 addressing, values per
-Tables 4-18), with protocol faults to inject."""
+Tables 4-18), with protocol faults to inject.
+
+The gimbals follow rate changes (Table 4): ``C0``…``C7`` is ACKed at the old rate,
+then the port runs at the new one (docs/time.md, "Rate changes"); ``--ignore-rate``
+is firmware that ACKs and keeps its rate."""
 
 from __future__ import annotations
 
@@ -31,11 +35,14 @@ def parse_address(text: str) -> tuple[int, int, int]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sim", help="simulated gimbals on a serial port",
-                       description="Answer as gimbals on PORT (a device name or pyserial URL).")
+                       description="Answer as gimbals on PORT (a device name or pyserial URL). They follow "
+                                   "rate changes (C0..C7, Table 4): the ACK goes at the old rate, then the "
+                                   "port runs at the new one.")
     p.add_argument("port", metavar="PORT")
     p.add_argument("--address", action="append", default=[], type=parse_address, metavar="G.P.D",
                    help="a gimbal's address (repeatable; default 1.1.1)")
-    p.add_argument("--baud", type=positive_int, default=9600, help="line rate in bit/s (default 9600)")
+    p.add_argument("--baud", type=positive_int, default=9600,
+                   help="line rate in bit/s at the start (default 9600); rate-set commands change it")
     p.add_argument("--drop-acks", type=probability, default=0.0, metavar="P", help="probability of not answering")
     p.add_argument("--late", type=probability, default=0.0, metavar="P",
                    help="probability of answering 0.8 s late")
@@ -43,6 +50,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="how long IX takes (default 3)")
     p.add_argument("--wrong-baud", type=positive_int, metavar="RATE",
                    help="fault: answer at RATE while the line runs at --baud (a misconfigured gimbal)")
+    p.add_argument("--ignore-rate", action="store_true",
+                   help="fault: ACK a rate change (C0..C7) but keep the old rate, so nothing is answered after")
     p.set_defaults(run=run)
 
 
@@ -58,7 +67,7 @@ def start_line(addresses: list[tuple[int, int, int]], args: argparse.Namespace) 
 
 def run(args: argparse.Namespace) -> int:
     addresses = args.address or [DEFAULT_ADDRESS]
-    faults = Faults(drop_ack=args.drop_acks, late=args.late)
+    faults = Faults(drop_ack=args.drop_acks, late=args.late, ignore_rate=args.ignore_rate)
     gimbals = [GimbalModel(a, serial=f"SN{k:04d}", init_seconds=args.init_seconds, faults=faults)
                for k, a in enumerate(addresses, 1)]
     from ..sources.serialport import open_port

@@ -98,6 +98,9 @@ def render(data: dict) -> None:
                   f"retransmissions {data['retransmissions']}  orphans {data['orphans']}")
     console.print(f"checksum errors {data['checksum_errors']}{_broken(data)}  "
                   f"noise {data['noise']['events']} events / {data['noise']['bytes']} bytes{_noise_kinds(data)}")
+    for rate in data.get("rate_changes", ()):
+        by = f" (ACKed rate-set #{rate['request']})" if rate.get("request") is not None else ""
+        console.print(f"link rate {rate['previous_baud']} → {rate['baud']} bps at #{rate['number']}{by}")
     if data["problems"]:
         console.print("problems (events per category): "
                       + ", ".join(f"{k} {v}" for k, v in data["problems"].items()))

@@ -6,9 +6,10 @@ chunks. With ``flush_interval`` set (live taps), the chunk in progress is closed
 and written at least that often, so a killed tap loses at most about that much;
 such a file has no summary and still reads (``analyzer.sources.mcapfile``).
 
-Message times (log_time): ``start_time`` plus the event's wire time. Inputs
-without time get ``start_time`` plus the event number in nanoseconds, which keeps
-their order.
+Message times (log_time) are capture times (docs/time.md, "Message times"):
+``start_time`` plus the wire time. Inputs without time (raw dumps) get wire times
+from their byte offsets at the baud rate (``wire_byte_time``): as if each line's
+bytes followed each other without pause, which keeps every line in order.
 
 Write errors (a full disk) go one of two ways. Without ``on_error`` (convert,
 writing into a temporary file) they raise ``RecordingError``, one line, and the
@@ -135,8 +136,9 @@ class McapRecorder:
     def __init__(self, path: str, *, metadata: dict[str, str], start_time: float | None = None,
                  flush_interval: float | None = None, clock: Callable[[], float] = time.monotonic,
                  lines: tuple[str, ...] = ("A", "B"), file: BinaryIO | None = None,
-                 on_error: Callable[[str], None] | None = None) -> None:
+                 on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None) -> None:
         self.path = path
+        self.wire_byte_time = wire_byte_time   # untimed input: seconds per byte offset
         self.on_error = on_error
         self.failed: str | None = None   # why the recording stopped early
         self.removed = False             # stopped with nothing kept: the file is gone
@@ -196,7 +198,7 @@ class McapRecorder:
                 return
             self._raw_channels[chunk.line] = channel
         self._seq += 1
-        ts = self._time_ns(chunk.t, self._seq)
+        ts = self._time_ns(chunk.t, self._seq, offset)
         self._write(channel, ts, {"line": chunk.line, "offset": offset, "t": chunk.t, "data": chunk.data.hex()})
 
     def end_marker(self, t: float | None) -> None:
@@ -216,7 +218,7 @@ class McapRecorder:
                                     "file": "", "line": 0})
 
     def event(self, ev: Event) -> None:
-        ts = self._time_ns(ev.t, ev.number)
+        ts = self._time_ns(ev.t, ev.number, ev.offset)
         self._write(self._events, ts, ev.to_dict())
         if ev.problems:
             self._write(self._log, ts, self._log_message(ev, ts))
@@ -266,8 +268,10 @@ class McapRecorder:
         self.close()
 
     # ------------------------------------------------------------- internals
-    def _time_ns(self, t: float | None, order: int) -> int:
+    def _time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
         if t is None:
+            if offset is not None and self.wire_byte_time is not None:
+                return self.start_ns + int(round(offset * self.wire_byte_time * 1e9))
             return self.start_ns + order
         return self.start_ns + int(round(t * 1e9))
 

@@ -5,7 +5,9 @@ A handler takes the gimbal (``GimbalModel``) and the command's decoded fields,
 changes the gimbal's state and returns its answer: None when the ACK says it all,
 the result payload (sent at once) or ``(extra delay, result payload)``. Teaching
 the simulator a command is one entry here; a command without an entry is
-acknowledged and nothing more (data rate, camera power, focus and zoom speeds).
+acknowledged and nothing more (camera power, focus and zoom speeds). The data
+rate (``C0``…``C7``, Table 4) changes the gimbal's UART, not its state: the model
+says so with its ACK and the bus switches the port (docs/time.md, "Rate changes").
 """
 
 from __future__ import annotations

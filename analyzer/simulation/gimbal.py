@@ -7,6 +7,11 @@ Table 3). Position moves toward go-to targets at the set rates (Tables 11-15);
 presets, software limits, gains, lens, relays, device ID, and IX initialisation
 that takes seconds (Table 9) are modelled. What each command does is one entry of
 the table in ``answers``.
+
+Rate-set commands (``C0``…``C7``, Table 4) are ACKed at the gimbal's rate and the
+ACK says which rate it listens at once that ACK has left (``Reply.baud``); the
+bus it is installed on reconfigures the port (docs/time.md, "Rate changes").
+``C8``…``CF`` are reserved: ACK then NIC, and the rate stays.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ class Faults:
     late_by: float = 0.8
     silent: bool = False       # never answers (no power, wrong address setting, a cut drop)
     drift: float = 0.0         # seconds of extra answer delay per second of uptime (a device slowing down)
+    ignore_rate: bool = False  # ACKs a rate-set but keeps its rate (firmware that does not switch)
     seed: int = 1
     rng: random.Random = field(init=False)
 
@@ -45,12 +51,14 @@ class Faults:
 class Reply:
     at: float        # when to send (host time)
     data: bytes
+    baud: int | None = None   # the ACK of a rate-set: the rate the gimbal listens at once it has left
 
 
 class GimbalModel:
     def __init__(self, address: tuple[int, int, int], *, name: str = "GS-SIM PT-200", serial: str = "SN0001",
                  init_seconds: float = 3.0, answer_delay: float = 0.003, faults: Faults | None = None) -> None:
         self.address = address
+        self.baud = 9600                     # its UART's rate: the bus it is installed on sets its port's
         self.name, self.serial = name, serial
         self.init_seconds = init_seconds
         self.answer_delay = answer_delay
@@ -118,12 +126,19 @@ class GimbalModel:
                 p.category is MALFORMED or p.category is RESERVED for p in decoded.problems):
             return [Reply(at, bytes([ACK, NIC]))]
         result = self._execute(cid, decoded.fields)
-        replies = [Reply(at, bytes([ACK]))]
+        replies = [Reply(at, bytes([ACK]), baud=self._rate_after(cid, decoded.fields))]
         if result is not None:
             delay, payload = result
             g, p, d = self.address
             replies.append(Reply(at + 0.001 + delay, build_frame((ev.src, p, d), g, payload)))
         return replies
+
+    def _rate_after(self, cid: str, v: dict) -> int | None:
+        """The rate this gimbal listens at once its ACK has left, for a rate-set
+        (``C0``…``C7``; the reserved codes were NICed before); None for the rest."""
+        if cid != "C":
+            return None
+        return self.baud if self.faults.ignore_rate else v["baud"]
 
     def _execute(self, cid: str, v: dict) -> tuple[float, str] | None:
         """Apply a command (``answers.ANSWERS``); return (extra delay, result

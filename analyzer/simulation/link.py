@@ -3,9 +3,17 @@ gimbals' port, and a tap port per direction (line A controller→device, line B
 device→controller), plus optional wire faults per direction.
 
 Pseudo-terminals move bytes instantly; a wire does not. The link paces each
-direction at the baud rate: bytes are delivered (to the far end and to the tap)
-when their last bit would have arrived, so answers cannot overtake commands.
+direction at its sender's rate: bytes are delivered (to the far end and to the
+tap) when their last bit would have arrived, so answers cannot overtake commands.
 Taps are written without blocking: a tap that stops reading never stalls the link.
+
+Every port's rate is what its user set on its pty (termios, which both ends of a
+pty share): a rate-set command (spec Table 4) that the controller and the gimbals
+obey moves each direction to the new rate when they reconfigure their ports (the
+product's model of rate changes: docs/time.md, "Rate changes"). A listener whose
+port runs at another rate than the sender's reads what a UART at its rate makes of
+the bits (``uart.misread``), be it a tap left at the old rate or a gimbal that did
+not switch.
 """
 
 from __future__ import annotations
@@ -21,6 +29,8 @@ import threading
 import time
 import tty
 from dataclasses import dataclass, field
+
+from .uart import misread
 
 
 @dataclass
@@ -45,10 +55,15 @@ class WireFaults:
         return data
 
 
+_SPEEDS = {getattr(termios, f"B{r}"): r for r in (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)}
+_SPEED_CODES = {r: code for code, r in _SPEEDS.items()}
+
+
 class _Pty:
-    def __init__(self) -> None:
+    def __init__(self, baud: int) -> None:
         self.master, self.slave = os.openpty()
         tty.setraw(self.slave)
+        _set_pty_baud(self.slave, baud)   # the rate of a port its user never configures
         self.path = os.ttyname(self.slave)
 
     def shut(self) -> None:
@@ -68,8 +83,8 @@ class Wiring:
     wire_baud: int | None = None   # the link really runs at this rate; taps at another rate misread
 
 
-def _tap_baud(fd: int) -> int | None:
-    """The rate the tap opened its end of a pty at (termios is shared by both ends)."""
+def _pty_baud(fd: int) -> int | None:
+    """The rate the user of a pty set on its end (termios is shared by both ends)."""
     try:
         speed = termios.tcgetattr(fd)[5]
     except termios.error:
@@ -77,7 +92,27 @@ def _tap_baud(fd: int) -> int | None:
     return _SPEEDS.get(speed)
 
 
-_SPEEDS = {getattr(termios, f"B{r}"): r for r in (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)}
+def _set_pty_baud(fd: int, baud: int) -> None:
+    attrs = termios.tcgetattr(fd)
+    attrs[4] = attrs[5] = _SPEED_CODES.get(baud, termios.B9600)
+    termios.tcsetattr(fd, termios.TCSANOW, attrs)
+
+
+@dataclass
+class _Route:
+    """One direction: who hears what the sender's pty carries."""
+    peer: int            # the far end's pty
+    tap: int             # the tap port of this direction
+    faults: WireFaults
+
+
+@dataclass(order=True)
+class _Due:
+    at: float            # when the last bit arrives
+    seq: int
+    sender: int = field(compare=False)
+    data: bytes = field(compare=False)
+    baud: int = field(compare=False)   # the rate it was sent at
 
 
 class VirtualLink:
@@ -86,14 +121,15 @@ class VirtualLink:
         self.wiring = wiring or Wiring()
         if self.wiring.wire_baud:
             baud = self.wiring.wire_baud
-        self.baud = baud
+        self.baud = baud                 # the rate every port starts at
         self.byte_time = 10 / baud
-        self.ctl, self.dev, self.tap_a, self.tap_b = _Pty(), _Pty(), _Pty(), _Pty()
+        self.ctl, self.dev, self.tap_a, self.tap_b = (_Pty(baud) for _ in range(4))
         for p in (self.tap_a, self.tap_b):
             fl = fcntl.fcntl(p.master, fcntl.F_GETFL)
             fcntl.fcntl(p.master, fcntl.F_SETFL, fl | os.O_NONBLOCK)
         self.a_faults = a_faults or WireFaults()
         self.b_faults = b_faults or WireFaults()
+        self._rates: dict[int, int] = {}   # each pty's last known rate (read from termios)
         self._halt = threading.Event()
         self._thread = threading.Thread(target=self._forward, daemon=True, name="virtual-link")
         self._thread.start()
@@ -112,48 +148,67 @@ class VirtualLink:
             return self.tap_b.path, self.tap_a.path
         return self.tap_a.path, self.tap_b.path
 
+    def _rate_now(self, fd: int) -> int:
+        """A pty's rate, read again from termios (once per read or delivery, never per byte)."""
+        rate = _pty_baud(fd) or self._rates.get(fd, self.baud)
+        self._rates[fd] = rate
+        return rate
+
     def _forward(self) -> None:
-        routes = {self.ctl.master: (self.dev.master, self.tap_a.master, self.a_faults),
-                  self.dev.master: (self.ctl.master, self.tap_b.master, self.b_faults)}
+        routes = {self.ctl.master: _Route(self.dev.master, self.tap_a.master, self.a_faults),
+                  self.dev.master: _Route(self.ctl.master, self.tap_b.master, self.b_faults)}
         busy_until = {fd: 0.0 for fd in routes}       # each direction's wire is busy until then
-        due: list[tuple[float, int, int, bytes]] = []  # (delivery time, seq, from fd, data)
+        due: list[_Due] = []
         seq = 0
         while not self._halt.is_set():
-            wait = 0.05 if not due else max(0.0, min(0.05, due[0][0] - time.monotonic()))
+            wait = 0.05 if not due else max(0.0, min(0.05, due[0].at - time.monotonic()))
             ready, _, _ = select.select(list(routes), [], [], wait)
             now = time.monotonic()
             for fd in ready:
+                # the rate before the bytes: a sender that switches does so after its
+                # last bytes at the old rate have left, and talks at the new one after
+                baud = self._rate_now(fd)
                 try:
                     data = os.read(fd, 4096)
                 except OSError:
                     continue
-                data = routes[fd][2].apply(data)
-                done = max(now, busy_until[fd]) + len(data) * self.byte_time
+                data = routes[fd].faults.apply(data)
+                done = max(now, busy_until[fd]) + len(data) * 10 / baud
                 busy_until[fd] = done
                 seq += 1
-                heapq.heappush(due, (done, seq, fd, data))
-            while due and due[0][0] <= time.monotonic():
-                _, _, fd, data = heapq.heappop(due)
-                peer, tap, _faults = routes[fd]
-                from_device = fd == self.dev.master
-                if from_device and self.wiring.dead_b:
-                    continue   # the wire back is cut: neither the controller nor the tap hear it
-                try:
-                    os.write(peer, data)
-                except OSError:
-                    continue
-                self._to_tap(tap, data)
-                if not from_device and self.wiring.echo:
-                    self._to_tap(self.tap_b.master, data)   # the device side hears itself
+                heapq.heappush(due, _Due(done, seq, fd, data, baud))
+            if due and due[0].at <= time.monotonic():
+                self._deliver(due, routes)
 
-    def _to_tap(self, tap: int, data: bytes) -> None:
-        if self.wiring.wire_baud:
-            listen = _tap_baud(tap)
-            if listen and listen != self.baud:
-                from .uart import misread
-                data = misread(data, self.baud, listen)
+    def _deliver(self, due: list[_Due], routes: dict[int, _Route]) -> None:
+        """Everything whose last bit has arrived, as each listener's UART reads it;
+        listeners' rates are read once per batch (a gimbal may switch without sending)."""
+        listening: dict[int, int] = {}
+
+        def rate_of(fd: int) -> int:
+            if fd not in listening:
+                listening[fd] = self._rate_now(fd)
+            return listening[fd]
+
+        while due and due[0].at <= time.monotonic():
+            item = heapq.heappop(due)
+            route = routes[item.sender]
+            from_device = item.sender == self.dev.master
+            if from_device and self.wiring.dead_b:
+                continue   # the wire back is cut: neither the controller nor the tap hear it
+            try:
+                os.write(route.peer, misread(item.data, item.baud, rate_of(route.peer)))
+            except OSError:
+                continue
+            self._to_tap(route.tap, item, rate_of(route.tap))
+            if not from_device and self.wiring.echo:
+                # the device side hears itself
+                self._to_tap(self.tap_b.master, item, rate_of(self.tap_b.master))
+
+    @staticmethod
+    def _to_tap(tap: int, item: _Due, listen: int) -> None:
         try:
-            os.write(tap, data)
+            os.write(tap, misread(item.data, item.baud, listen))
         except OSError as e:   # a tap that does not read: drop, never stall the link
             if e.errno not in (errno.EAGAIN, errno.EWOULDBLOCK, errno.EIO):
                 raise

@@ -45,6 +45,13 @@ class Source(ABC):
 
     lines: tuple[str, ...] = (LINE_A, LINE_B)
     timed: bool = False
+    # how many clocks stamped the chunks (docs/time.md, "Clocks"): 0 untimed, 1 one
+    # clock for every line (a socat log, a single-line tap), 2 a clock per line (two
+    # live adapters, whose delays differ: the only case for skew correction)
+    clocks: int = 0
+    # the byte time chunk times are derived with; the capture changes it when the
+    # link's rate changes (docs/time.md, "Rate changes")
+    byte_time: float = 10 / 9600
     start_time: float | None = None    # epoch seconds of t = 0, when known
     description: str = ""
 
@@ -101,6 +108,22 @@ class Source(ABC):
 
 
 @dataclass(frozen=True)
+class ReadSettings:
+    """What a reader needs to know to open its inputs (docs/time.md): the byte time
+    at the start rate, the zone of a socat log's local timestamps (None: this
+    machine's), and the capture start a raw dump's times count from (None: its
+    modification time less its duration)."""
+    byte_time: float
+    tz: str | None = None
+    start_time: float | None = None
+
+    @classmethod
+    def of(cls, settings: "ReadSettings | float") -> "ReadSettings":
+        """A bare number is a byte time."""
+        return settings if isinstance(settings, ReadSettings) else cls(float(settings))
+
+
+@dataclass(frozen=True)
 class Reader:
     """How one input format is recognised and opened. Each reader module declares
     one (``READER``; MCAP's is in the registry, to keep the mcap package unloaded);
@@ -112,7 +135,7 @@ class Reader:
     """
 
     name: str                                        # the format, as messages and docs call it
-    opens: Callable[[list[Input], float], Source]    # (inputs, byte time) -> the source reading them
+    opens: Callable[[list[Input], ReadSettings], Source]   # (inputs, settings) -> the source reading them
     magic: bytes = b""
     looks: Callable[[bytes], bool] | None = None
     takes: tuple[int, ...] = (1,)                    # how many inputs it reads together

@@ -15,6 +15,13 @@ read is said once, with its byte offset, and the rest is read:
 A file with no raw chunk to decode is one error naming why; one with our raw
 channels and no messages at all is an empty capture.
 
+The ``gimbalscope`` metadata record (analyzer/info.py) is read too, from the
+summary's metadata index or, without one, by a walk that seeks over chunks: a
+killed live recording has it near its start, a converted one at its end, a cut
+one may have lost it. A garbled record is said in ``metadata_problem``, never
+raised: the raw chunks decode without it. Several recordings of one tap are read
+as one capture by ``mcapparts`` (docs/time.md, "Parts").
+
 Large files are read in a second process: decompressing and parsing the raw
 messages cost as much as dissecting them, and a second core does it meanwhile
 (re-dissection went from 42% to over 50% of raw-dump decode speed).
@@ -38,10 +45,11 @@ except ImportError:  # pragma: no cover
     json_loads = json.loads
 
 from ..outfile import show
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Source
+from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, ReadSettings, Source
 from .files import Input, open_input
-from .mcapscan import (MAGIC, OP_CHANNEL, OP_CHUNK, OP_MESSAGE, RECORD, Damaged, Walk, intact_prefix, op_name,
-                       parse, read_chunk, read_cut_chunk, summary_records)
+from .mcapscan import (MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA,
+                       RECORD, RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk,
+                       summary_records)
 
 RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}
 
@@ -54,7 +62,7 @@ _BODIES = frozenset((OP_CHUNK, OP_CHANNEL, OP_MESSAGE))   # top-level records re
 MAX_T = 1e9
 # A recording's start (its first log time less its t) is an epoch time in this range,
 # else unknown: log times on another clock (boot time, a simulator's) are not dates.
-_EPOCH = (1e9, 9e9)
+EPOCH = (1e9, 9e9)
 # What a message that is not ours raises in the fast path (orjson's errors are ValueErrors)
 _NOT_OURS = (ValueError, TypeError, KeyError, AttributeError, RecursionError)
 
@@ -85,10 +93,18 @@ class McapSource(Source):
         self.description = f"{self.label} (MCAP)"
         self._said: set[str] = set()
         self._raw_channels: set[str] = set()   # lines with a raw channel, after a whole read
+        # log times (ns, on whatever clock the recording used) of its first raw chunk
+        # and of t = 0: where the recording sits among others of the same tap
+        self.first_log_ns: int | None = None
+        self.origin_ns: int | None = None
         lines, timed, start = self._survey()
         self.lines = lines
         self.timed = timed
         self.start_time = start
+        # the ``gimbalscope`` metadata record (None: none readable), and why one of that
+        # name could not be read
+        self.metadata, self.metadata_problem = self._read_metadata()
+        self.clocks = self._count_clocks()
 
     # ------------------------------------------------------------------ reading
     def _batches(self, topics: list[str], pairs: bool = False, need_t: bool | None = None,
@@ -155,9 +171,11 @@ class McapSource(Source):
             # our raw channels and no message: an empty capture
             return ((LINE_AB,) if self._raw_channels == {LINE_AB} else (LINE_A, LINE_B)), False, None
         log_time, t = first
+        self.first_log_ns = log_time
+        self.origin_ns = log_time - (int(round(t * 1e9)) if t is not None else 0)   # as the recorder adds it
         start = log_time / 1e9 - (t or 0)
         lines = (LINE_AB,) if LINE_AB in seen else (LINE_A, LINE_B)
-        return lines, t is not None, (start if _EPOCH[0] <= start <= _EPOCH[1] else None)
+        return lines, t is not None, (start if EPOCH[0] <= start <= EPOCH[1] else None)
 
     def _nothing_to_read(self, notes: list[tuple[str, str]]) -> str:
         """Why there is nothing to decode: no raw topic, or damage that may have
@@ -167,6 +185,42 @@ class McapSource(Source):
             return f"{self.label}: no gimbalscope raw chunks to decode: {said}"
         return (f"{self.label}: MCAP file without gimbalscope raw topics ({', '.join(RAW_TOPICS)})"
                 + (f"; it also {said}" if said else ""))
+
+    # ------------------------------------------------------------ metadata
+    def _read_metadata(self) -> tuple[dict[str, str] | None, str | None]:
+        """The ``gimbalscope`` metadata record and why it cannot be read (module
+        doc); a file that cannot be opened again has none."""
+        try:
+            with open_input(self.path) as f:
+                return read_metadata(f, os.fstat(f.fileno()).st_size)
+        except (OSError, CaptureError, struct.error):   # the file changed under us
+            return None, None
+
+    def _count_clocks(self) -> int:
+        """How many clocks stamped the chunks (docs/time.md, "Clocks"): as the
+        metadata says, or as the tap that made it had them. Without time there is
+        no clock, whatever a record says."""
+        if not self.timed:
+            return 0
+        meta = self.metadata or {}
+        said = meta.get("clocks")
+        if said in ("1", "2"):
+            return int(said)
+        if len(meta.get("ports", "").split()) == 2:
+            return 2
+        if meta.get("mode") in ("live", "demo") and self.lines == (LINE_A, LINE_B):
+            return 2   # a tap's two adapters, each stamping its own line
+        return 1
+
+    def last_log_ns(self) -> int | None:
+        """The log time (ns) of the recording's last message, events included:
+        from the summary's statistics, else from the chunks' headers (a file
+        without summary). None when it has no message or cannot be read again."""
+        try:
+            with open_input(self.path) as f:
+                return last_log_time(f, os.fstat(f.fileno()).st_size)
+        except (OSError, CaptureError, struct.error):   # the file changed under us
+            return None
 
     def _topics(self) -> list[str]:
         return [f"/serial/{line}/raw" for line in self.lines]
@@ -209,12 +263,12 @@ class McapSource(Source):
         return chain.from_iterable(self._batches([f"/serial/{line}/raw"], need_t=self.timed))
 
 
-def open_mcap(inputs: list[Input], byte_time: float) -> McapSource:
+def open_mcap(inputs: list[Input], settings: ReadSettings) -> McapSource:
     """The source of an MCAP input (analyzer/sources/registry.py). It is read with
     random access (surveyed, then read, large ones by a second process): one that
     arrives through a pipe or compressed is copied to a temporary file first,
     removed when the source closes or the run ends. Its chunks carry their own
-    times, so ``byte_time`` is not used."""
+    times, so ``settings`` are not used."""
     inp, = inputs
     path, temporary = inp.as_regular_file()
     problem = inp.problem
@@ -238,6 +292,147 @@ def _remove(path: str) -> None:
         os.unlink(path)
     except FileNotFoundError:
         pass
+
+
+# ----------------------------------------------------- metadata and time span
+METADATA_NAME = "gimbalscope"      # analyzer/recording/schemas.py (not imported: it loads the recorder's writer)
+_MAX_METADATA = 1 << 20            # bytes: a record of key=value strings; larger is damage
+_OP_STATISTICS, _OP_METADATA_INDEX = 0x0B, 0x0D
+_U32, _U64 = struct.Struct("<I"), struct.Struct("<Q")
+_INDEX_HEAD = struct.Struct("<QQI")  # a MetadataIndex: record offset, record length, name length
+_MESSAGE_END = slice(34, 42)        # message_end_time in a Statistics record's body
+_TIMES = struct.Struct("<QQ")       # a Chunk's first and last message log times, at its start
+_MESSAGE_LOG_TIME = 6               # in a Message record's body, after its channel and sequence
+
+Found = tuple[dict[str, str] | None, str | None]   # (metadata, why it cannot be read)
+
+
+def read_metadata(f, size: int) -> Found:
+    """The ``gimbalscope`` metadata record of the MCAP file ``f`` (``size`` bytes):
+    through the summary's metadata index when it has one, else by walking the
+    data section. ``(None, None)`` when there is none; ``(None, why)`` when one
+    is there but garbled. Nothing in the file is trusted and nothing raises."""
+    problem = None
+    offsets = _indexed_metadata(f, size)
+    for offset in offsets or ():
+        meta, why = _metadata_at(f, size, offset)
+        if meta is not None:
+            return meta, None
+        problem = problem or why
+    if offsets is not None and problem is None:
+        return None, None   # the index lists every metadata record, and none is ours
+    walk = Walk(f, size)
+    for offset, _op, body in walk.records((OP_METADATA,)):
+        if _metadata_name(body) != METADATA_NAME:
+            continue
+        meta, why = _metadata_of(body, offset)
+        if meta is not None:
+            return meta, None
+        problem = problem or why
+    return None, problem
+
+
+def _indexed_metadata(f, size: int) -> list[int] | None:
+    """The offsets the summary's metadata index gives for our record, or None
+    when there is no index to go by (no summary, none in it, or damaged)."""
+    bodies = [body for _op, body in summary_records(f, size, (_OP_METADATA_INDEX,))]
+    if not bodies:
+        return None
+    offsets = []
+    for body in bodies:
+        if len(body) < _INDEX_HEAD.size:
+            return None
+        offset, _length, name_len = _INDEX_HEAD.unpack_from(body)
+        name = body[_INDEX_HEAD.size:_INDEX_HEAD.size + name_len]
+        if len(name) != name_len:
+            return None
+        if name == METADATA_NAME.encode():
+            offsets.append(offset)
+    return offsets
+
+
+def _metadata_at(f, size: int, offset: int) -> Found:
+    """The record the metadata index points to at ``offset``."""
+    where = f"the metadata index points to byte {offset}"
+    if not len(MAGIC) <= offset <= size - RECORD_HEAD:
+        return None, f"{where}, outside the file"
+    f.seek(offset)
+    head = f.read(RECORD_HEAD)
+    if len(head) < RECORD_HEAD:   # the file shrank since its size was taken
+        return None, f"{where}, past the end of the file"
+    op, length = RECORD.unpack(head)
+    if op != OP_METADATA:
+        return None, f"{where}, where a {op_name(op)} record is, not the gimbalscope metadata"
+    if length > min(_MAX_METADATA, size - offset - RECORD_HEAD):
+        return None, f"the gimbalscope metadata record at byte {offset} claims {length} bytes"
+    body = f.read(length)
+    if _metadata_name(body) != METADATA_NAME:
+        return None, f"{where}, where the Metadata record is not named {METADATA_NAME!r}"
+    return _metadata_of(body, offset)
+
+
+def _metadata_name(body: bytes) -> str | None:
+    """The name a Metadata record's body starts with, if it reads."""
+    if len(body) < _U32.size:
+        return None
+    end = _U32.size + _U32.unpack_from(body)[0]
+    if end > len(body):
+        return None
+    try:
+        return body[_U32.size:end].decode("utf-8")
+    except UnicodeDecodeError:
+        return None
+
+
+def _metadata_of(body: bytes, offset: int) -> Found:
+    """A record named ``gimbalscope`` read as a map of strings."""
+    where = f"the gimbalscope metadata record at byte {offset}"
+    if len(body) > _MAX_METADATA:
+        return None, f"{where} claims {len(body)} bytes"
+    try:
+        record = parse(OP_METADATA, body)
+    except Damaged as e:
+        return None, f"{where} is damaged ({e})"
+    meta = record.metadata
+    if not isinstance(meta, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in meta.items()):
+        return None, f"{where} holds values that are not strings"
+    return dict(meta), None
+
+
+def last_log_time(f, size: int) -> int | None:
+    """The log time (ns) of the last message of the MCAP file ``f``: the summary's
+    statistics when it has them, else the latest of its chunks' headers and of
+    the messages outside chunks, found by seeking from record to record."""
+    for _op, body in summary_records(f, size, (_OP_STATISTICS,)):
+        if len(body) >= _MESSAGE_END.stop and _U64.unpack_from(body)[0] > 0:   # message_count
+            return _U64.unpack(body[_MESSAGE_END])[0]
+    latest = None
+    for op, body_at in _record_heads(f, size):
+        f.seek(body_at + (_MESSAGE_LOG_TIME if op == OP_MESSAGE else 0))
+        head = f.read(_TIMES.size)
+        if len(head) == _TIMES.size:
+            last = _TIMES.unpack(head)[1] if op == OP_CHUNK else _U64.unpack_from(head)[0]
+            latest = last if latest is None else max(latest, last)
+    return latest
+
+
+def _record_heads(f, size: int) -> Iterator[tuple[int, int]]:
+    """(opcode, body offset) of each Chunk and Message record of the data section
+    long enough to hold its times, read by their headers only; up to the first
+    record that runs past the end."""
+    pos = len(MAGIC)
+    while pos + RECORD_HEAD <= size:
+        f.seek(pos)
+        head = f.read(RECORD_HEAD)
+        if len(head) < RECORD_HEAD:
+            return
+        op, length = RECORD.unpack(head)
+        body_at = pos + RECORD_HEAD
+        if op in (OP_DATA_END, OP_FOOTER) or length > size - body_at:
+            return
+        if (op == OP_CHUNK and length >= _TIMES.size) or (op == OP_MESSAGE and length >= MESSAGE_HEAD):
+            yield op, body_at
+        pos = body_at + length
 
 
 class _Pass:

@@ -4,21 +4,30 @@ Two inputs are line A (controller→device) and line B (device→controller); on
 input is a single-line tap carrying both directions interleaved (docs/decoding.md, "Wire format").
 Either may be a file, a pipe or FIFO (``<(…)``), standard input, or compressed
 (analyzer/sources/files.py): each is read once, at its own pace.
+
+Time (docs/time.md): a dump has none, so events carry none and pairing goes by
+order. The capture still has a start, for the times of a recording's messages:
+``--start-time``, else the file's modification time (when its last byte was
+written) less the capture's duration at the baud rate (the bytes as if back to
+back: an upper bound on how long the capture ran); ``time_origin`` says which.
 """
 
 from __future__ import annotations
 
 import codecs
+import os
+import time
 from typing import Iterator
 
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Reader, Source
+from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
 from .files import BLOCK, Input
 
 
 class RawDumpSource(Source):
     timed = False
+    input_per_line = True   # one file or port per line (CaptureInfo.line_names)
 
-    def __init__(self, inputs: list[str | Input]) -> None:
+    def __init__(self, inputs: list[str | Input], settings: ReadSettings | None = None) -> None:
         super().__init__()
         if len(inputs) not in (1, 2):
             raise ValueError("a raw capture is one file (single-line tap) or two (line A, line B)")
@@ -29,6 +38,7 @@ class RawDumpSource(Source):
         self.description = " + ".join(i.describe() for i in self.inputs)
         for i in self.inputs:
             self.on_close(i.close)
+        self.start_time, self.time_origin = _start(self.inputs, settings)
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         inp = self.inputs[self.lines.index(line)]
@@ -47,6 +57,33 @@ class RawDumpSource(Source):
     def chunks(self) -> Iterator[Chunk]:
         for line in self.lines:
             yield from self.line_chunks(line)
+
+
+def _start(inputs: list[Input], settings: ReadSettings | None) -> tuple[float, str]:
+    """(epoch of the first byte, where it came from): see the module doc."""
+    if settings is not None and settings.start_time is not None:
+        return settings.start_time, "--start-time"
+    byte_time = settings.byte_time if settings is not None else 10 / 9600
+    ends, longest, unknown = [], 0, []
+    for inp in inputs:
+        try:
+            st = os.stat(inp.path) if inp.regular else None
+        except OSError:
+            st = None
+        if st is None:
+            unknown.append("a pipe")
+            continue
+        ends.append(st.st_mtime)
+        if inp.compression:
+            unknown.append("compressed")
+        else:
+            longest = max(longest, st.st_size)
+    if not ends:   # nothing on disk: it is being read now
+        return time.time(), "time of reading (a pipe has no modification time)"
+    start = max(ends) - longest * byte_time
+    if unknown:
+        return start, f"file modification time ({', '.join(sorted(set(unknown)))}: duration unknown)"
+    return start, "file modification time less the capture's duration"
 
 
 def reject_text(inp: Input) -> None:
@@ -70,8 +107,8 @@ def reject_text(inp: Input) -> None:
                            f"(line 1: {first!r}); raw dumps are binary")
 
 
-def open_raw_dumps(inputs: list[Input], byte_time: float) -> RawDumpSource:
-    return RawDumpSource(inputs)   # untimed: no byte time needed
+def open_raw_dumps(inputs: list[Input], settings: ReadSettings) -> RawDumpSource:
+    return RawDumpSource(inputs, settings)
 
 
 def _any_bytes(head: bytes) -> bool:

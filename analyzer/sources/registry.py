@@ -5,24 +5,60 @@ Adding a format is a module that declares its ``READER`` (analyzer/sources/base.
 ``Reader``) and one line in ``READERS`` below. A format whose module is slow to
 import is declared here instead, with an opener that imports it when called:
 MCAP, whose module loads the mcap package, which detecting other inputs must not.
+
+A reader's ``takes`` lists how many inputs it reads together; ``ANY_COUNT`` is
+any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
+"Parts"), every input then having to be one.
 """
 
 from __future__ import annotations
 
 from . import rawdump, socatlog
-from .base import CaptureError, Reader, Source
+from .base import CaptureError, Reader, ReadSettings, Source
 from .files import Input
 
 
-def _open_mcap(inputs: list[Input], byte_time: float) -> Source:
-    from .mcapfile import open_mcap   # only for an MCAP input: see the module doc
-    return open_mcap(inputs, byte_time)
+class AnyCount(tuple):
+    """``Reader.takes`` of a format read from any number of inputs together: every
+    count from one is in it, and it lists none (it has no fixed count, so
+    ``most_inputs`` does not see it)."""
+
+    def __new__(cls) -> "AnyCount":
+        return super().__new__(cls)
+
+    def __contains__(self, count: object) -> bool:
+        return isinstance(count, int) and count >= 1
+
+    def __repr__(self) -> str:
+        return "ANY_COUNT"
+
+
+ANY_COUNT = AnyCount()
+
+# Given with more inputs than any format of a fixed count reads (what detect() said
+# before recordings came in parts, and still says for every other format).
+TOO_MANY = "{count} inputs given: expected one capture file, or two raw dumps (line A then line B)"
+
+
+def _open_mcap(inputs: list[Input], settings: ReadSettings) -> Source:
+    # imported only for MCAP inputs: see the module doc
+    if len(inputs) == 1:
+        from .mcapfile import open_mcap
+        return open_mcap(inputs, settings)
+    from .mcapparts import open_mcap_parts   # the parts of one tap's recording (docs/time.md, "Parts")
+    return open_mcap_parts(inputs, settings)
+
+
+def _vet_mcap(inp: Input) -> None:
+    """Among several recordings read as one capture, every input is one."""
+    if not MCAP.recognises(inp.head):
+        raise CaptureError(f"{inp.name}: not an MCAP recording; several inputs must all be recordings of one tap")
 
 
 MCAP = Reader(
     # the start of mcapscan.MAGIC: a file that goes on differently is told apart by mcapfile
     "MCAP recording", _open_mcap, magic=b"\x89MCAP",
-    crowded="an MCAP recording carries all its lines; give it on its own",
+    takes=ANY_COUNT, vet=_vet_mcap,
     # named a recording but not one: a damaged file, not a raw dump to decode as noise
     suffixes=(".mcap",), misnamed="not an MCAP file (it does not start with the MCAP magic bytes)",
 )
@@ -42,8 +78,15 @@ def formats() -> list[str]:
 
 
 def most_inputs() -> int:
-    """The most inputs any one format reads together."""
-    return max(n for r in READERS for n in r.takes)
+    """The most inputs a format of a fixed count reads together (two raw dumps);
+    formats read from any number of inputs (``ANY_COUNT``) are left out."""
+    return max((n for r in READERS for n in r.takes), default=1)
+
+
+def any_count_read() -> bool:
+    """Does some format read any number of inputs together? Until the inputs are
+    opened, a count above ``most_inputs`` may then still be one capture."""
+    return any(isinstance(r.takes, AnyCount) for r in READERS)
 
 
 def reader_for(inputs: list[Input]) -> Reader:
@@ -55,6 +98,8 @@ def reader_for(inputs: list[Input]) -> Reader:
         if not claimed:
             continue
         if len(inputs) not in reader.takes:
+            if len(inputs) > most_inputs():
+                raise CaptureError(TOO_MANY.format(count=len(inputs)))
             raise CaptureError(f"{claimed[0].name}: {reader.crowded or _crowded(reader)}")
         if reader.vet is not None:
             for i in inputs:
@@ -63,9 +108,9 @@ def reader_for(inputs: list[Input]) -> Reader:
     raise CaptureError(f"{inputs[0].name}: not a capture this analyzer reads ({', '.join(formats())})")
 
 
-def source_for(inputs: list[Input], byte_time: float) -> Source:
+def source_for(inputs: list[Input], settings: ReadSettings) -> Source:
     """The source reading ``inputs`` (opened, heads read)."""
-    return reader_for(inputs).opens(inputs, byte_time)
+    return reader_for(inputs).opens(inputs, settings)
 
 
 def _refuse_misnamed(inputs: list[Input]) -> None:

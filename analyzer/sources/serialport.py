@@ -2,10 +2,18 @@
 pyserial URLs: ``socket://`` for ser2net and terminal servers, ``rfc2217://``,
 ``loop://``). A tap only reads; it never writes to the line it watches.
 
-Time: the host clock at each read; a read of n bytes ended when its last byte
-arrived, so its first byte started n byte times earlier (the deframer spaces the
-rest by the byte time). When nothing arrives the source yields idle ticks (empty
-chunks), so silences cut frames and timeouts expire while the line is quiet.
+Time (docs/time.md): the host clock at each read; a read of n bytes ended when
+its last byte arrived, so its first byte started n byte times earlier (the
+deframer spaces the rest by the byte time). Each port is its own clock as far as
+timing goes (its adapter's delays), so a two-port tap is a two-clock capture,
+whose skew between the lines is estimated. When nothing arrives the source
+yields idle ticks (empty chunks), so silences cut frames and timeouts expire
+while the line is quiet.
+
+Rate changes (docs/time.md, "Rate changes"): when the controller's rate-set
+command is ACKed, the capture calls ``set_rate`` and every port listens at the
+new rate from then on (pyserial reconfigures an open port in place), as does a
+port reopened later.
 
 A port that vanishes (USB unplugged) is reported, the gap is marked (a warning
 and a silence), and the port is reopened when it returns.
@@ -108,7 +116,9 @@ def open_port(url: str, baud: int, data_bits: int, parity: str, stop_bits: float
 
 class SerialTap(Source):
     timed = True
+    input_per_line = True   # one file or port per line (CaptureInfo.line_names)
     live = True
+    time_origin = "host clock"
 
     def __init__(self, ports: list[str], *, baud: int = 9600, data_bits: int = 8, parity: str = "N",
                  stop_bits: float = 1, clock: Callable[[], float] = time.time) -> None:
@@ -117,6 +127,7 @@ class SerialTap(Source):
             raise CaptureError("a tap reads one port (single-line tap) or two (line A, line B)")
         self.ports = list(ports)
         self.lines = (LINE_AB,) if len(ports) == 1 else (LINE_A, LINE_B)
+        self.clocks = len(ports)
         self.settings = (baud, data_bits, parity, stop_bits)
         self.description = " + ".join(self.ports)
         self.clock = clock
@@ -125,12 +136,24 @@ class SerialTap(Source):
         self._leftover: list[tuple] = []   # a reader's last read when stop found the queue full
         self._stop = threading.Event()
         self._serials = [open_port(p, *self.settings) for p in self.ports]   # fail early, one line
+        self._open: dict[str, serial.SerialBase] = dict(zip(self.lines, self._serials))   # each line's port now
         self.start_time = clock()
         self._threads = [threading.Thread(target=self._reader, args=(line, port, ser), daemon=True,
                                           name=f"tap-{line}")
                          for line, port, ser in zip(self.lines, self.ports, self._serials)]
         for th in self._threads:
             th.start()
+
+    def set_rate(self, baud: int) -> None:
+        """Listen at ``baud`` from now on (the link's rate changed). A port that
+        refuses the rate is said, once, and keeps its old one."""
+        self.settings = (baud, *self.settings[1:])
+        for line, ser in list(self._open.items()):
+            try:
+                ser.baudrate = baud
+            except (serial.SerialException, ValueError, OSError) as e:
+                self.warn(f"{self.ports[self.lines.index(line)]}: cannot change to {baud} bps ({e}): "
+                          f"it goes on at the old rate")
 
     def stop(self) -> None:
         """End the capture: chunks() returns once what was read is delivered (a
@@ -192,6 +215,7 @@ class SerialTap(Source):
             ser = open_port(port, *self.settings)
         except CaptureError:
             return None
+        self._open[line] = ser
         self.state[line] = "open"
         self._put(("back", line, self.clock(), f"{port}: back, capturing again"))
         return ser
@@ -244,4 +268,4 @@ class SerialTap(Source):
         line, data, t_read = item
         return kind(line, data, (t_read - self.start_time) - len(data) * self.byte_time)
 
-    byte_time: float = 10 / 9600   # set by the capture from its options
+    byte_time: float = 10 / 9600   # set by the capture: the link's byte time now

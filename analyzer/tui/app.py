@@ -233,7 +233,7 @@ class GimbalscopeApp(App):
                 if self.mode == "live":
                     line1.append(f" {_size(st.rate)}/s")
                 line1.append("  ")
-        line1.append(self.settings, style="dim")
+        line1.append(b.settings if b is not None and b.settings else self.settings, style="dim")
         if b is not None and b.skew:
             line1.append(f"  skew +{b.skew * 1000:.1f} ms", style="yellow")
         if b is not None and b.recording:

@@ -51,6 +51,7 @@ class FeedBatch:
     findings: list | None = None     # the wiring doctor's findings when re-checked (analyzer.doctor)
     done: bool = False
     error: str | None = None
+    settings: str = ""               # the link's serial settings now (the rate follows rate changes)
 
 
 class Feed(Listener):
@@ -180,4 +181,5 @@ class Feed(Listener):
         warnings, self._warnings = self._warnings, []
         findings, self._findings = self._findings, None
         self.deliver(FeedBatch(events, [] if done else self.runner.unsettled(), self._status(),
-                               self.runner.skew, path, size, warnings, findings, done, error))
+                               self.runner.skew, path, size, warnings, findings, done, error,
+                               self.runner.serial_settings))

@@ -6,7 +6,8 @@ hears to a file: ``Writer(path, info, file=...)``, with ``info`` the run's
 the temporary file that is renamed onto ``path`` when whole). A new format is one
 module here and one line in ``WRITERS``. Entries name their class as
 ``module:Class`` so that a command imports only the writer it uses (MCAP pulls
-in the mcap and zstd packages).
+in the mcap and zstd packages). Every writer keeps the time model of
+docs/time.md: capture times, not the time of writing.
 """
 
 from __future__ import annotations

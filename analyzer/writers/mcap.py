@@ -5,8 +5,8 @@ events, transactions and the run's notes on ``/log``, with the run's
 Two ways to record:
 
 - a conversion (``convert``, the default): written into the file given, metadata
-  at the end (a socat log learns its start time as it is read); a write error
-  raises ``RecordingError`` and the caller throws the file away;
+  at the end (with what reading learnt); a write error raises ``RecordingError``
+  and the caller throws the file away;
 - a live recording (``live=True``: ``--record``, the TUI's record key): written in
   place and flushed every second, so a killed tap leaves a file that opens;
   metadata first; optionally in parts (``rotate_bytes``, ``rotate_seconds``). A
@@ -14,13 +14,19 @@ Two ways to record:
 
 Either way, the file is created when the writer is made: a path that cannot be
 written is an error before the tap starts.
+
+Times follow docs/time.md: message log times are capture times (the source's
+start time plus wire time; raw dumps: from byte offsets). A rate change is an
+event on ``/events`` like any other, and each later part of a recording in parts
+gives the new rate in its metadata, so a part decoded alone starts right.
 """
 
 from __future__ import annotations
 
 from typing import BinaryIO
 
-from dissectors.event import Event
+from dissectors.event import RATE, Event
+from dissectors.wire import byte_time
 
 from ..info import CaptureInfo
 from ..recording import McapRecorder, RotatingRecorder
@@ -41,7 +47,10 @@ class McapWriter(Listener):
         self.live = live
         self._runner = None
         self._extra = metadata or {}
-        kw = dict(start_time=info.start_time, lines=info.lines)
+        # untimed input: wire times from byte offsets (docs/time.md, "Message times")
+        kw = dict(start_time=info.start_time, lines=info.lines,
+                  wire_byte_time=None if info.timed else byte_time(info.baud, info.data_bits, info.parity,
+                                                                   info.stop_bits))
         if live:
             kw.update(metadata=info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
         else:
@@ -78,6 +87,14 @@ class McapWriter(Listener):
         event = self.recorder.event
         for ev in events:
             event(ev)
+            if ev.kind == RATE:
+                self._rate_changed(ev.fields["baud"])
+
+    def _rate_changed(self, baud: int) -> None:
+        """Parts written from now on start at ``baud``."""
+        rec = self.recorder
+        if isinstance(rec, RotatingRecorder) and self.live:
+            rec.kw["metadata"] = {**rec.kw.get("metadata", {}), "baud": str(baud)}
 
     def on_note(self, note: Note) -> None:
         if note.origin != RECORDING:   # its own word is for people, not for the file

@@ -101,15 +101,16 @@ def test_a_mcap_name_without_the_magic_is_refused(tmp_path):
 
 
 @pytest.mark.parametrize("alone, message", [
-    ("mcap", "an MCAP recording carries all its lines; give it on its own"),
-    ("socat", "a socat log carries both lines; give it on its own"),
+    ("socat", "{path}: a socat log carries both lines; give it on its own"),
+    # several recordings are one tap's parts (docs/time.md, "Parts"); anything else is refused
+    ("mcap", "{bus}: not an MCAP recording; several inputs must all be recordings of one tap"),
 ])
 def test_formats_that_carry_every_line_come_alone(tmp_path, alone, message):
     path = samples(tmp_path)[alone][0]
     for paths in ([path, BUS], [BUS, path]):
         with pytest.raises(CaptureError) as e:
             detect(paths, BT)
-        assert str(e.value) == f"{path}: {message}"
+        assert str(e.value) == message.format(path=path, bus=BUS)
 
 
 def test_text_is_no_raw_dump(tmp_path):

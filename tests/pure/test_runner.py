@@ -207,7 +207,12 @@ def test_capture_info_is_the_recordings_metadata(tmp_path):
     assert meta["mode"] == "convert" and meta["inputs"] == f"{a} {b}" and meta["lines"] == "A,B"
     assert meta["line_roles"] == f"A={a} (controller→device), B={b} (device→controller)"
     assert (meta["baud"], meta["data_bits"], meta["parity"], meta["stop_bits"]) == ("19200", "8", "E", "1")
-    assert meta["timed"] == "no" and meta["start_time"] == "unknown" and meta["part"] == "2"
+    assert meta["timed"] == "no" and meta["part"] == "2" and meta["clocks"] == "0"
+    # a raw dump starts at its modification time less its duration: 11 bits a byte at 19200 8E1
+    longest, last = max(os.path.getsize(p) for p in (a, b)), max(os.path.getmtime(p) for p in (a, b))
+    start = datetime.datetime.fromisoformat(meta["start_time"]).timestamp()
+    assert start == pytest.approx(last - longest * 11 / 19200, abs=1e-6)
+    assert meta["time_origin"] == "file modification time less the capture's duration"
     assert info.serial_settings == "19200 8E1"
     when = CaptureInfo.of(capture).__class__(**{**info.__dict__, "start_time": 1_800_000_000.25})
     parsed = datetime.datetime.fromisoformat(when.metadata()["start_time"])
