@@ -99,7 +99,8 @@ class Capture:
         # rate-set frames seen in the bytes (RATE_MARK) and not yet in the events:
         # the events are watched only then (a live tap's always: its reads are small)
         self._marks = 0
-        self._tails: dict[str, int] = {}   # each line's last byte (a mark split between reads)
+        self._misses = 0                     # looks since a mark last turned up (see _follow)
+        self._tails: dict[str, bytes] = {}   # each line's last bytes (a mark split between reads)
         self._watch_all = bool(getattr(source, "live", False))
         self._deframers: list[Deframer] = []
         # two lines: copies of line A's frames on line B are dropped (analyzer.echo)
@@ -159,11 +160,27 @@ class Capture:
 
     # ------------------------------------------------------------ rate changes
     def _marked(self, line: str, data: bytes) -> None:
-        """Count the rate-set frames ``data`` may hold (on a line commands travel)."""
-        if line != "B":
-            if RATE_MARK in data or (data[0] == 0x43 and self._tails.get(line) == 2):
-                self._marks += 1
-            self._tails[line] = data[-1]
+        """Count the rate-set frames ``data`` may hold (on a line commands travel).
+        Once per chunk: the usual chunk has neither the mark's last two bytes nor
+        a start byte near its end, and costs two searches in C."""
+        if line == "B":
+            return
+        tail = self._tails.get(line)
+        if (b"\x02C" in data and RATE_MARK.search(data)) or (tail and RATE_MARK.search(tail + data[:6])):
+            self._marks += 1
+        # a start byte among the last six bytes read: a mark may go on in the next read
+        n = len(data)
+        if n >= 6:
+            if data.find(0xF8, n - 6) >= 0:
+                self._tails[line] = data[-6:]
+            elif tail:
+                self._tails[line] = b""
+        else:
+            last = (tail + data)[-6:] if tail else data
+            if 0xF8 in last:
+                self._tails[line] = last
+            elif tail:
+                self._tails[line] = b""
 
     def _watching(self) -> bool:
         return self._watch_all or self._marks > 0 or self.follower.busy
@@ -172,10 +189,17 @@ class Capture:
         """The rate events ``events`` cause (usually none), each with the
         link's new byte time applied from here on."""
         follower = self.follower
-        seen = follower.rate_sets
+        seen = follower.marked
         out = [self._rate_changed(change) for change in follower.scan(events)]
-        if follower.rate_sets != seen:
-            self._marks = max(0, self._marks - (follower.rate_sets - seen))
+        if follower.marked != seen:
+            self._marks = max(0, self._marks - (follower.marked - seen))
+            self._misses = 0
+        elif self._marks:
+            # a mark that never became a frame (bytes cut or damaged): stop looking
+            # after a while, or every later event would be looked at for nothing
+            self._misses += 1
+            if self._misses > 64:
+                self._marks = self._misses = 0
         if follower.unconfirmed:
             self._unconfirmed()
         return out
@@ -343,7 +367,9 @@ class Capture:
         tap = self._tap
         since_release = 0
         # one clock: a chunk read later started after the earlier ones were read
-        place = _Placement(one_clock=self.clocks < 2)
+        one_clock = self.clocks < 2
+        place = _Placement(one_clock)
+        line_end = place.line_end
         for chunk in self.source.chunks():
             data = chunk.data
             if not data:                  # an idle tick: time passed
@@ -367,8 +393,23 @@ class Capture:
                     t = chunk.t
                     arrived(self._skip(d, chunk))
                 else:
-                    t, bt, end = place(chunk, self._bt)
-                    events = d.feed(data, t, bt)
+                    # _Placement.__call__ written out: this loop runs once per chunk
+                    t = chunk.t
+                    line = chunk.line
+                    end = t + len(data) * self._bt
+                    floor = line_end.get(line, t)
+                    if one_clock and place.last_read > floor:
+                        floor = place.last_read
+                    if t >= floor:
+                        events = d.feed(data, t)
+                    else:
+                        if end < floor:
+                            end = floor
+                        events = d.feed(data, floor, (end - floor) / len(data))
+                        t = floor
+                    line_end[line] = end
+                    if end > place.last_read:
+                        place.last_read = end
                     if plain and not (follow and self._watching()):
                         merge.held += events
                     else:

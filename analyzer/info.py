@@ -10,8 +10,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import socket
-import uuid
 from dataclasses import dataclass, field
 
 from . import __version__
@@ -34,7 +32,7 @@ class CaptureInfo:
     start_time: float | None           # epoch seconds of t = 0, when known
     command: str | None = None         # the subcommand reading it ("live", "convert", …)
     tool: str = f"gimbalscope {__version__}"
-    host: str = field(default_factory=socket.gethostname)
+    host: str = field(default_factory=lambda: _hostname())
     # how the capture is decoded (docs/time.md): what reading its recording needs again
     clocks: int = 0                    # 0 untimed, 1 one clock, 2 a clock per line
     time_origin: str = ""              # where start_time came from
@@ -47,7 +45,7 @@ class CaptureInfo:
     tz: str | None = None
     # one id per run, shared by every part of a recording in parts: how parts are
     # told to belong together (a recording of a recording keeps its source's)
-    capture_id: str = field(default_factory=lambda: uuid.uuid4().hex)
+    capture_id: str = field(default_factory=lambda: _new_id())
     input_per_line: bool = False       # each input is one line (two raw dumps, two ports)
 
     @classmethod
@@ -103,6 +101,16 @@ class CaptureInfo:
             meta["ports"] = " ".join(self.inputs)
         meta.update(extra)
         return meta
+
+
+def _hostname() -> str:
+    import socket   # here: reading a capture (``analyzer.open``) needs neither module
+    return socket.gethostname()
+
+
+def _new_id() -> str:
+    import uuid
+    return uuid.uuid4().hex
 
 
 def _yes(flag: bool) -> str:

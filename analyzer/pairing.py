@@ -179,16 +179,8 @@ class Pairer:
             number += 1
             ev.number = number
             kind = ev.kind
-            if kind == RATE:
-                # the link's rate changed after an ACK (analyzer.rate): it answers
-                # nothing, and must not settle an ACK whose NIC may follow it
-                self._rate(ev)
-                if held:
-                    held.append(ev)
-                else:
-                    append(ev)
-                continue
-            if self._provisional is not None and kind != NIC:
+            # a rate event (analyzer.rate) must not settle an ACK whose NIC may follow it
+            if self._provisional is not None and kind != NIC and kind != RATE:
                 self._settle()
             if ev.t is not None:
                 self._expire(ev.t)
@@ -205,6 +197,15 @@ class Pairer:
                 result(ev)
             elif kind == NIC:
                 nic(ev)
+            elif kind == RATE:
+                # the link's rate changed after an ACK: it answers nothing, and is not
+                # the event before the next one (retransmissions are told by that)
+                self._rate(ev)
+                if held:
+                    held.append(ev)
+                else:
+                    append(ev)
+                continue
             self._prev = ev
             if not held:
                 append(ev)

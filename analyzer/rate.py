@@ -18,6 +18,7 @@ it was; ``RateFollower.unconfirmed`` says so, since the devices may have switche
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from dissectors.commands import BAUD_CODES
@@ -25,10 +26,11 @@ from dissectors.event import ACK, COMMAND, FRAME, NAK, NIC, RATE, Event
 from dissectors.wire import WILDCARD
 
 _C = 0x43   # "C"
-# What a rate-set frame carries in its bytes: its length byte (2) and "C". A capture
-# looks for it in the bytes it reads, and watches the events only when it is there
-# (most captures never change rate, and every event would cost a look).
-RATE_MARK = b"\x02C"
+# What a rate-set frame looks like in the bytes: a start byte, four header bytes,
+# length 2, "C" (payloads are ASCII, so a start byte begins a frame). A capture
+# looks for it in the bytes it reads and watches the events only when it is there:
+# most captures never change rate, and every event would cost a look.
+RATE_MARK = re.compile(rb"\xf8[\x00-\xff]{4}\x02C")
 _HEX = {ord(c): int(c, 16) for c in "0123456789ABCDEF"}
 
 
@@ -71,7 +73,9 @@ class RateFollower:
         self._asked: tuple[Event, int] | None = None     # a rate-set waiting for its ACK
         self._done: RateChange | None = None              # the change an ACK just made
         self.unconfirmed: list[tuple[Event, int]] = []   # wildcard rate-sets that got no ACK
-        self.rate_sets = 0   # rate-set commands observed (the capture's ``RATE_MARK`` count goes down by them)
+        # frames with a two-byte payload starting "C" looked at: what a ``RATE_MARK`` in
+        # the bytes turned out to be (a rate-set, or CN, CX, a B? result "C7"...)
+        self.marked = 0
 
     @property
     def busy(self) -> bool:
@@ -91,6 +95,11 @@ class RateFollower:
                 p = ev.payload
                 if p is None or len(p) != 2 or p[0] != _C:
                     continue
+                self.marked += 1
+            elif kind == COMMAND or kind == FRAME:
+                p = ev.payload
+                if p is not None and len(p) == 2 and p[0] == _C:
+                    self.marked += 1
             change = self.observe(ev)
             if change is not None:
                 changes.append(change)
@@ -105,8 +114,6 @@ class RateFollower:
                 self.unconfirmed.append(asked)
             baud = rate_set(ev) if ev.line != "B" else None
             self._asked = (ev, baud) if baud is not None else None
-            if baud is not None:
-                self.rate_sets += 1
             return None
         if kind == ACK:
             self._done = None

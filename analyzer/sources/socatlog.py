@@ -57,7 +57,6 @@ import re
 import time
 from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Callable, Iterator
-from zoneinfo import ZoneInfo, ZoneInfoNotFoundError
 
 from .base import LINE_A, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
 from .files import HEAD, Input
@@ -123,8 +122,9 @@ def time_zone(name: str | None) -> tzinfo | None:
     if name is None:
         return None
     try:
+        from zoneinfo import ZoneInfo   # here: only a zone given by name needs the package
         return ZoneInfo(name)
-    except (ZoneInfoNotFoundError, ValueError, OSError):
+    except (LookupError, ValueError, OSError):   # ZoneInfoNotFoundError is a KeyError
         raise ValueError(f"unknown time zone {name!r} "
                          f"(give an IANA name such as Europe/Berlin or UTC)") from None
 

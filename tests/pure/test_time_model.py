@@ -210,3 +210,25 @@ def test_the_doctor_names_a_device_silent_since_a_rate_change():
     # the last one is still within its ACK timeout when the capture ends: pending, not evidence
     assert f.subject == "1.1.1" and f.severity == "error" and len(f.evidence) == 3
     assert "silent_device" not in found and "dead_link" not in found
+
+
+def test_a_rate_set_read_a_byte_at_a_time_is_followed():
+    # a live adapter can deliver every byte in a read of its own: the frame is split
+    # everywhere, the capture still finds it in the bytes and follows it
+    reads = [("A", bytes([b]), 1.0 + k * BT_9600) for k, b in enumerate(C7)]
+    reads += [("B", b"\x06", 1.02), ("A", CMD, 1.2)]
+    events, _ = decode(Timed(reads))
+    assert [e.kind for e in events][:3] == [COMMAND, ACK, RATE]
+    assert events[-1].t == pytest.approx(1.2 - 9 * BT_115200)
+
+
+def test_frames_that_only_look_like_rate_sets_are_let_go():
+    # CN and CX (camera power, Table 16) are two-byte payloads starting with "C" too
+    reads = []
+    for k in range(20):
+        reads += [("A", frame((1, 1, 1), 0, b"CN" if k % 2 else b"CX"), 1.0 + k * 0.1),
+                  ("B", b"\x06", 1.02 + k * 0.1)]
+    cap = Capture(Timed(reads), Options())
+    events = list(cap)
+    assert RATE not in [e.kind for e in events] and cap.baud == 9600
+    assert cap._marks == 0   # every mark was seen to be a frame: no more looking at every event
