@@ -73,8 +73,8 @@ def command_timeout(text: str) -> tuple[str, float]:
 
 def add_input_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT",
-                   help="a socat -x -v log, an MCAP recording, a raw single-line dump, or two raw dumps "
-                        "(line A, line B)")
+                   help="a socat -x -v log, an MCAP recording (or the parts of one, in any order), a raw "
+                        "single-line dump, or two raw dumps (line A, line B)")
     add_serial_args(p)
 
 
