@@ -460,6 +460,11 @@ class RotatingRecorder:
         self.paths.append(path)
         self.opened = self.clock()
 
+    def update_metadata(self, **changes: str) -> None:
+        """Parts opened from now on carry ``changes`` in their metadata (the link's
+        rate changed: a part decoded alone must start at the new one)."""
+        self.kw["metadata"] = {**self.kw.get("metadata", {}), **changes}
+
     def _kept(self) -> str:
         return f"{self.messages} message{'' if self.messages == 1 else 's'} kept in {len(self.paths)} files"
 

@@ -94,7 +94,7 @@ class McapWriter(Listener):
         """Parts written from now on start at ``baud``."""
         rec = self.recorder
         if isinstance(rec, RotatingRecorder) and self.live:
-            rec.kw["metadata"] = {**rec.kw.get("metadata", {}), "baud": str(baud)}
+            rec.update_metadata(baud=str(baud))
 
     def on_note(self, note: Note) -> None:
         if note.origin != RECORDING:   # its own word is for people, not for the file

@@ -3,6 +3,7 @@
 import contextlib
 import json
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -11,6 +12,8 @@ import tty
 
 
 from tests.conftest import ROOT, frame, run_cli
+
+PATIENCE = 30.0   # seconds to wait for the simulator: generous, the machine may be busy
 from tests.integration.test_mcap import doctor, go_read, jsonl
 
 
@@ -49,7 +52,10 @@ def sim_on_pty(*args):
     proc = subprocess.Popen([sys.executable, "-m", "analyzer", "sim", os.ttyname(slave), *args],
                             cwd=ROOT, stderr=subprocess.PIPE, text=True)
     try:
-        time.sleep(0.7)
+        # its start line comes once its port is open (pyserial's open drops what was
+        # written before): wait for it rather than for a time a busy machine may exceed
+        ready, _, _ = select.select([proc.stderr], [], [], PATIENCE)
+        assert ready and "answering on" in proc.stderr.readline(), "sim did not start"
         yield master
     finally:
         proc.send_signal(signal.SIGTERM)
@@ -57,13 +63,22 @@ def sim_on_pty(*args):
     assert proc.returncode == 0
 
 
+def read_for(fd: int, want: int) -> bytes:
+    """What ``fd`` gives until ``want`` bytes came or PATIENCE ran out."""
+    got, end = b"", time.monotonic() + PATIENCE
+    while len(got) < want and time.monotonic() < end:
+        ready, _, _ = select.select([fd], [], [], 0.1)
+        if ready:
+            got += os.read(fd, 100)
+    return got
+
+
 def test_sim_answers_on_a_pty():
     with sim_on_pty("--address", "1.1.2") as master:
         os.write(master, frame((1, 1, 2), 0, "P?"))
-        time.sleep(0.3)
-        got = os.read(master, 100)
         # ACK, then the result from device 1.1.2 back to group 0 (Table 3)
-        assert got == b"\x06" + frame((0, 1, 2), 1, "00000000")
+        expected = b"\x06" + frame((0, 1, 2), 1, "00000000")
+        assert read_for(master, len(expected)) == expected
         os.write(master, frame((1, 1, 9), 0, "P?"))   # another device: silence
         time.sleep(0.3)
         os.set_blocking(master, False)
@@ -118,9 +133,8 @@ def test_demo_recording_rotates_by_size(tmp_path):
 def test_sim_at_a_wrong_baud_rate_answers_garbage():
     with sim_on_pty("--wrong-baud", "19200") as master:
         os.write(master, frame((1, 1, 1), 0, "HO"))
-        time.sleep(0.3)
         # the ACK (0x06) sent at 19200 reads as 0xF9 at 9600 (tests/pure/test_uart.py)
-        assert os.read(master, 100) == b"\xf9"
+        assert read_for(master, 1) == b"\xf9"
 
 
 def test_demo_and_live_bad_options_are_one_line(tmp_path):
