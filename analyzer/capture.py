@@ -61,6 +61,15 @@ class Options:
     def byte_time(self) -> float:
         return byte_time(self.baud, self.data_bits, self.parity, self.stop_bits)
 
+    def settings(self) -> dict:
+        """The settings a recording keeps and a flag overrides, by one name each
+        (the ``Options`` field, or the ``Timeouts`` one with its unit)."""
+        t = self.timeouts
+        return {"baud": self.baud, "data_bits": self.data_bits, "parity": self.parity,
+                "stop_bits": self.stop_bits, "ack_timeout": t.ack, "result_timeout": t.result,
+                "timeouts": t.result_by_command, "frame_gap": self.frame_gap, "follow_rate": self.follow_rate,
+                "swap_lines": self.swap_lines}
+
     @property
     def read_settings(self) -> ReadSettings:
         return ReadSettings(self.byte_time, tz=self.tz, start_time=self.start_time)
@@ -161,26 +170,15 @@ class Capture:
     # ------------------------------------------------------------ rate changes
     def _marked(self, line: str, data: bytes) -> None:
         """Count the rate-set frames ``data`` may hold (on a line commands travel).
-        Once per chunk: the usual chunk has neither the mark's last two bytes nor
-        a start byte near its end, and costs two searches in C."""
+        Once per chunk: the usual chunk has neither the mark's last two bytes nor a
+        start byte among the last six before it, and costs two searches in C."""
         if line == "B":
             return
-        tail = self._tails.get(line)
-        if (b"\x02C" in data and RATE_MARK.search(data)) or (tail and RATE_MARK.search(tail + data[:6])):
+        tail = self._tails.get(line, b"")
+        if (b"\x02C" in data and RATE_MARK.search(data)) or (0xF8 in tail and RATE_MARK.search(tail + data[:6])):
             self._marks += 1
-        # a start byte among the last six bytes read: a mark may go on in the next read
-        n = len(data)
-        if n >= 6:
-            if data.find(0xF8, n - 6) >= 0:
-                self._tails[line] = data[-6:]
-            elif tail:
-                self._tails[line] = b""
-        else:
-            last = (tail + data)[-6:] if tail else data
-            if 0xF8 in last:
-                self._tails[line] = last
-            elif tail:
-                self._tails[line] = b""
+        # the last six bytes read: a mark may begin in them and go on in the next read
+        self._tails[line] = data[-6:] if len(data) >= 6 else (tail + data)[-6:]
 
     def _watching(self) -> bool:
         return self._watch_all or self._marks > 0 or self.follower.busy
@@ -307,7 +305,6 @@ class Capture:
     def _single(self) -> Iterator[list[Event]]:
         d = self._deframer(LINE_AB)
         tap = self._tap
-        place = _Placement(one_clock=True)
         follow = self.follower is not None
         for chunk in self.source.chunks():
             if not chunk.data:            # an idle tick: time passed
@@ -322,18 +319,14 @@ class Capture:
             if tap is not None:
                 tap(chunk, d.offset)
             if chunk.undecoded:
-                if chunk.t is not None:
-                    self._seen(place.skipped(chunk, self._bt))
-                yield self._skip(d, chunk)
+                out = self._skip(d, chunk)
+                self._seen(d.last_end)
+                yield out
                 continue
             if follow:
                 self._marked(LINE_AB, chunk.data)
-            if chunk.t is None:
-                out = d.feed(chunk.data)
-            else:
-                t, bt, end = place(chunk, self._bt)
-                self._seen(end)
-                out = d.feed(chunk.data, t, bt)
+            out = d.feed(chunk.data, chunk.t)   # one line, one clock: the deframer keeps its order
+            self._seen(d.last_end)
             if follow and out and self._watching():
                 rates = self._follow(out)
                 if rates:
@@ -366,10 +359,10 @@ class Capture:
         follow = self.follower is not None
         tap = self._tap
         since_release = 0
-        # one clock: a chunk read later started after the earlier ones were read
+        # one clock: a chunk read later started no earlier than the other line's
+        # latest read (docs/time.md, "Byte order"); the deframers keep each line's order
         one_clock = self.clocks < 2
-        place = _Placement(one_clock)
-        line_end = place.line_end
+        last_read = None
         for chunk in self.source.chunks():
             data = chunk.data
             if not data:                  # an idle tick: time passed
@@ -388,32 +381,18 @@ class Capture:
                 d = deframers[chunk.line]
                 if tap is not None:
                     tap(chunk, d.offset)
+                t = chunk.t
                 if chunk.undecoded:
-                    end = place.skipped(chunk, self._bt)
-                    t = chunk.t
                     arrived(self._skip(d, chunk))
                 else:
-                    # _Placement.__call__ written out: this loop runs once per chunk
-                    t = chunk.t
-                    line = chunk.line
-                    end = t + len(data) * self._bt
-                    floor = line_end.get(line, t)
-                    if one_clock and place.last_read > floor:
-                        floor = place.last_read
-                    if t >= floor:
-                        events = d.feed(data, t)
-                    else:
-                        if end < floor:
-                            end = floor
-                        events = d.feed(data, floor, (end - floor) / len(data))
-                        t = floor
-                    line_end[line] = end
-                    if end > place.last_read:
-                        place.last_read = end
+                    events = d.feed(data, t, last_read if one_clock else None)
                     if plain and not (follow and self._watching()):
                         merge.held += events
                     else:
                         arrived(events)
+                end = d.last_end
+                if last_read is None or end > last_read:
+                    last_read = end
                 if self._latest is None or end > self._latest:
                     self._latest = end
             since_release += 1
@@ -448,7 +427,7 @@ class Capture:
             self._undecoded_at_stop += n
         else:
             self._say_undecoded(final=False, t=chunk.t)
-        return d.skip(n)
+        return d.skip(n, chunk.t)
 
     def _say_undecoded(self, final: bool, t: float | None = None) -> None:
         """One warning when decoding first falls behind, a running count at most
@@ -550,54 +529,6 @@ class _Merge:
         ready = held[:k]
         del held[:k]
         return ready
-
-
-class _Placement:
-    """Where each timed chunk goes on the time line (docs/time.md, "Byte order").
-
-    A chunk's time says when its first byte started, derived from when it was
-    read (read time less its length in byte times). Bytes can arrive faster than
-    the rate allows (ptys, adapters that buffer), and then that start lies before
-    bytes already placed. Within one line, byte order is the truth: a chunk never
-    starts before the previous chunk of its line was read. With one clock (a socat
-    log, a single-line tap) it also never starts before an earlier chunk of the
-    other line was read: socat forwards a command before the device can answer it,
-    so an answer is never placed before its command. A chunk moved later keeps
-    its read time as its end: its bytes are spread over the time they really took.
-    """
-
-    __slots__ = ("one_clock", "line_end", "last_read")
-
-    def __init__(self, one_clock: bool) -> None:
-        self.one_clock = one_clock
-        self.line_end: dict[str, float] = {}   # each line's last read time
-        self.last_read = float("-inf")         # the latest read time of any line
-
-    def __call__(self, chunk: Chunk, bt: float) -> tuple[float, float | None, float]:
-        """(start, byte time of its bytes or None for the line's, end)."""
-        t = chunk.t
-        n = len(chunk.data)
-        read = t + n * bt
-        floor = self.line_end.get(chunk.line, t)
-        if self.one_clock and self.last_read > floor:
-            floor = self.last_read
-        if t >= floor:
-            self._read(chunk.line, read)
-            return t, None, read
-        end = read if read > floor else floor
-        self._read(chunk.line, end)
-        return floor, (end - floor) / n, end
-
-    def skipped(self, chunk: Chunk, bt: float) -> float:
-        """A chunk that is not decoded still moves its line on; its end."""
-        end = max(chunk.t + len(chunk.data) * bt, self.line_end.get(chunk.line, chunk.t))
-        self._read(chunk.line, end)
-        return end
-
-    def _read(self, line: str, end: float) -> None:
-        self.line_end[line] = end
-        if end > self.last_read:
-            self.last_read = end
 
 
 def _inserted(events: list[Event], rates: list[Event]) -> list[Event]:

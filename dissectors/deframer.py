@@ -113,25 +113,29 @@ class Deframer:
             self.frame_gap = max(0.05, 20 * byte_time)
         self.byte_time = byte_time
 
-    def feed(self, data: bytes, t: float | None = None, byte_time: float | None = None) -> list[Event]:
-        """Add bytes; ``t`` is the wire time the first of them started (None: untimed).
-        ``byte_time``: what each of these bytes took, when not the line's byte time
-        (bytes that came faster than the rate allows are spread over the time they
-        took, so they end when they were read: docs/time.md, "Byte order")."""
+    def feed(self, data: bytes, t: float | None = None, not_before: float | None = None) -> list[Event]:
+        """Add bytes; ``t`` is the wire time the first of them started (None: untimed),
+        as estimated from when they were read (``t + len(data) × byte time``).
+
+        Byte order is the truth (docs/time.md, "Byte order"): bytes that came faster
+        than the rate allows would be placed before bytes already fed; they start
+        where the line's previous bytes ended instead, or at ``not_before`` when
+        later (the other line's latest read, for a capture with one clock), and
+        are spread so that they end when they were read."""
         if not data:
             return []
-        bt = self.byte_time if byte_time is None else byte_time
+        bt = self.byte_time
         if t is not None:
             self._timed = True
             last = self._last_end
-            if last is not None:
-                if t < last:
-                    # Bytes on one line cannot overlap, so the estimate was early; but
-                    # bytes cannot end after they were read either (t + n·bt is the read
-                    # time): move at most two byte times, then allow the overlap.
-                    t = min(last, t + 2 * bt)
-                elif t - last > self.frame_gap and self._buf:
-                    self._gaps.append(self._base + len(self._buf))
+            floor = last if not_before is None or (last is not None and last >= not_before) else not_before
+            if floor is not None and t < floor:
+                n = len(data)
+                read = t + n * bt
+                bt = (read - floor) / n if read > floor else 0.0
+                t = floor
+            if last is not None and t - last > self.frame_gap and self._buf:
+                self._gaps.append(self._base + len(self._buf))
             self._last_end = t + len(data) * bt
         if not self._buf and self._noise_start is None and not self._gaps:
             # the usual read: one whole token with nothing pending becomes its event
@@ -176,11 +180,12 @@ class Deframer:
         """End of stream: everything pending becomes events."""
         return self._parse(final=True)
 
-    def skip(self, n: int) -> list[Event]:
+    def skip(self, n: int, t: float | None = None) -> list[Event]:
         """The next ``n`` bytes of the line will not be fed (decoding fell behind):
         everything pending becomes events, as before a silence, so no frame is
         stitched across the gap; offsets advance by ``n``, so they stay the line's
-        absolute offsets."""
+        absolute offsets. ``t``: when the first of them started, if known: the
+        line's next bytes come after them."""
         self._ends = "bytes not decoded"
         try:
             out = self._parse(final=True)
@@ -194,24 +199,28 @@ class Deframer:
         self._seg_t.clear()
         self._seg_bt.clear()
         self._gaps.clear()
-        self._last_end = None   # the skipped bytes ended later; the next chunk's time stands
+        last = self._last_end
+        if t is None:
+            self._last_end = None   # the skipped bytes ended later; the next chunk's time stands
+        else:
+            end = t + n * self.byte_time
+            self._last_end = end if last is None or end > last else last
         return out
 
+    @property
+    def last_end(self) -> float | None:
+        """When the last byte fed (or skipped) ended, as placed; None untimed."""
+        return self._last_end
+
     # ------------------------------------------------------------------ time
-    def _time_at(self, off: int) -> float | None:
+    def _time_at(self, off: int, after: int = 0) -> float | None:
+        """When the byte at ``off`` started (``after`` 1: ended); None untimed."""
         if not self._timed:
             return None
         k = bisect_right(self._seg_off, off) - 1
         if k < 0:
             k = 0
-        return self._seg_t[k] + (off - self._seg_off[k]) * self._seg_bt[k]
-
-    def _end_at(self, off: int) -> float:
-        """When the byte at ``off`` ended (timed input)."""
-        k = bisect_right(self._seg_off, off) - 1
-        if k < 0:
-            k = 0
-        return self._seg_t[k] + (off - self._seg_off[k] + 1) * self._seg_bt[k]
+        return self._seg_t[k] + (off - self._seg_off[k] + after) * self._seg_bt[k]
 
     def _gap_in(self, start: int, end: int) -> int | None:
         """First gap boundary g with start < g < end (absolute offsets), if any."""
@@ -230,7 +239,7 @@ class Deframer:
         raw = self._buf[start - base:end - base]
         if self._timed:
             t0 = self._time_at(start)
-            t1 = self._end_at(end - 1)
+            t1 = self._time_at(end - 1, 1)
             ev = Event(self.line, start, kind, raw, t0, t1)
         else:
             ev = Event(self.line, start, kind, raw)
@@ -293,7 +302,7 @@ class Deframer:
                         raw = buf[i:end]
                         if timed:
                             t0 = self._time_at(base + i)
-                            t1 = self._end_at(base + end - 1)
+                            t1 = self._time_at(base + end - 1, 1)
                         else:
                             t0 = t1 = None
                         append(Event(line, base + i, frame_kind, raw, t0, t1,
@@ -312,7 +321,7 @@ class Deframer:
                     self._flush_noise(out, abs_i)
                 if timed:
                     t = self._time_at(abs_i)
-                    append(Event(line, abs_i, kind, buf[i:i + 1], t, self._end_at(abs_i)))
+                    append(Event(line, abs_i, kind, buf[i:i + 1], t, self._time_at(abs_i, 1)))
                 else:
                     append(Event(line, abs_i, kind, buf[i:i + 1]))
                 i += 1

@@ -267,5 +267,3 @@ class SerialTap(Source):
     def _chunk(self, item: tuple, kind: type[Chunk]) -> Chunk:
         line, data, t_read = item
         return kind(line, data, (t_read - self.start_time) - len(data) * self.byte_time)
-
-    byte_time: float = 10 / 9600   # set by the capture: the link's byte time now

@@ -232,3 +232,16 @@ def test_frames_that_only_look_like_rate_sets_are_let_go():
     events = list(cap)
     assert RATE not in [e.kind for e in events] and cap.baud == 9600
     assert cap._marks == 0   # every mark was seen to be a frame: no more looking at every event
+
+
+def test_the_deframer_keeps_its_line_in_order():
+    # a 9-byte command read at 1.0, then an ACK-less 15-byte frame read 0.5 ms later:
+    # back-dated by 15 byte times it would start 15.1 ms before the command ended
+    d = Deframer("B", byte_time=BT_9600)
+    (first,) = d.feed(CMD, 1.0 - 9 * BT_9600)
+    (second,) = d.feed(RES, 1.0005 - 15 * BT_9600)
+    assert second.t == pytest.approx(first.t_end) and second.t_end == pytest.approx(1.0005)
+    assert d.last_end == pytest.approx(1.0005)
+    # and not before a time the caller gives (the other line's latest read, one clock)
+    (third,) = d.feed(b"\x06", 1.0006 - BT_9600, not_before=1.0010)
+    assert third.t == pytest.approx(1.0010) and third.t_end == pytest.approx(1.0010)
