@@ -207,10 +207,7 @@ def recorded_options(options, source, name: str):
         return options, [f"{name}: the gimbalscope metadata is garbled ({e}): decoding with the options "
                          f"given and the defaults ({_described(options)})"]
     t = options.timeouts
-    current = {"baud": options.baud, "data_bits": options.data_bits, "parity": options.parity,
-               "stop_bits": options.stop_bits, "ack_timeout": t.ack, "result_timeout": t.result,
-               "timeouts": t.result_by_command, "frame_gap": options.frame_gap,
-               "follow_rate": options.follow_rate}
+    current = options.settings()
     changes: dict = {}
     said: list[str] = []
     for key, value in recorded.items():

@@ -89,17 +89,14 @@ class RateFollower:
         changes: list[RateChange] = []
         for ev in events:
             kind = ev.kind
-            if self._asked is None and self._done is None:
-                if kind != COMMAND and kind != FRAME:
-                    continue
-                p = ev.payload
-                if p is None or len(p) != 2 or p[0] != _C:
-                    continue
-                self.marked += 1
-            elif kind == COMMAND or kind == FRAME:
+            if kind == COMMAND or kind == FRAME:
                 p = ev.payload
                 if p is not None and len(p) == 2 and p[0] == _C:
                     self.marked += 1
+                elif not self.busy:
+                    continue
+            elif not self.busy:
+                continue
             change = self.observe(ev)
             if change is not None:
                 changes.append(change)

@@ -81,9 +81,8 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
 # The serial and pairing options and their defaults. The parser's defaults are None,
 # so an option given on the command line is told from one left at its default: a
 # recording's own settings win over defaults, and lose to options given
-# (docs/time.md, "Recordings").
-DEFAULTS = {"baud": 9600, "data_bits": 8, "parity": "N", "stop_bits": 1.0, "ack_timeout": 0.5,
-            "result_timeout": 2.0, "frame_gap": None, "follow_rate": True, "swap_lines": False}
+# (docs/time.md, "Recordings"). Per-command timeouts (--timeout, a list) are read apart.
+DEFAULTS = {key: value for key, value in Options().settings().items() if key != "timeouts"}
 
 
 def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:

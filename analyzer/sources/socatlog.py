@@ -198,10 +198,14 @@ class _Readings:
             if len(self._cache) > 4096:
                 self._cache.clear()
             self._cache[key] = passes
-        frac = m.group(3)
-        if len(frac) == 9 and not self.nanoseconds:
-            return passes[0], passes[1], int(frac) / 1e6
-        return passes[0], passes[1], int(frac) / 10 ** len(frac)
+        return passes[0], passes[1], self.fraction(m.group(3))
+
+    def fraction(self, digits: bytes) -> float:
+        """The fraction of a second a header's digits say (microseconds in nine
+        digits, unless the log carries nanoseconds: module doc)."""
+        if len(digits) == 9 and not self.nanoseconds:
+            return int(digits) / 1e6
+        return int(digits) / 10 ** len(digits)
 
     def _passes(self, key: bytes) -> tuple[int, int]:
         date_hour_minute = (int(key[0:4]), int(key[5:7]), int(key[8:10]), int(key[11:13]), int(key[14:16]))
@@ -274,10 +278,8 @@ class _Timeline:
         latest = self.latest
         if passes is None or passes[0] != passes[1] or latest is None or self.shift is not _NO_SHIFT:
             return self.place(readings.of(m), m, line_no)
-        frac = m.group(3)
-        frac = int(frac) / 1e6 if len(frac) == 9 and not readings.nanoseconds else int(frac) / 10 ** len(frac)
         self.repeating = False
-        return self._after_latest(passes[0], frac, latest, m, line_no)
+        return self._after_latest(passes[0], readings.fraction(m.group(3)), latest, m, line_no)
 
     def place(self, readings: tuple[int, int, float], m: re.Match, line_no: int) -> tuple[int, float]:
         """Where header ``m`` (line ``line_no``, ``readings`` from ``_Readings.of``) sits.
