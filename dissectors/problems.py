@@ -85,6 +85,11 @@ def _info(name: str, text: str, severity: str, summary: str,
     return info
 
 
+def _case(parent: ProblemInfo, name: str, severity: str, summary: str) -> ProblemInfo:
+    """A sub-case of ``parent``: its own id and severity, the category text JSON shows."""
+    return _info(name, parent.text, severity, summary, parent)
+
+
 # ---------------------------------------------------------------- frames (deframer)
 CHECKSUM = _info("CHECKSUM", "bad checksum", ERROR,
                  "a frame's checksum does not hold, or a broken frame's bytes")
@@ -108,21 +113,17 @@ UNKNOWN_COMMAND = _info("UNKNOWN_COMMAND", "unknown command", WARNING,
 
 # ---------------------------------------------------------------- exchanges (pairing)
 UNANSWERED = _info("UNANSWERED", "unanswered", ERROR, "a command whose ACK/NAK did not come")
-UNANSWERED_TIMEOUT = _info("UNANSWERED_TIMEOUT", UNANSWERED.text, ERROR,
-                           "no ACK/NAK within the ACK timeout (or, untimed, within the event window)",
-                           UNANSWERED)
-UNANSWERED_SUPERSEDED = _info("UNANSWERED_SUPERSEDED", UNANSWERED.text, ERROR,
-                              "the next command came before any ACK/NAK", UNANSWERED)
-UNANSWERED_NO_ACK = _info("UNANSWERED_NO_ACK", UNANSWERED.text, WARNING,
-                          "the result arrived, but no ACK was seen before it", UNANSWERED)
+UNANSWERED_TIMEOUT = _case(UNANSWERED, "UNANSWERED_TIMEOUT", ERROR,
+                           "no ACK/NAK within the ACK timeout (or, untimed, within the event window)")
+UNANSWERED_SUPERSEDED = _case(UNANSWERED, "UNANSWERED_SUPERSEDED", ERROR, "the next command came before any ACK/NAK")
+UNANSWERED_NO_ACK = _case(UNANSWERED, "UNANSWERED_NO_ACK", WARNING, "the result arrived, but no ACK was seen before it")
 NO_RESULT = _info("NO_RESULT", "missing result", ERROR, "an ACKed command's due result did not come")
-NO_RESULT_TIMEOUT = _info("NO_RESULT_TIMEOUT", NO_RESULT.text, ERROR,
-                          "no result within the result timeout (or, untimed, within the window)",
-                          NO_RESULT)
-NO_RESULT_SENT_AGAIN = _info("NO_RESULT_SENT_AGAIN", NO_RESULT.text, WARNING,
-                             "the same command was sent again before its result came", NO_RESULT)
-NO_RESULT_OVERFLOW = _info("NO_RESULT_OVERFLOW", NO_RESULT.text, WARNING,
-                           "given up: too many commands were waiting for results", NO_RESULT)
+NO_RESULT_TIMEOUT = _case(NO_RESULT, "NO_RESULT_TIMEOUT", ERROR,
+                          "no result within the result timeout (or, untimed, within the window)")
+NO_RESULT_SENT_AGAIN = _case(NO_RESULT, "NO_RESULT_SENT_AGAIN", WARNING,
+                             "the same command was sent again before its result came")
+NO_RESULT_OVERFLOW = _case(NO_RESULT, "NO_RESULT_OVERFLOW", WARNING,
+                           "given up: too many commands were waiting for results")
 RETRANSMISSION = _info("RETRANSMISSION", "retransmission", NOTE,
                        "a command repeating the previous one after it failed")
 ORPHAN = _info("ORPHAN", "orphan", WARNING, "an ACK, NAK, NIC or result that no command awaits")
