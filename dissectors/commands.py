@@ -94,7 +94,7 @@ def free_text(name: str) -> Field:
 # ---------------------------------------------------------------- derived values
 def _baud(values: dict) -> list[Problem] | None:
     code = values["rate_code"]
-    values["baud"] = BAUD_CODES.get(code)
+    values["baud"] = BAUD_CODES.get(code)   # None: a reserved code names no rate
     if code not in BAUD_CODES:
         return [RESERVED.problem(f"rate code C{code:X} is reserved for future data rates (Table 4)")]
     return None
@@ -281,7 +281,8 @@ cmd("V?", "Lens position request", (b"V?",), "Table 16, Table 17", result=[_lens
 cmd("Z", "Zoom speed", (b"Z", decimal("zoom_speed", 1, desc="Z0 slowest .. Z9 fastest")), "Table 16",
     summary="zoom speed {zoom_speed}")
 cmd("ZA-ZF", "Digital zoom", (b"Z", Field("digital_zoom", rb"[A-Fa-f]", lambda r: int(r, 16), hexdigits=True,
-                                          lead=rb"[A-Fa-f]", desc="ZA..ZF")), "Table 16",
+                                          lead=rb"[A-Fa-f]", desc="ZA..ZF",
+                                          type="integer")), "Table 16",
     summary="digital zoom {digital_zoom:X}", notes="ZA..ZF; not implemented per the spec")
 cmd("ZI", "Zoom in", (b"ZI",), "Table 16", summary="zoom in")
 cmd("ZO", "Zoom out", (b"ZO",), "Table 16", summary="zoom out")
@@ -321,9 +322,71 @@ for _code, _name, _due in (
 
 BY_ID = {c.id: c for c in COMMANDS}
 
+
+
+@dataclass(frozen=True)
+class Derived:
+    """A value a derive function above adds to the decoded fields."""
+    name: str
+    type: str                 # JSON type, as Field.type; "array" with ``items``
+    desc: str
+    unit: str = ""
+    items: str | None = None  # JSON type of an array's items
+
+
+_BITS = "names of the bits set"
+DERIVED = (
+    Derived("baud", "integer", "the rate a rate code names (Table 4); null for reserved codes", "bps"),
+    Derived("max_baud", "integer", "the rate the maximum rate code names (Table 4, §1.5.6)", "bps"),
+    Derived("azimuth_not_initialized", "boolean", "awake status bit 0 (Table 5)"),
+    Derived("elevation_not_initialized", "boolean", "awake status bit 1 (Table 5)"),
+    Derived("motors_off", "boolean", "awake status bit 2 (Table 5)"),
+    Derived("error", "boolean", "awake status bit 3: an error code is present (Table 5)"),
+    Derived("azimuth_errors", "array", f"azimuth error bits: {_BITS} (Table 6A)", items="string"),
+    Derived("elevation_errors", "array", f"elevation error bits: {_BITS} (Table 6A)", items="string"),
+    Derived("azimuth_status", "array", f"azimuth status bits: {_BITS} (Table 6B)", items="string"),
+    Derived("elevation_status", "array", f"elevation status bits: {_BITS} (Table 6B)", items="string"),
+    Derived("relays_on", "array", "relays that are on, 0..3 (Table 4A)", items="integer"),
+    *(Derived(f"{axis}_{way}_ok", "boolean", f"{axis} {way} initialization good (Table 9)")
+      for axis in ("azimuth", "elevation") for way in ("ccw", "cw")),
+    Derived("azimuth_initialized", "boolean", "count correct bit 0 (Table 14)"),
+    Derived("elevation_initialized", "boolean", "count correct bit 1 (Table 14)"),
+    Derived("data_length", "integer", "characters of data sent to the auxiliary port (Table 16)"),
+    # a rate event's (docs/time.md, "Rate changes"): the rate before it
+    Derived("previous_baud", "integer", "the rate before a rate change", "bps"),
+)
 # Names the derive functions above add to decoded fields (for filters and docs).
-DERIVED_FIELDS = ("baud", "max_baud", "azimuth_not_initialized", "elevation_not_initialized", "motors_off",
-                  "error", "azimuth_errors", "elevation_errors", "azimuth_status", "elevation_status",
-                  "relays_on", "azimuth_ccw_ok", "azimuth_cw_ok", "elevation_ccw_ok", "elevation_cw_ok",
-                  "azimuth_initialized", "elevation_initialized", "data_length",
-                  "previous_baud")   # a rate event's (docs/time.md): the rate before it
+DERIVED_FIELDS = tuple(d.name for d in DERIVED)
+
+
+@dataclass(frozen=True)
+class FieldType:
+    """What every value of one field name is, across all commands and results."""
+    type: str
+    unit: str
+    desc: str
+    items: str | None = None
+
+
+def field_types() -> dict[str, FieldType]:
+    """Every field name of the table (parameters, results, derived values), with
+    its JSON type and unit: a name means one thing everywhere, so one name has
+    one type (ValueError otherwise)."""
+    out: dict[str, FieldType] = {}
+
+    def add(name: str, ft: FieldType) -> None:
+        known = out.get(name)
+        if known is None:
+            out[name] = ft
+        elif (known.type, known.items) != (ft.type, ft.items):
+            raise ValueError(f"field {name!r} is {known.type} in one layout and {ft.type} in another")
+        elif not known.desc and ft.desc:
+            out[name] = FieldType(known.type, known.unit or ft.unit, ft.desc, known.items)
+
+    for c in COMMANDS:
+        for layout in (c.layout, *c.result):
+            for f in layout.fields:
+                add(f.name, FieldType(f.type, f.unit, f.desc))
+    for d in DERIVED:
+        add(d.name, FieldType(d.type, d.unit, d.desc, d.items))
+    return out

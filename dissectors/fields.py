@@ -30,6 +30,9 @@ class Field:
     hexdigits: bool = False   # lower-case letters earn a warning
     valid: tuple[float, float] | None = None  # warn when the decoded value is outside
     lead: bytes = rb"[\s\S]"  # what the field's first character can be
+    # the decoded value's JSON type ("integer", "number", "string", "boolean"):
+    # MCAP schemas type every field with it (analyzer/recording/schemas.py)
+    type: str = "string"
 
     def check(self, value: Any) -> Problem | None:
         if self.valid is not None and isinstance(value, (int, float)):
@@ -63,12 +66,14 @@ def hexnum(name: str, digits: int | tuple[int, int], *, scale: float | None = No
 
         def dec(raw: bytes, _b=base, _d=divisor) -> float:
             return _b(raw) / _d
-    return Field(name, rx, dec, unit, desc, hexdigits=True, valid=valid, lead=HEX)
+    return Field(name, rx, dec, unit, desc, hexdigits=True, valid=valid, lead=HEX,
+                 type="integer" if scale is None else "number")
 
 
 def decimal(name: str, max_digits: int = 6, *, unit: str = "", desc: str = "",
             valid: tuple[float, float] | None = None) -> Field:
-    return Field(name, rb"[0-9]{1,%d}" % max_digits, int, unit, desc, valid=valid, lead=rb"[0-9]")
+    return Field(name, rb"[0-9]{1,%d}" % max_digits, int, unit, desc, valid=valid, lead=rb"[0-9]",
+                 type="integer")
 
 
 def text(name: str, width: int | None = None, *, strip: bool = False, desc: str = "",
@@ -85,18 +90,34 @@ def text(name: str, width: int | None = None, *, strip: bool = False, desc: str 
 
 
 def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes = rb".") -> Field:
-    """One character mapped to a value; characters outside the map are out of range."""
+    """One character mapped to a value. A character outside the map decodes to
+    None (no value of the field's type stands for it) and is out of range; the
+    payload still shows it."""
     def dec(raw: bytes) -> Any:
-        return mapping.get(raw, raw.decode("latin-1"))
-    f = Field(name, regex, dec, "", desc)
-    allowed = set(mapping.values())
+        return mapping.get(raw)
+    types = {_json_type(v) for v in mapping.values()}
+    if len(types) != 1:
+        raise ValueError(f"choice {name!r}: values of one JSON type, not {sorted(types)}")
+    f = Field(name, regex, dec, "", desc, type=types.pop())
+    allowed = ", ".join(f"{k.decode('latin-1')} ({v})" for k, v in mapping.items())
 
     def check(value: Any, _f=f) -> Problem | None:
-        if value not in allowed:
-            return OUT_OF_RANGE.problem(f"{name} {value!r} is none of {sorted(map(str, allowed))}")
+        if value is None:
+            return OUT_OF_RANGE.problem(f"{name} is none of {allowed}")
         return None
     object.__setattr__(f, "check", check)
     return f
+
+
+def _json_type(value: Any) -> str:
+    """The JSON Schema type of a Python value a field decodes to."""
+    if isinstance(value, bool):
+        return "boolean"
+    if isinstance(value, int):
+        return "integer"
+    if isinstance(value, float):
+        return "number"
+    return "string"
 
 
 @dataclass(frozen=True)

@@ -6,10 +6,8 @@ chunks. With ``flush_interval`` set (live taps), the chunk in progress is closed
 and written at least that often, so a killed tap loses at most about that much;
 such a file has no summary and still reads (``analyzer.sources.mcapfile``).
 
-Message times (log_time) are capture times (docs/time.md, "Message times"):
-``start_time`` plus the wire time. Inputs without time (raw dumps) get wire times
-from their byte offsets at the baud rate (``wire_byte_time``): as if each line's
-bytes followed each other without pause, which keeps every line in order.
+The messages, their topics and their times are built by ``messages.Messages``,
+the same as a live Foxglove server's; this module writes them.
 
 Write errors (a full disk) go one of two ways. Without ``on_error`` (convert,
 writing into a temporary file) they raise ``RecordingError``, one line, and the
@@ -28,18 +26,19 @@ import errno
 import os
 import stat
 import time
-from typing import Any, BinaryIO, Callable
+from typing import BinaryIO, Callable
 
 from mcap.data_stream import RecordBuilder
 from mcap.records import DataEnd, Footer
 from mcap.writer import MCAP0_MAGIC, CompressionType, Writer
 
-from dissectors.event import COMMAND, NO_ACK, NOISE, ST_NAK, Event
+from dissectors.event import Event
 
 from ..outfile import OutputError, reason, show
 from ..output import dumps
 from ..sources.base import Chunk
 from . import schemas as S
+from .messages import Messages
 
 
 class RecordingError(OutputError):
@@ -165,71 +164,52 @@ class McapRecorder:
         self._writer = Writer(self._out, compression=CompressionType.ZSTD, chunk_size=1 << 20,
                               use_chunking=chunked)
         self._writer.start(profile=S.PROFILE, library="gimbalscope")
-        self.start_ns = int((start_time if start_time is not None else time.time()) * 1e9)
-        self._seq = 0
-        ids = {}
-        for name, schema in (("raw", S.RAW), ("event", S.EVENT), ("txn", S.TRANSACTION), ("log", S.LOG)):
-            ids[name] = self._writer.register_schema(schema["title"], "jsonschema", S.encoded(schema))
-        self._raw_schema = ids["raw"]
-        self._raw_channels = {line: self._writer.register_channel(S.RAW_TOPIC.format(line=line), "json", ids["raw"])
-                              for line in lines}
-        self._events = self._writer.register_channel(S.EVENTS_TOPIC, "json", ids["event"])
-        self._txns = self._writer.register_channel(S.TRANSACTIONS_TOPIC, "json", ids["txn"])
-        self._log = self._writer.register_channel(S.LOG_TOPIC, "json", ids["log"])
-        self._open_txn: _OpenTransaction | None = None
-        self._offsets: dict[str, int] = {}
+        self._messages = Messages(self._emit, start_time=start_time, wire_byte_time=self.wire_byte_time)
+        self.start_ns = self._messages.start_ns
+        self._schemas = {key: self._writer.register_schema(schema["title"], "jsonschema", S.encoded(schema))
+                         for key, schema in S.SCHEMAS.items()}
+        self._channels: dict[str, int] = {}
+        # the fixed topics exist from the start, also in a recording without messages;
+        # a device's position topic when it is first seen
+        for line in lines:
+            self._channel(S.RAW_TOPIC.format(line=line), "raw")
+        for topic, key in ((S.EVENTS_TOPIC, "event"), (S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")):
+            self._channel(topic, key)
+        self._lines = lines
         if metadata:   # written first, so a killed recording still says what it is
             self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
+
+    def _channel(self, topic: str, key: str) -> int:
+        channel = self._channels[topic] = self._writer.register_channel(topic, "json", self._schemas[key])
+        return channel
 
     # ---------------------------------------------------------------- input
     def raw(self, chunk: Chunk, offset: int) -> None:
         """Record bytes read from a line (``offset`` of their first byte)."""
-        if not chunk.data or self._closed:
-            return
-        self._offsets[chunk.line] = offset + len(chunk.data)
-        channel = self._raw_channels.get(chunk.line)
-        if channel is None:
-            before = self._out.good
-            try:
-                channel = self._writer.register_channel(S.RAW_TOPIC.format(line=chunk.line), "json",
-                                                        self._raw_schema)
-            except OSError as e:
-                self._fail(e, before, self.messages)
-                return
-            self._raw_channels[chunk.line] = channel
-        self._seq += 1
-        ts = self._time_ns(chunk.t, self._seq, offset)
-        self._write(channel, ts, {"line": chunk.line, "offset": offset, "t": chunk.t, "data": chunk.data.hex()})
+        if not self._closed:
+            self._messages.raw(chunk, offset)
 
     def end_marker(self, t: float | None) -> None:
         """Record that time ran on to ``t`` with nothing more on the wire (an empty
         raw chunk), so decoding the recording expires the same timeouts live did."""
-        if t is None or self._closed:
-            return
-        line = next(iter(self._raw_channels))
-        self._write(self._raw_channels[line], self._time_ns(t, 0),
-                    {"line": line, "offset": self._offsets.get(line, 0), "t": t, "data": ""})
+        if not self._closed:
+            self._messages.end_marker(t, self._lines[0] if self._lines else "A")
 
     def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
         """A tap's own message (a port lost and back, the skew estimate) on /log."""
-        ts = self._time_ns(t, 0)
-        self._write(self._log, ts, {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000},
-                                    "level": level, "message": show(message), "name": "gimbalscope tap",
-                                    "file": "", "line": 0})
+        if not self._closed:
+            self._messages.note(message, t, level)
 
     def event(self, ev: Event) -> None:
-        ts = self._time_ns(ev.t, ev.number, ev.offset)
-        self._write(self._events, ts, ev.to_dict())
-        if ev.problems:
-            self._write(self._log, ts, self._log_message(ev, ts))
-        self._transaction(ev, ts)
+        if not self._closed:
+            self._messages.event(ev)
 
     def close(self, metadata: dict[str, str] | None = None) -> None:
         """Finish the file: summary, statistics, and ``metadata`` when the
         recording only knows it at the end (conversions). Safe to call twice."""
         if self._closed:
             return
-        self._end_txn()
+        self._messages.finish()
         self.flush()   # the last chunk first: a failure after it loses only the summary
         if self._closed:
             return
@@ -268,12 +248,16 @@ class McapRecorder:
         self.close()
 
     # ------------------------------------------------------------- internals
-    def _time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
-        if t is None:
-            if offset is not None and self.wire_byte_time is not None:
-                return self.start_ns + int(round(offset * self.wire_byte_time * 1e9))
-            return self.start_ns + order
-        return self.start_ns + int(round(t * 1e9))
+    def _emit(self, topic: str, key: str, ts: int, obj: dict) -> None:
+        channel = self._channels.get(topic)
+        if channel is None:
+            before = self._out.good
+            try:
+                channel = self._channel(topic, key)
+            except OSError as e:   # unchunked (an empty recording) writes channels at once
+                self._fail(e, before, self.messages)
+                return
+        self._write(channel, ts, obj)
 
     def _write(self, channel: int, ts: int, obj: dict) -> None:
         if self._closed:
@@ -353,65 +337,6 @@ class McapRecorder:
                 self.removed = True
         except OSError:
             pass
-
-    @staticmethod
-    def _log_message(ev: Event, ts: int) -> dict:
-        level = S.ERROR if ev.kind == NOISE or ev.checksum_ok is False or ev.status in (ST_NAK, NO_ACK) \
-            else S.WARNING
-        what = ev.command or ev.kind
-        return {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000}, "level": level,
-                "message": f"#{ev.number} line {ev.line} {what}: " + "; ".join(ev.problems),
-                "name": "gimbalscope", "file": f"line {ev.line}", "line": ev.offset}
-
-    def _transaction(self, ev: Event, ts: int) -> None:
-        """A command opens a transaction message; the next command, or the end,
-        writes it from the command's pairing record. Its answers are those the
-        stream brought before that next command: an answer can come much later
-        (an optional result), and a live tap and a re-decode of its recording
-        must write the same message, whatever their batches."""
-        if ev.kind == COMMAND:
-            self._end_txn()
-            self._open_txn = _OpenTransaction(ts, ev)
-            return
-        record = ev.transaction
-        txn = self._open_txn
-        if record is not None and txn is not None and record is txn.record:
-            txn.answers.append(ev)
-
-    def _end_txn(self) -> None:
-        if self._open_txn is not None:
-            self._write(self._txns, self._open_txn.ts, self._open_txn.message())
-            self._open_txn = None
-
-
-class _OpenTransaction:
-    """A command recorded, and those of its answers recorded since."""
-
-    __slots__ = ("ts", "command", "record", "answers")
-
-    def __init__(self, ts: int, command: Event) -> None:
-        self.ts = ts
-        self.command = command
-        self.record = command.transaction
-        self.answers: list[Event] = []
-
-    def message(self) -> dict[str, Any]:
-        """The /transactions message (schemas.TRANSACTION): the record's facts, as
-        far as the answers recorded so far go; fields and problems are the
-        command's, then its answers'."""
-        cmd, record, answers = self.command, self.record, self.answers
-        numbers = [a.number for a in answers]
-        fields = dict(cmd.fields)
-        problems = list(cmd.problems)
-        for answer in answers:
-            if answer.number == record.result:
-                fields.update(answer.fields)
-            problems.extend(answer.problems)
-        return {"txn": record.number, "number": cmd.number, "t": cmd.t, "command": record.command,
-                "device": record.device, "status": record.status, "retransmission": record.retransmission,
-                "ack_latency": record.ack_latency if record.ack in numbers else None,
-                "result_latency": record.result_latency if record.result in numbers else None,
-                "answers": numbers, "fields": fields, "problems": problems}
 
 
 def encodable(metadata: dict[str, str]) -> dict[str, str]:

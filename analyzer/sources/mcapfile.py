@@ -12,6 +12,10 @@ read is said once, with its byte offset, and the rest is read:
 - a message on a raw topic that is not a gimbalscope raw chunk (other tools, by
   hand) is counted and skipped: one warning per topic.
 
+A raw chunk's bytes are base64 when its channel's schema says
+``"contentEncoding": "base64"`` (recordings since docs/foxglove.md), hex in older
+recordings: both decode.
+
 A file with no raw chunk to decode is one error naming why; one with our raw
 channels and no messages at all is an empty capture.
 
@@ -35,6 +39,7 @@ import pickle
 import struct
 import subprocess
 import sys
+from binascii import a2b_base64
 from functools import partial
 from itertools import chain
 from typing import Callable, Iterator
@@ -47,14 +52,14 @@ except ImportError:  # pragma: no cover
 from ..outfile import show
 from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, ReadSettings, Source
 from .files import Input, open_input
-from .mcapscan import (MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA,
+from .mcapscan import (MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_SCHEMA, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA,
                        RECORD, RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk,
                        summary_records)
 
 RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}
 
 _LOG_TIME = struct.Struct("<Q")            # at byte 6 of a message record's body
-_BODIES = frozenset((OP_CHUNK, OP_CHANNEL, OP_MESSAGE))   # top-level records read; the rest are skipped
+_BODIES = frozenset((OP_CHUNK, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE))   # top-level records read; the rest are skipped
 
 # A raw chunk's time ("t", seconds since the capture's first byte) must be a number
 # within this; beyond it no recording is that long, and times that large break the
@@ -121,7 +126,7 @@ class McapSource(Source):
                 raise CaptureError(f"{self.label}: not an MCAP file (it does not start with the MCAP magic "
                                    "bytes of version 0)")
             # channels registered without any message are only in the summary
-            for op, body in summary_records(f, size, (OP_CHANNEL,)):
+            for op, body in summary_records(f, size, (OP_SCHEMA, OP_CHANNEL)):
                 _read_records(_record(op, body), p, [])
             walk = Walk(f, size)
             for offset, op, body in walk.records(_BODIES):
@@ -136,7 +141,7 @@ class McapSource(Source):
             if walk.stop:
                 note(_LOST if walk.lost else _CUT, f"ends early ({walk.stop})" + (
                     f"; {len(salvaged)} raw chunks read from the part of it that is there" if salvaged else ""))
-        self._raw_channels = set(p.wanted.values())
+        self._raw_channels = {line for line, _decode in p.wanted.values()}
         for line, (count, first) in p.foreign.items():
             topic, why = f"/serial/{line}/raw", _diagnose(first, need_t)
             note(_FOREIGN, f"{count} messages on {topic} were not gimbalscope raw chunks (the first: {why})"
@@ -438,12 +443,13 @@ def _record_heads(f, size: int) -> Iterator[tuple[int, int]]:
 class _Pass:
     """What one read through the file knows so far."""
 
-    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign")
+    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign", "base64")
 
     def __init__(self, topics: list[str], pairs: bool, need_t: bool | None) -> None:
         self.lines = {topic: RAW_TOPICS[topic] for topic in topics}
         self.pairs, self.need_t = pairs, need_t
-        self.wanted: dict[int, str] = {}      # channel id → line, for the topics asked for
+        self.wanted: dict[int, tuple] = {}    # channel id → (line, decode of 'data'), for the topics asked for
+        self.base64: set[int] = set()         # schema ids whose 'data' is base64 (else hex)
         self.encodings: dict[int, str] = {}   # every channel id → its message encoding
         self.foreign: dict[str, list] = {}    # line → [messages that are not ours, the first one]
 
@@ -486,7 +492,7 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
     transactions, log: most of a recording) and index records are skipped by
     length, never parsed; a raw message is parsed once, its shape checked by
     what parsing it raises (``_NOT_OURS``) and a comparison of its time."""
-    unpack_record, loads, fromhex, append = RECORD.unpack_from, json_loads, bytes.fromhex, out.append
+    unpack_record, loads, append = RECORD.unpack_from, json_loads, out.append
     wanted, pairs, need_t = p.wanted, p.pairs, p.need_t
     lo, hi = -MAX_T, MAX_T
     pos, end = 0, len(records)
@@ -500,11 +506,12 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
             if op == 5:                                 # OP_MESSAGE
                 if length < 22:                         # MESSAGE_HEAD
                     return pos, "a Message record shorter than its header"
-                line = wanted.get(records[body] | records[body + 1] << 8)
-                if line is not None:
+                raw = wanted.get(records[body] | records[body + 1] << 8)
+                if raw is not None:
+                    line, decode = raw
                     try:
                         msg = loads(records[body + 22:nxt])
-                        data = fromhex(msg["data"])
+                        data = decode(msg["data"])
                         t = msg.get("t")
                         if need_t:
                             if not lo <= t <= hi:       # None raises: not ours either
@@ -518,12 +525,15 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
                             append((_LOG_TIME.unpack_from(records, body + 6)[0], Chunk(line, data, t)))
                         else:
                             append(Chunk(line, data, t))
-            elif op == OP_CHANNEL:
+            elif op == OP_CHANNEL or op == OP_SCHEMA:
                 try:
-                    channel = parse(op, records[body:nxt])
+                    record = parse(op, records[body:nxt])
                 except Damaged as e:
                     return pos, str(e)
-                _channel(p, channel)
+                if op == OP_CHANNEL:
+                    _channel(p, record)
+                elif _data_is_base64(record):
+                    p.base64.add(record.id)
             pos = nxt
     except struct.error:
         return pos, "a record header cut short"
@@ -536,7 +546,22 @@ def _channel(p: _Pass, channel) -> None:
     if line is None:
         p.wanted.pop(channel.id, None)   # an id given to another topic
     else:
-        p.wanted[channel.id] = line
+        p.wanted[channel.id] = (line, _from_base64 if channel.schema_id in p.base64 else bytes.fromhex)
+
+
+def _from_base64(text: str) -> bytes:
+    return a2b_base64(text, strict_mode=True)
+
+
+def _data_is_base64(schema) -> bool:
+    """Does a raw chunk schema give its bytes in base64 (``"contentEncoding":
+    "base64"``, recordings since the Foxglove schemas) rather than hex (before)?"""
+    if b"contentEncoding" not in schema.data:
+        return False
+    try:
+        return json.loads(schema.data)["properties"]["data"]["contentEncoding"] == "base64"
+    except (ValueError, TypeError, KeyError, RecursionError):
+        return False
 
 
 def _count_foreign(foreign: dict[str, list], line: str, payload: bytes) -> None:
@@ -578,7 +603,10 @@ def _diagnose(payload: bytes, need_t: bool | None) -> str:
     try:
         bytes.fromhex(data)
     except ValueError:
-        return "'data' is not hex"
+        try:
+            _from_base64(data)
+        except ValueError:
+            return "'data' is neither hex nor base64"
     t = msg.get("t")
     if t is not None and (isinstance(t, bool) or not isinstance(t, (int, float))):
         return "'t' is not a number"

@@ -194,7 +194,7 @@ def test_convert_of_an_empty_capture_is_a_whole_recording(tmp_path, lines):
         summary = make_reader(f).get_summary()
     topics = {c.topic for c in summary.channels.values()}
     expected = {"/serial/AB/raw"} if lines == 1 else {"/serial/A/raw", "/serial/B/raw"}
-    assert expected <= topics and len(summary.schemas) == 4
+    assert expected <= topics and len(summary.schemas) == 5   # raw, event, transaction, log, position
     for cmd in (["decode", out, "--format", "jsonl"], ["stats", out], ["replay", out, "--no-tui", "--speed", "max"]):
         r = run_cli(*cmd)
         assert r.returncode == 0 and r.stdout.strip() == "" or cmd[0] == "stats", (cmd, r.stdout, r.stderr)

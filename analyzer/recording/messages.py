@@ -1,0 +1,218 @@
+"""What a tap's chunks, events and notes are as topic messages: the one place
+that builds the messages of an MCAP recording and of a live Foxglove server
+(``analyzer/listeners/foxglove.py``), so both carry the same topics, times and
+keys (docs/foxglove.md).
+
+``Messages`` hands each message to ``emit(topic, schema_key, log_time_ns, message)``;
+``schema_key`` names its schema in ``schemas.SCHEMAS``. Message times (log_time)
+are capture times (docs/time.md, "Message times"): ``start_time`` plus the wire
+time. Inputs without time (raw dumps) get wire times from their byte offsets at
+the baud rate (``wire_byte_time``): as if each line's bytes followed each other
+without pause, which keeps every line in order.
+
+The messages follow the schemas' rules (``schemas`` module doc): no ``null``
+values (the key is left out), bytes as base64.
+"""
+
+from __future__ import annotations
+
+import time
+from binascii import b2a_base64
+from typing import Any, Callable
+
+from dissectors.event import COMMAND, NO_ACK, NOISE, ST_NAK, Event
+from dissectors.wire import payload_text
+
+from ..outfile import show
+from ..positions import PositionTracker
+from ..sources.base import Chunk
+from . import schemas as S
+
+Emit = Callable[[str, str, int, dict], None]
+
+# the optional keys of an event message, in the JSON Lines order (README, "Event contract")
+_OPTIONAL_BEFORE_FIELDS = ("command", "dst", "src")
+_OPTIONAL_AFTER_FIELDS = ("txn", "status", "latency")
+
+
+def base64(data: bytes) -> str:
+    return b2a_base64(data, newline=False).decode("ascii")
+
+
+def event_message(ev: Event) -> dict[str, Any]:
+    """The /events message of ``ev`` (schemas.EVENT): the JSON Lines object without
+    its null values, and ``raw`` in base64."""
+    msg: dict[str, Any] = {"number": ev.number}
+    t = ev.t
+    if t is not None:
+        msg["t"] = round(t, 9)
+        t_end = ev.t_end
+        if t_end is not None:
+            msg["t_end"] = round(t_end, 9)
+    msg["line"] = ev.line
+    msg["offset"] = ev.offset
+    msg["kind"] = ev.kind
+    for key in _OPTIONAL_BEFORE_FIELDS:
+        value = getattr(ev, key)
+        if value is not None:
+            msg[key] = value
+    payload = ev.payload
+    if payload is not None:
+        msg["payload"] = payload_text(payload)
+    if ev.checksum_ok is not None:
+        msg["checksum_ok"] = ev.checksum_ok
+    msg["fields"] = without_nulls(ev.fields)
+    msg["problems"] = ev.problems
+    for key in _OPTIONAL_AFTER_FIELDS:
+        value = getattr(ev, key)
+        if value is not None:
+            msg[key] = value
+    msg["retransmission"] = ev.retransmission
+    if ev.request is not None:
+        msg["request"] = ev.request
+    msg["raw"] = base64(ev.raw)
+    device = ev.device
+    if device is not None:
+        msg["device"] = device
+    return msg
+
+
+def without_nulls(fields: dict[str, Any]) -> dict[str, Any]:
+    """``fields`` without the names that have no value (a reserved rate code's
+    ``baud``): the schema types each name, and null is no type of it."""
+    if None in fields.values():
+        return {k: v for k, v in fields.items() if v is not None}
+    return fields
+
+
+def log_message(ts: int, level: int, message: str, name: str, file: str = "", line: int = 0) -> dict[str, Any]:
+    """A foxglove.Log message (schemas.LOG)."""
+    return {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000}, "level": level,
+            "message": message, "name": name, "file": file, "line": line}
+
+
+class Messages:
+    """Turns a tap's input into topic messages, handed to ``emit`` (module doc)."""
+
+    def __init__(self, emit: Emit, *, start_time: float | None = None,
+                 wire_byte_time: float | None = None) -> None:
+        self.emit = emit
+        self.wire_byte_time = wire_byte_time   # untimed input: seconds per byte offset
+        self.start_ns = int((start_time if start_time is not None else time.time()) * 1e9)
+        self.positions = PositionTracker()
+        self._seq = 0
+        self._offsets: dict[str, int] = {}
+        self._open_txn: _OpenTransaction | None = None
+
+    def raw(self, chunk: Chunk, offset: int) -> None:
+        """Bytes read from a line (``offset`` of their first byte)."""
+        if not chunk.data:
+            return
+        line = chunk.line
+        self._offsets[line] = offset + len(chunk.data)
+        self._seq += 1
+        msg = {"line": line, "offset": offset, "data": base64(chunk.data)}
+        if chunk.t is not None:
+            msg["t"] = chunk.t
+        self.emit(S.RAW_TOPIC.format(line=line), "raw", self.time_ns(chunk.t, self._seq, offset), msg)
+
+    def end_marker(self, t: float | None, line: str) -> None:
+        """Time ran on to ``t`` with nothing more on the wire (an empty raw chunk on
+        ``line``), so decoding the recording expires the same timeouts live did."""
+        if t is None:
+            return
+        self.emit(S.RAW_TOPIC.format(line=line), "raw", self.time_ns(t, 0),
+                  {"line": line, "offset": self._offsets.get(line, 0), "t": t, "data": ""})
+
+    def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
+        """A tap's own message (a port lost and back, the skew estimate) on /log."""
+        ts = self.time_ns(t, 0)
+        self.emit(S.LOG_TOPIC, "log", ts, log_message(ts, level, show(message), "gimbalscope tap"))
+
+    def event(self, ev: Event) -> None:
+        ts = self.time_ns(ev.t, ev.number, ev.offset)
+        emit = self.emit
+        emit(S.EVENTS_TOPIC, "event", ts, event_message(ev))
+        if ev.problems:
+            emit(S.LOG_TOPIC, "log", ts, self._problem_log(ev, ts))
+        self._transaction(ev, ts)
+        position = self.positions.see(ev)
+        if position is not None:
+            device, msg = position
+            emit(S.POSITION_TOPIC.format(device=device), "position", ts, msg)
+
+    def finish(self) -> None:
+        """The end of the input: the transaction still open is complete."""
+        txn, self._open_txn = self._open_txn, None
+        if txn is not None:
+            self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.message())
+
+    def time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
+        if t is None:
+            if offset is not None and self.wire_byte_time is not None:
+                return self.start_ns + int(round(offset * self.wire_byte_time * 1e9))
+            return self.start_ns + order
+        return self.start_ns + int(round(t * 1e9))
+
+    @staticmethod
+    def _problem_log(ev: Event, ts: int) -> dict:
+        level = S.ERROR if ev.kind == NOISE or ev.checksum_ok is False or ev.status in (ST_NAK, NO_ACK) \
+            else S.WARNING
+        what = ev.command or ev.kind
+        return log_message(ts, level, f"#{ev.number} line {ev.line} {what}: " + "; ".join(ev.problems),
+                           "gimbalscope", f"line {ev.line}", ev.offset)
+
+    def _transaction(self, ev: Event, ts: int) -> None:
+        """A command opens a transaction message; the next command, or the end,
+        writes it from the command's pairing record. Its answers are those the
+        stream brought before that next command: an answer can come much later
+        (an optional result), and a live tap and a re-decode of its recording
+        must write the same message, whatever their batches."""
+        if ev.kind == COMMAND:
+            self.finish()
+            self._open_txn = _OpenTransaction(ts, ev)
+            return
+        record = ev.transaction
+        txn = self._open_txn
+        if record is not None and txn is not None and record is txn.record:
+            txn.answers.append(ev)
+
+
+class _OpenTransaction:
+    """A command recorded, and those of its answers recorded since."""
+
+    __slots__ = ("ts", "command", "record", "answers")
+
+    def __init__(self, ts: int, command: Event) -> None:
+        self.ts = ts
+        self.command = command
+        self.record = command.transaction
+        self.answers: list[Event] = []
+
+    def message(self) -> dict[str, Any]:
+        """The /transactions message (schemas.TRANSACTION): the record's facts, as
+        far as the answers recorded so far go; fields and problems are the
+        command's, then its answers'."""
+        cmd, record, answers = self.command, self.record, self.answers
+        numbers = [a.number for a in answers]
+        fields = dict(without_nulls(cmd.fields))
+        problems = list(cmd.problems)
+        for answer in answers:
+            if answer.number == record.result:
+                fields.update(without_nulls(answer.fields))
+            problems.extend(answer.problems)
+        msg: dict[str, Any] = {"txn": record.number, "number": cmd.number}
+        if cmd.t is not None:
+            msg["t"] = cmd.t
+        if record.command is not None:
+            msg["command"] = record.command
+        msg["device"] = record.device
+        if record.status is not None:
+            msg["status"] = record.status
+        msg["retransmission"] = record.retransmission
+        if record.ack in numbers and record.ack_latency is not None:
+            msg["ack_latency"] = record.ack_latency
+        if record.result in numbers and record.result_latency is not None:
+            msg["result_latency"] = record.result_latency
+        msg.update(answers=numbers, fields=fields, problems=problems)
+        return msg
