@@ -23,6 +23,8 @@ from dissectors.wire import WILDCARD
 
 AZ, EL = "azimuth_deg", "elevation_deg"
 _PRESET_QUERIES = ("P?nn", "S?nn")   # results: a preset's stored position
+# the commands whose events can say anything here: one set test turns the rest away
+POSITION_COMMANDS = frozenset(("P", "Pnn", "P?", *_PRESET_QUERIES))
 
 
 class PositionTracker:
@@ -35,6 +37,8 @@ class PositionTracker:
 
     def see(self, ev: Event) -> tuple[str, dict[str, Any]] | None:
         """(device, message) when ``ev`` moves a target or reports a position."""
+        if ev.command not in POSITION_COMMANDS:
+            return None
         kind = ev.kind
         if kind == COMMAND:
             return self._command(ev)
@@ -44,7 +48,7 @@ class PositionTracker:
 
     def _command(self, ev: Event) -> tuple[str, dict[str, Any]] | None:
         command = ev.command
-        if command not in ("P", "Pnn", "P?nn", "S?nn") or ev.checksum_ok is False:
+        if command == "P?" or ev.checksum_ok is False:
             return None
         dst = ev.dst
         if dst is None or WILDCARD in dst:

@@ -164,6 +164,8 @@ def _aux_data(values: dict) -> list[Problem] | None:
 
 
 POSITION = [(az(), el()), (b"P", az(), el())]
+_STATUS = "status bits (Table 6B)"
+_INIT = "initialization result bits (Table 9)"
 
 # ---------------------------------------------------------------- Table 4
 cmd("#NN", "Set device address", (b"#", hexnum("new_address", 2, valid=(1, 254), desc="new device ID 01..FE")),
@@ -172,30 +174,33 @@ cmd("AW", "Request awake status", (b"AW",), "Table 4, Table 5",
     result=[(hexnum("status", (1, 2), desc="status bits (Table 5)"),)], result_derive=_awake,
     summary="awake status?", result_summary="status {status:X}")
 cmd("B?", "Request maximum data rate", (b"B?",), "Table 4, §1.5.6",
-    result=[(b"C", hexnum("max_rate_code", 1)),], result_derive=_max_baud,
+    result=[(b"C", hexnum("max_rate_code", 1, desc="code of the fastest rate, C0..C7 (Table 4, §1.5.6)")),], result_derive=_max_baud,
     summary="max data rate?", result_summary="max {max_baud} bps")
 cmd("C", "Set communication data rate", (b"C", hexnum("rate_code", 1, desc="C0..C7, Table 4")),
     "Table 4", derive=_baud, summary="set data rate {baud} bps")
 cmd("D?", "Request ID information", (b"D?",), "Table 4, Table 6",
-    result=[(text("device_id", 2), text("revision", 2, strip=True), text("name", 20, strip=True),
-             text("serial", 20, strip=True))],
+    result=[(text("device_id", 2, desc="device type (Table 6)"),
+             text("revision", 2, strip=True, desc="firmware revision (Table 6)"),
+             text("name", 20, strip=True, desc="device name (Table 6)"),
+             text("serial", 20, strip=True, desc="serial number (Table 6)"))],
     summary="identify?", result_summary="{name} rev {revision} s/n {serial}")
 cmd("E?", "Request error codes", (b"E?",), "Table 4, Table 6A",
-    result=[(hexnum("azimuth_error_bits", 2), hexnum("elevation_error_bits", 2))], result_derive=_errors,
+    result=[(hexnum("azimuth_error_bits", 2, desc="error bits (Table 6A)"),
+             hexnum("elevation_error_bits", 2, desc="error bits (Table 6A)"))], result_derive=_errors,
     summary="error codes?", result_summary="az errors: {azimuth_errors}; el errors: {elevation_errors}")
 cmd("I?", "Request status bits", (b"I?",), "Table 4, Table 6B",
-    result=[(hexnum("azimuth_status_bits", 2), hexnum("elevation_status_bits", 2)),
-            (hexnum("azimuth_status_bits", 4), hexnum("elevation_status_bits", 4))], result_derive=_status,
+    result=[(hexnum("azimuth_status_bits", 2, desc=_STATUS), hexnum("elevation_status_bits", 2, desc=_STATUS)),
+            (hexnum("azimuth_status_bits", 4, desc=_STATUS), hexnum("elevation_status_bits", 4, desc=_STATUS))], result_derive=_status,
     summary="status bits?", result_summary="az status: {azimuth_status}; el status: {elevation_status}")
 cmd("GRP", "Set pan rate gain", (b"GRP", gain()), "Table 4, Table 7", summary="pan rate gain {gain}")
 cmd("GRT", "Set tilt rate gain", (b"GRT", gain()), "Table 4, Table 7", summary="tilt rate gain {gain}")
 cmd("G?", "Rate gains request", (b"G?",), "Table 4, Table 8",
-    result=[(b"G?", gain("pan_gain"), gain("tilt_gain"), text("unused", 4))],
+    result=[(b"G?", gain("pan_gain"), gain("tilt_gain"), text("unused", 4, desc="characters the table leaves unused (Table 8)"))],
     summary="rate gains?", result_summary="pan gain {pan_gain} tilt gain {tilt_gain}")
 cmd("IX", "Initialization", (b"IX",), "Table 4, Table 9",
-    result=[tuple(hexnum(n, 2) for n in ("azimuth_ccw_result", "azimuth_cw_result",
+    result=[tuple(hexnum(n, 2, desc=_INIT) for n in ("azimuth_ccw_result", "azimuth_cw_result",
                                          "elevation_ccw_result", "elevation_cw_result")),
-            tuple(hexnum(n, 4) for n in ("azimuth_ccw_result", "azimuth_cw_result",
+            tuple(hexnum(n, 4, desc=_INIT) for n in ("azimuth_ccw_result", "azimuth_cw_result",
                                          "elevation_ccw_result", "elevation_cw_result"))],
     result_derive=_init_results, result_timeout=60.0,
     summary="initialize", result_summary="az ccw ok {azimuth_ccw_ok} cw ok {azimuth_cw_ok}, "
@@ -226,7 +231,9 @@ cmd("A?", "Request current acceleration settings", (b"A?",), "Table 11, Tables 1
     summary="accelerations?", result_summary="{_values}")
 cmd("HA", "Halt", (b"HA",), "Table 11", summary="halt (store position, motors off)")
 cmd("HV", "Verify home", (b"HV",), "Table 11, Table 14",
-    result=[(hexnum("limit_switch_bits", 1), hexnum("center_switch_bits", 1), hexnum("count_correct_bits", 1))],
+    result=[(hexnum("limit_switch_bits", 1, desc="limit switch bits (Table 14)"),
+             hexnum("center_switch_bits", 1, desc="center switch bits (Table 14)"),
+             hexnum("count_correct_bits", 1, desc="count correct bits (Table 14)"))],
     result_derive=_home, summary="verify home?",
     result_summary="limit {limit_switch_bits} center {center_switch_bits} count {count_correct_bits}")
 cmd("HO", "Go to home position", (b"HO",), "Table 11", summary="go home")
@@ -289,14 +296,14 @@ cmd("ZO", "Zoom out", (b"ZO",), "Table 16", summary="zoom out")
 cmd("ZS", "Zoom stop", (b"ZS",), "Table 16", summary="zoom stop")
 cmd("*x{aux_port}c", "Configure auxiliary serial port",
     (b"*x", aux_port(), b"c,", decimal("baud", 6, valid=(50, 115200), unit="bps"), b",",
-     decimal("data_bits", 1, valid=(5, 8)), b",", decimal("stop_bits", 1, valid=(1, 2)), b",",
+     decimal("data_bits", 1, valid=(5, 8), desc="5..8 (Table 18)"), b",", decimal("stop_bits", 1, valid=(1, 2), desc="1 or 2 (Table 18)"), b",",
      choice("parity", {b"0": "none", b"1": "odd", b"2": "even"}, desc="Table 18: 0 none, 1 odd, 2 even")),
     "Table 16, Table 18", summary="aux {aux_port}: {baud} bps {data_bits} data {stop_bits} stop parity {parity}")
-cmd("*x{aux_port}t", "Transmit to auxiliary serial port", (b"*x", aux_port(), b"t", text("data")),
+cmd("*x{aux_port}t", "Transmit to auxiliary serial port", (b"*x", aux_port(), b"t", text("data", desc="characters to send (Table 16)")),
     "Table 16", derive=_aux_data, summary="aux {aux_port} send {data!r}")
 cmd("*x{aux_port}r", "Receive from auxiliary serial port",
     (b"*x", aux_port(), b"r", decimal("max_bytes", 3, desc="decimal, like *xpc and *xpn")),
-    "Table 16", result=[(text("data"),)], summary="aux {aux_port} read up to {max_bytes}",
+    "Table 16", result=[(text("data", desc="characters received (Table 16)"),)], summary="aux {aux_port} read up to {max_bytes}",
     result_summary="{data!r}")
 cmd("*x{aux_port}n", "Characters in auxiliary port buffer", (b"*x", aux_port(), b"n"), "Table 16",
     result=[(decimal("count", 3, desc="decimal ASCII count"),)], summary="aux {aux_port} count?",

@@ -6,7 +6,7 @@ of every command, field and unit comes from the same table that decodes them.
 
 from __future__ import annotations
 
-from .commands import COMMANDS, DERIVED_FIELDS, DUE, OPTIONAL
+from .commands import COMMANDS, DERIVED_FIELDS, DUE, OPTIONAL, field_types
 from .fields import Layout
 
 
@@ -37,6 +37,15 @@ def render() -> str:
                      f"| {res_fields} | {c.ref} |")
     lines += ["", "Derived fields (computed from the decoded ones): "
               + ", ".join(f"`{n}`" for n in DERIVED_FIELDS) + ".", ""]
+    lines += ["## Field types", "",
+              "One name, one type, wherever it appears (the JSON types of the MCAP and Foxglove schemas, "
+              "docs/foxglove.md). A value that cannot be given (a reserved rate code's `baud`, an unknown "
+              "choice) is `null` in JSON Lines and left out of MCAP messages.", "",
+              "| field | type | unit | meaning |", "|---|---|---|---|"]
+    for name, ft in sorted(field_types().items()):
+        what = ft.type if ft.items is None else f"array of {ft.items}"
+        lines.append(f"| `{name}` | {what} | {ft.unit or '—'} | {ft.desc or '—'} |")
+    lines.append("")
     return "\n".join(lines)
 
 

@@ -44,3 +44,19 @@ from hypothesis import settings  # noqa: E402
 settings.register_profile("default", max_examples=300, deadline=None)
 settings.register_profile("deep", max_examples=5000, deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
+
+
+@pytest.fixture(autouse=True)
+def recordings_match_their_schemas(request):
+    """After each test, every MCAP recording it left in its ``tmp_path`` must match
+    the schemas it declares, message by message (tests/recordings.py). Tests that
+    write messages off their schema on purpose say so with ``foreign_messages``."""
+    if "tmp_path" not in request.fixturenames or request.node.get_closest_marker("foreign_messages"):
+        yield
+        return
+    tmp_path = request.getfixturevalue("tmp_path")   # now: so it is torn down after this check
+    yield
+    from tests.recordings import check_recording
+
+    for path in sorted(tmp_path.rglob("*.mcap")):
+        check_recording(path)

@@ -24,7 +24,7 @@ from dissectors.event import COMMAND, NO_ACK, NOISE, ST_NAK, Event
 from dissectors.wire import payload_text
 
 from ..outfile import show
-from ..positions import PositionTracker
+from ..positions import POSITION_COMMANDS, PositionTracker
 from ..sources.base import Chunk
 from . import schemas as S
 
@@ -103,6 +103,7 @@ class Messages:
         self._seq = 0
         self._offsets: dict[str, int] = {}
         self._open_txn: _OpenTransaction | None = None
+        self._position_topics: dict[str, str] = {}
 
     def raw(self, chunk: Chunk, offset: int) -> None:
         """Bytes read from a line (``offset`` of their first byte)."""
@@ -136,10 +137,14 @@ class Messages:
         if ev.problems:
             emit(S.LOG_TOPIC, "log", ts, self._problem_log(ev, ts))
         self._transaction(ev, ts)
-        position = self.positions.see(ev)
-        if position is not None:
-            device, msg = position
-            emit(S.POSITION_TOPIC.format(device=device), "position", ts, msg)
+        if ev.command in POSITION_COMMANDS:
+            position = self.positions.see(ev)
+            if position is not None:
+                device, msg = position
+                topic = self._position_topics.get(device)
+                if topic is None:
+                    topic = self._position_topics[device] = S.POSITION_TOPIC.format(device=device)
+                emit(topic, "position", ts, msg)
 
     def finish(self) -> None:
         """The end of the input: the transaction still open is complete."""

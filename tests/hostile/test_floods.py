@@ -6,6 +6,7 @@ at most 4 KiB."""
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 import re
@@ -93,7 +94,8 @@ def recorded(rec) -> dict[str, tuple[int, bool]]:
                 continue
             msg = json.loads(m.data)
             if msg["data"]:            # not the end marker
-                spans.setdefault(msg["line"], []).append((msg["offset"], len(msg["data"]) // 2))
+                size = len(base64.b64decode(msg["data"], validate=True))
+                spans.setdefault(msg["line"], []).append((msg["offset"], size))
     out = {}
     for line, chunks in spans.items():
         chunks.sort()

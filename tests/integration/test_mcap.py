@@ -227,3 +227,45 @@ def test_a_recording_in_parts_names_the_part_being_written(tmp_path):
     for part in parts:
         assert doctor(part) == []
     assert sum(1 for p in parts for _ in analyzer.open(p)) >= n - len(parts)
+
+
+# The raw chunk schema of recordings made before the Foxglove schemas: hex bytes,
+# null time as a type union.
+OLD_RAW_SCHEMA = {"title": "gimbalscope.RawChunk", "type": "object", "properties": {
+    "line": {"type": "string", "enum": ["A", "B", "AB"]}, "offset": {"type": "integer"},
+    "t": {"type": ["number", "null"]}, "data": {"type": "string", "description": "the bytes, lower-case hex"}},
+    "required": ["line", "offset", "t", "data"]}
+
+
+def test_a_recording_with_hex_bytes_decodes_as_before(tmp_path):
+    """Recordings keep their bytes in base64 now; older ones, in hex, still decode."""
+    import base64
+
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    new = tmp_path / "new.mcap"
+    assert run_cli("convert", os.path.join(SAMPLES, "demo-socat.log"), "-o", new).returncode == 0
+    old = tmp_path / "old.mcap"
+    with open(new, "rb") as src, open(old, "wb") as dst:
+        reader = make_reader(src)
+        w = Writer(dst)
+        w.start(profile="gimbalscope", library="a recording from before")
+        schema = w.register_schema("gimbalscope.RawChunk", "jsonschema", json.dumps(OLD_RAW_SCHEMA).encode())
+        channels: dict[str, int] = {}
+        for _s, channel, m in reader.iter_messages():
+            if not channel.topic.endswith("/raw"):
+                continue
+            if channel.topic not in channels:
+                channels[channel.topic] = w.register_channel(channel.topic, "json", schema)
+            msg = json.loads(m.data)
+            msg["data"] = base64.b64decode(msg["data"]).hex()
+            msg.setdefault("t", None)
+            w.add_message(channels[channel.topic], log_time=m.log_time, data=json.dumps(msg).encode(),
+                          publish_time=m.publish_time)
+        for meta in reader.iter_metadata():   # the recording's settings, as it was written with
+            w.add_metadata(meta.name, meta.metadata)
+        w.finish()
+    decoded = [run_cli("decode", path, "--format", "jsonl") for path in (new, old)]
+    assert all(r.returncode == 0 for r in decoded), [r.stderr for r in decoded]
+    assert decoded[0].stdout.count("\n") > 100 and decoded[0].stdout == decoded[1].stdout

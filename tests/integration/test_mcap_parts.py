@@ -7,6 +7,7 @@ back (``McapSource.metadata``), a garbled one said and left aside."""
 
 from __future__ import annotations
 
+import base64
 import dataclasses
 import json
 import random
@@ -130,7 +131,8 @@ def raw_spans(path: str) -> dict[str, tuple[int, int]]:
             if channel.topic.endswith("/raw"):
                 raw = json.loads(message.data)
                 lo, hi = spans.get(raw["line"], (raw["offset"], raw["offset"]))
-                spans[raw["line"]] = (min(lo, raw["offset"]), max(hi, raw["offset"] + len(raw["data"]) // 2))
+                size = len(base64.b64decode(raw["data"], validate=True))
+                spans[raw["line"]] = (min(lo, raw["offset"]), max(hi, raw["offset"] + size))
     return spans
 
 
