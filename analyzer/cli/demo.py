@@ -11,7 +11,7 @@ import threading
 from ..capture import Options, open_live
 from ..simulation import scenario
 from .common import UsageError, add_filter_arg, non_negative_float, non_negative_int
-from .live import add_record_args, add_tui_args, tap, wants_tui
+from .live import add_foxglove_arg, add_record_args, add_tui_args, tap, wants_tui
 
 
 def fault_help() -> str:
@@ -27,6 +27,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="how long to run (0 = until stopped); default: until you quit the TUI, "
                         "12 s when printing")
     add_record_args(p)
+    add_foxglove_arg(p)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events")
     p.add_argument("--clean", action="store_true", help="no injected faults")

@@ -9,11 +9,16 @@ a killed tap leaves its file under the name given; an existing file is replaced,
 but a folder, a missing folder or one of the ports is refused before the tap
 starts. A recording that fails (a full disk) is said once and stopped, and the
 tap goes on printing (analyzer/writers/mcap.py).
+
+``--foxglove`` serves the same topics live to the Foxglove app
+(analyzer/listeners/foxglove.py); an address that cannot be served is refused
+before the tap starts too.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import signal
 import sys
 
@@ -22,7 +27,7 @@ from ..info import CaptureInfo
 from ..listeners import DoctorListener, EventPrinter, NotePrinter
 from ..outfile import check_output
 from ..output import JsonLinesSink, TextSink
-from ..runner import TapRunner
+from ..runner import Listener, TapRunner
 from ..writers.mcap import McapWriter
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float
 
@@ -37,6 +42,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events (everything is still recorded)")
     add_record_args(p)
+    add_foxglove_arg(p)
     add_tui_args(p)
     p.set_defaults(run=run)
 
@@ -51,6 +57,63 @@ def add_record_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
     p.add_argument("--rotate-mb", type=positive_float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
     p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
+
+
+# the SDK's defaults (analyzer/listeners/foxglove.py), here so that parsing the
+# command line does not import the SDK
+FOXGLOVE_HOST, FOXGLOVE_PORT = "127.0.0.1", 8765
+_ADDRESS = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]*)(?::([0-9]{1,5}))?")
+
+
+def add_foxglove_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--foxglove", nargs="?", const=(FOXGLOVE_HOST, FOXGLOVE_PORT), type=foxglove_address,
+                   metavar="HOST:PORT",
+                   help=f"serve the tap live to the Foxglove app over WebSocket (default "
+                        f"{FOXGLOVE_HOST}:{FOXGLOVE_PORT}; HOST:PORT, :PORT, PORT or HOST; give it after the "
+                        f"inputs, or as --foxglove=HOST:PORT)")
+
+
+def foxglove_address(text: str) -> tuple[str, int]:
+    """``--foxglove``: HOST:PORT, :PORT or PORT (this machine), HOST (port 8765); an
+    IPv6 host in brackets."""
+    bare_port = text.isascii() and text.isdigit()
+    m = _ADDRESS.fullmatch(":" + text if bare_port else text)
+    if m is None or not text or int(m.group(2) or 0) > 65535:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected HOST:PORT, :PORT, PORT or HOST "
+                                         f"(e.g. {FOXGLOVE_HOST}:{FOXGLOVE_PORT}), PORT from 0 to 65535")
+    host, port = m.group(1).strip("[]"), m.group(2)
+    return host or FOXGLOVE_HOST, int(port) if port else FOXGLOVE_PORT
+
+
+def open_servers(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
+                 speed: float | None = None) -> list[Listener]:
+    """The --foxglove server, serving from now on (so a client can connect before
+    the tap starts), or nothing; an address that cannot be served is a one-line
+    error before anything starts. ``speed``: the server paces the events itself
+    (a replay in the TUI)."""
+    address = getattr(args, "foxglove", None)
+    if address is None:
+        return []
+    from ..listeners.foxglove import FoxgloveServer, ServeError
+
+    try:
+        return [FoxgloveServer(info, *address, speed=speed)]
+    except ServeError as e:
+        capture.source.close()
+        raise UsageError(f"--foxglove {e}") from None
+
+
+def open_outputs(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
+                 record: str | None) -> tuple[McapWriter | None, list[Listener]]:
+    """The --record writer and the --foxglove server, both checked before the tap
+    starts; the server first, so a refused address leaves no recording behind."""
+    servers = open_servers(capture, info, args)
+    try:
+        return open_recorder(capture, info, args, record), servers
+    except BaseException:
+        for server in servers:
+            server.close()
+        raise
 
 
 def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
@@ -89,9 +152,9 @@ def tap(capture: Capture, args: argparse.Namespace, record: str | None, command:
     except KeymapError as e:
         capture.source.close()
         raise UsageError(str(e)) from None
-    recorder = open_recorder(capture, info, args, record)
+    recorder, servers = open_outputs(capture, info, args, record)
     return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder, record_path=record,
-                   info=info, keymap=keymap)
+                   info=info, keymap=keymap, listeners=servers)
 
 
 def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace, record: str | None) -> int:
@@ -99,8 +162,10 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     doctor alongside (SIGINT/SIGTERM stop it cleanly)."""
     keep = build_filter(getattr(args, "filter", None))
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
-    recorder = open_recorder(capture, info, args, record)
-    listeners = [l for l in (recorder, DoctorListener(), EventPrinter(sink, keep), NotePrinter()) if l is not None]
+    recorder, servers = open_outputs(capture, info, args, record)
+    # the servers beside the recorder: both hear the doctor's notes after the same events
+    listeners = [l for l in (recorder, *servers, DoctorListener(), EventPrinter(sink, keep), NotePrinter())
+                 if l is not None]
     runner = TapRunner(capture, listeners, info=info)
 
     def stop(_signum, _frame):

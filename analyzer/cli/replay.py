@@ -1,6 +1,7 @@
 """``gimbalscope replay``: play an MCAP recording back at its recorded pace
 (``--speed 2`` twice as fast, ``--speed max`` without waiting), re-dissecting
-its raw byte topics like ``decode`` (Table 1 framing, Tables 4-18 fields)."""
+its raw byte topics like ``decode`` (Table 1 framing, Tables 4-18 fields).
+``--foxglove`` serves it to the Foxglove app as it plays (analyzer/listeners/foxglove.py)."""
 
 from __future__ import annotations
 
@@ -8,11 +9,12 @@ import argparse
 import math
 import time
 
+from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..outfile import show
 from ..output import JsonLinesSink, TextSink
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs, run_tap
-from .live import add_tui_args, wants_tui
+from .live import add_foxglove_arg, add_tui_args, open_servers, wants_tui
 
 
 def speed(text: str) -> float:
@@ -36,6 +38,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--speed", type=speed, default=1.0, metavar="N|max", help="pace factor (default 1) or max")
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events")
+    add_foxglove_arg(p)
     add_tui_args(p)
     p.set_defaults(run=run)
 
@@ -48,12 +51,24 @@ def run(args: argparse.Namespace) -> int:
 
     if not isinstance(capture.source, (McapSource, McapPartsSource)):
         raise UsageError(f"{show(args.inputs[0])}: replay takes an MCAP recording (use decode for other captures)")
+    info = CaptureInfo.of(capture, command="replay")
     if wants_tui(args):
-        from ..tui.run import open_tui
-        return open_tui(capture, args, mode="replay", speed=args.speed)
+        return replay_in_tui(capture, info, args)
+    servers = open_servers(capture, info, args)
     sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
-    run_tap(capture, "replay", EventPrinter(sink, keep, pace=pacer(args.speed)))
+    # the server after the printer: it is paced as the printer is
+    run_tap(capture, "replay", EventPrinter(sink, keep, pace=pacer(args.speed)), *servers, info=info)
     return 0
+
+
+def replay_in_tui(capture, info: CaptureInfo, args: argparse.Namespace) -> int:
+    """The TUI reads the file flat out and paces the screen: a --foxglove server
+    paces what it sends itself."""
+    from ..tui.run import keymap_from, open_tui
+
+    keymap = keymap_from(args)   # a bad keymap is refused before anything serves
+    servers = open_servers(capture, info, args, speed=args.speed)
+    return open_tui(capture, args, mode="replay", speed=args.speed, keymap=keymap, info=info, listeners=servers)
 
 
 def pacer(speed: float):

@@ -9,6 +9,7 @@ import pkgutil
 import signal
 import sys
 import tomllib
+from typing import Sequence
 
 from textual.binding import Binding
 from textual.dom import DOMNode
@@ -16,7 +17,7 @@ from textual.dom import DOMNode
 from ..capture import Capture
 from ..info import CaptureInfo
 from ..listeners import DoctorListener
-from ..runner import TapRunner
+from ..runner import Listener, TapRunner
 from ..writers.mcap import McapWriter
 from .app import GimbalscopeApp
 from .feed import Feed
@@ -95,11 +96,12 @@ def check_ids(path: str, keymap: dict[str, object]) -> None:
 def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, speed: float = 1.0,
              recorder: McapWriter | None = None, record_path: str | None = None,
              info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
-             filter_text: str | None = None) -> GimbalscopeApp:
+             filter_text: str | None = None, listeners: Sequence[Listener] = ()) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
     follow off). The capture runs in the feed's thread when the app mounts, with
-    the doctor, ``recorder`` (``--record``) and the feed as the runner's listeners;
-    ``info`` is the one ``recorder`` was made with."""
+    ``recorder`` (``--record``), ``listeners`` (the ``--foxglove`` server), the
+    doctor and the feed as the runner's listeners; ``info`` is the one
+    ``recorder`` and ``listeners`` were made with."""
     model = CaptureModel(follow=mode != "view")
     if filter_text:
         model.set_filter(filter_text)   # already checked by the CLI
@@ -109,7 +111,8 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
 
     def make_feed(deliver) -> Feed:
         doctor = DoctorListener(tui=True)
-        runner = TapRunner(capture, [l for l in (recorder, doctor) if l is not None], info=info)
+        # ``listeners`` beside the recorder: both hear the doctor's notes after the same events
+        runner = TapRunner(capture, [l for l in (recorder, *listeners, doctor) if l is not None], info=info)
         feed = Feed(runner, deliver, doctor, recorder=recorder)
         runner.add_listener(feed)   # last: it reads the doctor's findings of each step
         return feed
@@ -119,9 +122,15 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
                           record_path=record_path, keymap=keymap)
 
 
-def stop_feed(app: GimbalscopeApp) -> list[str]:
-    """Stop the capture thread and finalise its recording; what it has to say."""
+def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[str]:
+    """Stop the capture thread and finalise its recording; what it has to say.
+    ``listeners`` (make_app's) are closed first: one may hold the capture thread
+    (a replay paced for Foxglove)."""
     feed = app.feed
+    for listener in listeners:
+        close = getattr(listener, "close", None)
+        if close is not None:
+            close()
     if feed is None:
         return []
     feed.stop()
@@ -130,6 +139,7 @@ def stop_feed(app: GimbalscopeApp) -> list[str]:
 
 
 def run_app(capture: Capture, **kw) -> int:
+    """The TUI until it quits; then what the capture had to say (recordings written)."""
     app = make_app(capture, **kw)
     old = signal.signal(signal.SIGTERM, lambda *_: app.call_later(app.exit))
     switch = sys.getswitchinterval()
@@ -139,8 +149,10 @@ def run_app(capture: Capture, **kw) -> int:
     finally:
         sys.setswitchinterval(switch)
         signal.signal(signal.SIGTERM, old)
-        notes = stop_feed(app)
-    for note in notes:
+        notes = stop_feed(app, kw.get("listeners", ()))
+    # "serving Foxglove on …" is for the screen: once it has closed, nothing serves
+    screen_only = {getattr(l, "announcement", None) for l in kw.get("listeners", ())}
+    for note in (n for n in notes if n not in screen_only):
         print(f"gimbalscope: {note}", file=sys.stderr)
     return 0
 
@@ -156,9 +168,12 @@ def keymap_from(args) -> dict[str, str]:
 
 
 def open_tui(capture: Capture, args, *, mode: str, speed: float = 1.0,
-             keymap: dict[str, str] | None = None) -> int:
+             keymap: dict[str, str] | None = None, info: CaptureInfo | None = None,
+             listeners: Sequence[Listener] = ()) -> int:
     """``replay`` and ``view``: the TUI on a capture file (--keymap, --filter honoured;
-    pass ``keymap`` when it was read already)."""
+    pass ``keymap`` when it was read already), with ``listeners`` beside the screen
+    (``replay --foxglove``; ``info`` the one they were made with)."""
     if keymap is None:
         keymap = keymap_from(args)
-    return run_app(capture, mode=mode, speed=speed, keymap=keymap, filter_text=getattr(args, "filter", None))
+    return run_app(capture, mode=mode, speed=speed, keymap=keymap, filter_text=getattr(args, "filter", None),
+                   info=info, listeners=listeners)

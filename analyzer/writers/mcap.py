@@ -38,6 +38,25 @@ from ..sources import Chunk
 LOG_LEVELS = {ERROR: S.ERROR, WARNING: S.WARNING, INFO: S.INFO}
 
 
+# How a run maps onto topic messages (recording/messages.py), shared with the live
+# Foxglove server (analyzer/listeners/foxglove.py) so both carry the same messages.
+
+def message_clock(info: CaptureInfo) -> dict:
+    """``Messages``' times for the run ``info`` describes: from its start time and,
+    for untimed input, from byte offsets at its rate (docs/time.md, "Message times")."""
+    untimed = None if info.timed else byte_time(info.baud, info.data_bits, info.parity, info.stop_bits)
+    return {"start_time": info.start_time, "wire_byte_time": untimed}
+
+
+def log_level(note: Note) -> int | None:
+    """The /log level of ``note``, or None when it is no message: an output's word
+    about itself (origin RECORDING: a recording written or stopped, a server
+    serving) is for people, not for the topics."""
+    if note.origin == RECORDING:
+        return None
+    return LOG_LEVELS.get(note.level, S.WARNING)
+
+
 class McapWriter(Listener):
     def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, live: bool = False,
                  rotate_bytes: int | None = None, rotate_seconds: float | None = None,
@@ -47,10 +66,7 @@ class McapWriter(Listener):
         self.live = live
         self._runner = None
         self._extra = metadata or {}
-        # untimed input: wire times from byte offsets (docs/time.md, "Message times")
-        kw = dict(start_time=info.start_time, lines=info.lines,
-                  wire_byte_time=None if info.timed else byte_time(info.baud, info.data_bits, info.parity,
-                                                                   info.stop_bits))
+        kw = dict(message_clock(info), lines=info.lines)
         if live:
             kw.update(metadata=info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
         else:
@@ -97,8 +113,9 @@ class McapWriter(Listener):
             rec.update_metadata(baud=str(baud))
 
     def on_note(self, note: Note) -> None:
-        if note.origin != RECORDING:   # its own word is for people, not for the file
-            self.recorder.note(note.text, note.t, LOG_LEVELS.get(note.level, S.WARNING))
+        level = log_level(note)
+        if level is not None:
+            self.recorder.note(note.text, note.t, level)
 
     def on_stop(self) -> None:
         rec = self.recorder

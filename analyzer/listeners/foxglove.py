@@ -1,0 +1,225 @@
+"""Serving a tap live to the Foxglove app over its WebSocket protocol (``--foxglove``
+of ``live``, ``demo`` and ``replay``).
+
+The app connects (Open connection → Foxglove WebSocket, ``ws://HOST:PORT``) and
+sees the topics a recording has, with the same messages and log times: both are
+built by ``Messages`` (analyzer/recording/messages.py) from the runner's callbacks,
+mapped as the MCAP recording maps them (``message_clock``, ``log_level`` in
+analyzer/writers/mcap.py).
+
+The server is foxglove-sdk's: it runs in threads of its own and sends to each
+client what it subscribed to. This listener builds the messages and logs them,
+serialised, on the server's channels; a message no client subscribed to is not
+serialised. Each server has a context of its own, so two servers in one process
+(tests) never share channels.
+
+Messages are logged in bursts, at most every ``FLUSH_SECONDS``: the SDK wakes its
+threads for every log call, and one wake-up per burst instead of per message cut
+its threads' share of a core from about 10% to about 1% at two saturated
+115200-baud lines (bench/foxglove_bench.py). Log times are the messages' own, so
+a burst changes only when they arrive.
+
+The server starts when the listener is made, before the tap reads anything: an
+address that cannot be served is an error before the tap starts (``ServeError``).
+It stops when the run ends, or when ``close()`` is called from another thread.
+
+A replay in the TUI reads its file flat out (the screen paces itself): there the
+listener paces the events itself (``speed``), or a client would get the whole
+recording at once, before it could subscribe.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import threading
+import time
+
+import foxglove
+
+from dissectors.event import Event
+
+from ..info import CaptureInfo
+from ..output import dumps
+from ..recording import schemas as S
+from ..recording.messages import Messages
+from ..runner import INFO, RECORDING, WARNING, Listener, Note, TapRunner
+from ..sources import Chunk
+from ..writers.mcap import log_level, message_clock
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8765
+NAME = "gimbalscope"
+
+# Messages a client may fall behind by before the server drops its oldest (the
+# SDK's default is 1024): a saturated pair of lines makes several thousand a second,
+# and a client that stalls for a moment should not lose them.
+BACKLOG = 16384
+
+FLUSH_SECONDS = 0.03   # a burst's span: well under what a person sees as lag
+
+# The SDK logs through Python's logging; with no handler configured its lines
+# would land raw on standard error, over the TUI. They are told as notes instead.
+SDK_LOGGER = "foxglove"
+
+
+class ServeError(Exception):
+    """The address cannot be served (busy, or not this machine's); one line."""
+
+
+def show_address(host: str, port: int) -> str:
+    """``host:port``, an IPv6 host in brackets."""
+    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
+
+
+def fixed_topics(lines: tuple[str, ...]) -> list[tuple[str, str]]:
+    """The topics of every tap, as (topic, schema key): a raw topic per line, events,
+    transactions, log. A device's position topic comes when it is first seen."""
+    raw = [(S.RAW_TOPIC.format(line=line), "raw") for line in lines]
+    return [*raw, (S.EVENTS_TOPIC, "event"), (S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")]
+
+
+class FoxgloveServer(Listener):
+    """Serves the run ``info`` describes on ``host:port`` (port 0: any free port);
+    with ``speed``, events go out at their recorded pace, ``speed`` times faster."""
+
+    def __init__(self, info: CaptureInfo, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *,
+                 speed: float | None = None) -> None:
+        self.info = info
+        self._closing = threading.Lock()
+        self._closed = threading.Event()   # ends a paced wait
+        self._speed = speed or None
+        self._started = time.monotonic()
+        self._context = foxglove.Context()
+        self._server = _start(self._context, host, port)
+        self.address = show_address(host, self._server.port)
+        self._channels: dict[str, foxglove.Channel] = {}
+        for topic, key in fixed_topics(info.lines):
+            self._channel(topic, key)
+        self._messages = Messages(self._emit, **message_clock(info))
+        self._burst: list[tuple[foxglove.Channel, bytes, int]] = []
+        self._due = time.monotonic() + FLUSH_SECONDS
+        self._runner: TapRunner | None = None
+        self._sdk_notes: _SdkNotes | None = None
+
+    @property
+    def url(self) -> str:
+        return f"ws://{self.address}"
+
+    @property
+    def announcement(self) -> str:
+        """What the tap says once when it starts serving."""
+        return f"serving Foxglove on {self.url} (open it in Foxglove: Open connection → Foxglove WebSocket)"
+
+    def close(self) -> None:
+        """Stop serving (again: nothing); from any thread (the TUI quitting ends a
+        paced wait with it)."""
+        self._closed.set()
+        with self._closing:
+            server, self._server = self._server, None
+            notes, self._sdk_notes = self._sdk_notes, None
+        if server is not None:
+            server.stop()
+        if notes is not None:
+            logging.getLogger(SDK_LOGGER).removeHandler(notes)
+
+    # ------------------------------------------------------------ listener
+    def on_start(self, runner: TapRunner) -> None:
+        self._runner = runner
+        self._started = time.monotonic()
+        self._sdk_notes = _SdkNotes(runner)
+        logging.getLogger(SDK_LOGGER).addHandler(self._sdk_notes)
+        # an output's word about itself: not a message of the topics (writers/mcap.py, log_level)
+        runner.post(self.announcement, INFO, origin=RECORDING)
+
+    def on_chunk(self, chunk: Chunk, offset: int) -> None:
+        self._messages.raw(chunk, offset)
+
+    def on_events(self, events: list[Event]) -> None:
+        event, paced = self._messages.event, self._speed is not None
+        for ev in events:
+            if paced:
+                self._wait_for(ev)
+            event(ev)
+        # a live tap's idle ticks come here too; a paced replay's last events must not
+        # wait for a next step that may not come until the screen closes
+        if self._burst and (paced or time.monotonic() >= self._due):
+            self._flush()
+
+    def on_note(self, note: Note) -> None:
+        level = log_level(note)
+        if level is not None:
+            self._messages.note(note.text, note.t, level)
+
+    def on_stop(self) -> None:
+        try:
+            runner = self._runner
+            if runner is not None and runner.live:   # as a live recording ends (McapWriter.on_stop)
+                self._messages.end_marker(runner.latest, self.info.lines[0])
+            self._messages.finish()
+            self._flush()
+        finally:
+            self.close()
+
+    def _wait_for(self, ev: Event) -> None:
+        """Until ``ev``'s recorded time, ``speed`` times faster; what is due goes out first."""
+        if ev.t is None:
+            return
+        delay = self._started + ev.t / self._speed - time.monotonic()
+        if delay > 0:
+            self._flush()
+            self._closed.wait(delay)
+
+    # ------------------------------------------------------------ channels
+    def _channel(self, topic: str, key: str) -> foxglove.Channel:
+        schema = S.SCHEMAS[key]
+        channel = self._channels[topic] = foxglove.Channel(
+            topic, schema=foxglove.Schema(name=schema["title"], encoding="jsonschema", data=S.encoded_by_key(key)),
+            message_encoding="json", context=self._context)
+        return channel
+
+    def _emit(self, topic: str, key: str, ts: int, msg: dict) -> None:
+        channel = self._channels.get(topic) or self._channel(topic, key)
+        if channel.has_sinks():   # no client subscribed: not worth serialising
+            self._burst.append((channel, dumps(msg), ts))
+
+    def _flush(self) -> None:
+        burst, self._burst = self._burst, []
+        for channel, data, ts in burst:
+            channel.log(data, log_time=ts)
+        self._due = time.monotonic() + FLUSH_SECONDS
+
+
+def _start(context: foxglove.Context, host: str, port: int):
+    try:
+        return foxglove.start_server(name=NAME, host=host, port=port, context=context,
+                                     message_backlog_size=BACKLOG)
+    except (RuntimeError, ValueError, OSError) as e:
+        raise ServeError(f"{show_address(host, port)}: cannot serve: {_reason(e)}") from None
+
+
+def _reason(e: BaseException) -> str:
+    """A few words from the SDK's error: 'FoxgloveError: Failed to bind port:
+    Address already in use (os error 98)' is 'address already in use'."""
+    text = str(e)
+    code = re.search(r"\(os error (\d+)\)", text)
+    if code:
+        return os.strerror(int(code.group(1))).lower()
+    if "lookup address" in text:
+        return "unknown host"
+    for prefix in ("FoxgloveError: ", "Failed to bind port: "):
+        text = text.removeprefix(prefix)
+    return text[:1].lower() + text[1:]
+
+
+class _SdkNotes(logging.Handler):
+    """The SDK's warnings and errors (a client gone without closing) as the tap's notes."""
+
+    def __init__(self, runner: TapRunner) -> None:
+        super().__init__(logging.WARNING)
+        self.runner = runner
+
+    def emit(self, record: logging.LogRecord) -> None:
+        # from the server's threads: post queues it for the runner's
+        self.runner.post(f"Foxglove: {record.getMessage()}", WARNING, origin=RECORDING)
