@@ -28,7 +28,7 @@ from analyzer.simulation.bus import GimbalBus
 from analyzer.simulation.controller import SimController
 from analyzer.simulation.gimbal import GimbalModel
 from analyzer.writers.mcap import McapWriter
-from dissectors.event import ACK, COMMAND, NOISE, OK, RATE, RESULT, ST_NIC
+from dissectors.event import ACK, COMMAND, NOISE, OK, PENDING, RATE, RESULT, ST_NIC
 from tests.conftest import ROOT
 
 SECONDS = 6.0
@@ -92,8 +92,10 @@ def test_a_live_tap_follows_the_rate_change():
     commands = [e for e in later if e.kind == COMMAND]
     assert len(commands) >= 10
     assert not [e for e in later if e.kind == NOISE or e.checksum_ok is False]
-    # every one answered (ok, or NIC for what the simulated firmware does not implement)
-    assert {e.status for e in commands} <= {OK, ST_NIC} and sum(e.status == OK for e in commands) >= 10
+    # every one answered (ok, or NIC for what the simulated firmware does not implement),
+    # but the last: the tap may stop between a command and its answer
+    assert {e.status for e in commands[:-1]} <= {OK, ST_NIC} and sum(e.status == OK for e in commands) >= 10
+    assert commands[-1].status in (OK, ST_NIC, PENDING)
     # and times them at its byte time: a 9-byte P? takes 9 × 10/115200 s, not 9.4 ms
     spans = [e.t_end - e.t for e in commands if len(e.raw) == 9]
     assert spans and statistics.median(spans) == pytest.approx(9 * BT_115200, rel=0.05)
