@@ -10,7 +10,9 @@ analyzer/writers/mcap.py).
 The server is foxglove-sdk's: it runs in threads of its own and sends to each
 client what it subscribed to. This listener builds the messages and logs them,
 serialised, on the server's channels; a message no client subscribed to is not
-serialised. Each server has a context of its own, so two servers in one process
+serialised, except the first message of a topic made mid-run (a gimbal's
+positions): it is kept until a client, told of the topic, has subscribed. Each
+server has a context of its own, so two servers in one process
 (tests) never share channels.
 
 Messages are logged in bursts, at most every ``FLUSH_SECONDS``: the SDK wakes its
@@ -99,6 +101,9 @@ class FoxgloveServer(Listener):
             self._channel(topic, key)
         self._messages = Messages(self._emit, **message_clock(info))
         self._burst: list[tuple[foxglove.Channel, bytes, int]] = []
+        # the first message of a topic made mid-run (a gimbal's positions), kept until a
+        # client has subscribed: clients hear of the topic with it, and subscribe after
+        self._first: dict[str, tuple[bytes, int]] = {}
         self._due = time.monotonic() + FLUSH_SECONDS
         self._runner: TapRunner | None = None
         self._sdk_notes: _SdkNotes | None = None
@@ -180,11 +185,27 @@ class FoxgloveServer(Listener):
         return channel
 
     def _emit(self, topic: str, key: str, ts: int, msg: dict) -> None:
-        channel = self._channels.get(topic) or self._channel(topic, key)
+        channel = self._channels.get(topic)
+        if channel is None:
+            self._channel(topic, key)
+            self._first[topic] = (dumps(msg), ts)
+            return
         if channel.has_sinks():   # no client subscribed: not worth serialising
+            if self._first:
+                self._send_first()
             self._burst.append((channel, dumps(msg), ts))
 
+    def _send_first(self) -> None:
+        """The kept first messages of the topics a client now subscribes to."""
+        for topic in list(self._first):
+            channel = self._channels[topic]
+            if channel.has_sinks():
+                data, ts = self._first.pop(topic)
+                self._burst.append((channel, data, ts))
+
     def _flush(self) -> None:
+        if self._first:
+            self._send_first()
         burst, self._burst = self._burst, []
         for channel, data, ts in burst:
             channel.log(data, log_time=ts)
