@@ -1,18 +1,23 @@
 #!/usr/bin/env python3
-"""TUI figures (issue: Textual TUI). Runs the real app headless (Textual's
-Pilot) and prints:
+"""TUI figures (issues: Textual TUI; day-long captures). Runs the real app
+headless (Textual's Pilot) and prints:
 
-  1. replay of a 1M-event MCAP at --speed max: time to the first screen, time
-     until every event is loaded, peak memory
-  2. responsiveness on those 1M events: page down, jump to the next error, apply
-     a filter, clear it, jump to the end (milliseconds per key, screen refreshed)
+  1. `gimbalscope view` of an N-event MCAP (made once, kept in the temporary
+     folder): time to the first screen, time until every event is loaded against
+     `decode --format jsonl` of the same file, peak memory and bytes per event,
+     and whether End pressed while loading follows to the last event
+  2. keys on those events: home, page down, next error, pair, same device, end
+     (milliseconds until the screen has refreshed); a filter over every event in
+     the background (a key meanwhile, the whole filter) and Esc stopping one
   3. live tap of two saturated 115200-baud ptys: events shown vs events on the
      wire (dropped?), and how far the screen is behind the wire (p50/p95/max)
 
-Targets: first screen within 1 s; keys responsive; live no drops and at most
-250 ms behind.
+Targets: first screen < 1 s; loading >= 1.5x as fast as decode --format jsonl;
+peak RSS <= 150 bytes per event at 1M events and within 2 GB at 10M; keys < 200
+ms at 10M; live no drops and at most 250 ms behind.
 
-    python3 bench/tui_bench.py [--events 1000000] [--live-seconds 10]
+    python3 bench/tui_bench.py [--events 1000000] [--live-seconds 10] [--no-live]
+    python3 bench/tui_bench.py --events 10000000 --no-live   # makes a 10M recording first (minutes)
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ from analyzer.writers.mcap import McapWriter  # noqa: E402
 from analyzer.tui.run import SWITCH, make_app, stop_feed  # noqa: E402
 from analyzer.tui.widgets import EventList  # noqa: E402
 from mcap_bench import BAUD, EVENTS_PER_COMMAND, saturated  # noqa: E402
+from measure import run_measured  # noqa: E402
 
 SIZE = (120, 40)
 
@@ -66,10 +72,18 @@ async def timed_press(pilot, key: str) -> float:
     return (time.perf_counter() - t) * 1000
 
 
-def replay_figures(path: str) -> None:
+def vm_hwm_mb() -> float:
+    """Peak resident memory of this process (VmHWM: ru_maxrss is inherited across fork)."""
+    with open("/proc/self/status") as f:
+        return int(next(line for line in f if line.startswith("VmHWM")).split()[1]) / 1024
+
+
+def view_figures(path: str) -> dict[str, float]:
+    """``gimbalscope view PATH`` headless, in this (fresh) process: first screen,
+    loading, memory, and keys once loaded. Returns the figures."""
     sys.setswitchinterval(SWITCH)   # as run_app does
     t0 = time.perf_counter()
-    app = make_app(analyzer.open(path, baud=BAUD), mode="replay", speed=0.0)
+    app = make_app(analyzer.open(path, baud=BAUD), mode="view")
     figures: dict[str, float] = {}
 
     # the first screen: when the event list first renders a line holding an event
@@ -89,44 +103,67 @@ def replay_figures(path: str) -> None:
             while "first" not in figures:
                 await pilot.pause(0.01)
             EventList.render_line = original
+            # End while loading: the list keeps following until the file has loaded
+            await pilot.press("end")
             while not app.model.done:
                 await pilot.pause(0.05)
-            app.model.advance_playback(time.monotonic())
             figures["loaded"] = time.perf_counter() - t0
-            figures["events"] = len(app.model.events)
-            app.query_one(EventList).focus()
-            await timed_press(pilot, "home")
+            figures["events"] = app.model.shown
+            await pilot.pause()
+            lst = app.query_one(EventList)
+            figures["end_follows"] = float(lst.selected == app.model.shown)
+            lst.focus()
+            figures["home"] = await timed_press(pilot, "home")
             figures["pagedown"] = sum([await timed_press(pilot, "pagedown") for _ in range(20)]) / 20
             figures["next_error"] = sum([await timed_press(pilot, "e") for _ in range(20)]) / 20
+            figures["pair"] = sum([await timed_press(pilot, "p") for _ in range(20)]) / 20
+            figures["same_device"] = sum([await timed_press(pilot, "d") for _ in range(10)]) / 10
+            figures["end"] = await timed_press(pilot, "G")
+            # a filter over every event runs in the background: keys are answered
+            # meanwhile, the status line shows its progress, Esc stops it
             await pilot.press("slash", *'status == "nak"')
             t = time.perf_counter()
             await pilot.press("enter")
-            # large captures filter in a thread: a key pressed meanwhile is answered at once
             figures["key_while_filtering"] = await timed_press(pilot, "up")
             while app.model.filter_text != 'status == "nak"':
-                await pilot.pause(0.01)
+                await pilot.pause(0.02)
             await pilot.pause()
             figures["filter"] = (time.perf_counter() - t) * 1000
             figures["filter_rows"] = app.model.row_count
-            await pilot.press("slash", "ctrl+u")
+            await pilot.press("slash", "ctrl+u", *'kind == "noise"', "enter")
+            await pilot.pause(0.3)
             t = time.perf_counter()
-            await pilot.press("enter")
-            while app.model.filter_text:
-                await pilot.pause(0.01)
+            await pilot.press("escape")
             await pilot.pause()
-            figures["unfilter"] = (time.perf_counter() - t) * 1000
-            figures["end"] = await timed_press(pilot, "G")
-            figures["rss"] = rss_mb()
+            figures["cancel"] = (time.perf_counter() - t) * 1000
+            figures["cancelled"] = float(app.model.filter_text == 'status == "nak"' and not app._scan_text)
+            figures["rss"] = vm_hwm_mb()
     asyncio.run(drive())
     stop_feed(app)
-    print(f"1. replay of {figures['events']:,} events (--speed max): first screen after {figures['first']:.2f} s "
-          f"({figures['rows_at_first']:,} rows loaded by then; target < 1 s); all loaded after "
-          f"{figures['loaded']:.1f} s ({figures['events'] / figures['loaded']:,.0f} events/s); "
-          f"peak RSS {figures['rss']:.0f} MB")
-    print(f"2. keys on {figures['events']:,} events (ms until the screen has refreshed): page down "
-          f"{figures['pagedown']:.0f}, next error {figures['next_error']:.0f}, end {figures['end']:.0f}; filter "
-          f"'status == \"nak\"' applied after {figures['filter']:.0f} ({figures['filter_rows']:,} rows; a key "
-          f"meanwhile {figures['key_while_filtering']:.0f}), cleared after {figures['unfilter']:.0f}")
+    return figures
+
+
+def view_report(path: str) -> None:
+    """``view`` figures (in a child process, for its own peak memory) against
+    ``decode --format jsonl`` of the same file."""
+    import json
+    import subprocess
+
+    out = subprocess.run([sys.executable, __file__, "--view-figures", path], capture_output=True, text=True,
+                         check=True).stdout
+    f = json.loads(out.strip().splitlines()[-1])
+    jsonl, jsonl_rss = run_measured(["decode", path, "--format", "jsonl"])
+    n = f["events"]
+    print(f"1. view of {n:,} events: first screen after {f['first']:.2f} s (target < 1 s); all loaded after "
+          f"{f['loaded']:.1f} s ({n / f['loaded']:,.0f} events/s), decode --format jsonl of the same file "
+          f"{jsonl:.1f} s: {jsonl / f['loaded']:.2f}x as fast (target >= 1.5x); peak RSS {f['rss']:.0f} MB, "
+          f"{f['rss'] * 1024 * 1024 / n:.0f} bytes per event (target <= 150 at 1M, within 2 GB at 10M); End "
+          f"pressed while loading {'followed to the last event' if f['end_follows'] else 'did NOT follow'}")
+    print(f"2. keys on {n:,} events (ms until the screen has refreshed; target < 200): home {f['home']:.0f}, "
+          f"page down {f['pagedown']:.0f}, next error {f['next_error']:.0f}, pair {f['pair']:.0f}, same device "
+          f"{f['same_device']:.0f}, end {f['end']:.0f}; filter 'status == \"nak\"' over every event "
+          f"{f['filter']:.0f} ({f['filter_rows']:,} rows; a key meanwhile {f['key_while_filtering']:.0f}); "
+          f"Esc stopped a running filter in {f['cancel']:.0f}{'' if f['cancelled'] else ' (NOT stopped)'}")
 
 
 def baseline_keys() -> None:
@@ -206,7 +243,7 @@ def live_figures(seconds: float) -> None:
             while writer.poll() is None:
                 await pilot.pause(0.1)
             await pilot.pause(1.5)   # let the last batch arrive
-            return len(app.model.events) + len(app.model.unsettled)
+            return app.model.shown + len(app.model.unsettled)
     shown = asyncio.run(drive())
     stop_feed(app)
     # what was on the wire: the same bytes decoded from files
@@ -232,19 +269,26 @@ def main() -> None:
     ap.add_argument("--live-seconds", type=float, default=10.0)
     ap.add_argument("--recording", help="reuse this MCAP (made if missing)")
     ap.add_argument("--feed-ptys", nargs=2, type=int, help=argparse.SUPPRESS)   # the wire process
+    ap.add_argument("--view-figures", help=argparse.SUPPRESS)                  # the view process
+    ap.add_argument("--no-live", action="store_true", help="skip the live figures")
     ap.add_argument("--seed", type=int, default=5, help=argparse.SUPPRESS)
     ap.add_argument("--start", type=float, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.feed_ptys:
         feed_ptys(args.feed_ptys, args.live_seconds, args.seed, args.start)
         return
+    if args.view_figures:
+        import json
+        print(json.dumps(view_figures(args.view_figures)))
+        return
     path = args.recording or os.path.join(tempfile.gettempdir(), f"gimbalscope-tui-bench-{args.events}.mcap")
     if not os.path.exists(path):
         print(f"making a {args.events:,}-event recording at {path} (once) ...", flush=True)
         make_recording(args.events, path)
-    replay_figures(path)
+    view_report(path)
     baseline_keys()
-    live_figures(args.live_seconds)
+    if not args.no_live:
+        live_figures(args.live_seconds)
 
 
 if __name__ == "__main__":

@@ -23,8 +23,21 @@ from textual.widgets import Footer, Input, Static
 from ..filter import FilterError, compile_filter
 from ..styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
 from .feed import Feed, FeedBatch
-from .model import CaptureModel
+from .model import CaptureModel, Cancelled
 from .widgets import DetailTree, EventList, HexView, TimelineView
+
+
+class ScanProgress(Message):
+    """How far a filter or search running in a worker thread has got."""
+
+    def __init__(self, text: str) -> None:
+        super().__init__()
+        self.text = text
+
+
+# Filters and searches over more rows than this run in a worker thread, with
+# progress on the status line and Esc to stop them.
+BACKGROUND_ROWS = 50_000
 
 
 class FeedMessage(Message):
@@ -88,6 +101,7 @@ class GimbalscopeApp(App):
         Binding("full_stop", "seek(1)", "+1 s", show=False, id="app.seek_forward_1"),
         Binding("comma", "seek(-1)", "-1 s", show=False, id="app.seek_back_1"),
         Binding("question_mark", "help", "Help", id="app.help"),
+        Binding("escape", "cancel_scan", "Stop filter/search", show=False, id="app.cancel_scan"),
     ]
 
     def __init__(self, model: CaptureModel, feed_factory, *, mode: str, source: str, settings: str = "",
@@ -107,6 +121,7 @@ class GimbalscopeApp(App):
         self._search_text = ""
         self._history_pos: int | None = None
         self._detail_due = False   # follow mode: the lower panes are refreshed on a timer
+        self._scan_text = ""       # a filter or search running in a worker: its progress
 
     # Actions that only make sense in one mode are hidden from the footer (and
     # refused) in the others: check_action returning False hides, None would dim.
@@ -243,8 +258,8 @@ class GimbalscopeApp(App):
             line1.append(f"  {int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:{int(elapsed % 60):02d}",
                          style="dim")
         line2 = Text()
-        errors = len(m.errors)
-        shown = len(m.events) + len(m.unsettled)
+        errors = m.error_count
+        shown = m.shown + len(m.unsettled)
         line2.append(f"{shown:,} event{'' if shown == 1 else 's'}", style="bold")
         line2.append(f"  {errors:,} error{'' if errors == 1 else 's'}", style=SEVERITY_BADGE[ERROR] if errors else "")
         line2.append(f"  {m.stats.checksum_errors} checksum")
@@ -268,7 +283,9 @@ class GimbalscopeApp(App):
             line2.append("  capture ended", style="red")
         elif m.done and self.mode != "replay":
             line2.append("  loaded", style="dim")
-        if self.messages:
+        if self._scan_text:
+            line2.append(f"  {self._scan_text}", style="bold cyan")
+        elif self.messages:
             line2.append(f"  {self.messages[-1]}", style="italic")
         parts = [line1, Text("\n"), line2]
         self.status_bar.update(Text.assemble(*parts))
@@ -298,6 +315,10 @@ class GimbalscopeApp(App):
     @on(EventList.Navigated)
     def _navigated(self) -> None:
         self.model.stop_following()
+
+    @on(EventList.FollowEnd)
+    def _follow_end(self) -> None:
+        self.action_follow()
 
     @on(DetailTree.Jump)
     def _jump(self, message: DetailTree.Jump) -> None:
@@ -461,21 +482,64 @@ class GimbalscopeApp(App):
             return
         self.filter_bar.remove_class("shown")
         self.event_list.focus()
-        if len(self.model.events) < 50_000:
+        if self.model.shown < BACKGROUND_ROWS:
             self._filter_ready(text, *self.model.prepare_filter(text))
             return
-        # a large capture is scanned in a thread: the screen (and the capture) go on
-        self.messages.append(f"filtering {len(self.model.events):,} events …")
+        # a large capture is scanned in a worker thread: the screen (and the capture)
+        # go on, the status line shows how far it got, and Esc stops it
+        self._scan("filtering", lambda progress, cancelled: self.model.prepare_filter(
+            text, progress=progress, cancelled=cancelled), lambda result: self._filter_ready(text, *result))
+
+    def _scan(self, what: str, work, done) -> None:
+        """Run ``work(progress, cancelled)`` in a worker thread, then ``done(result)``
+        on the screen's thread; progress goes to the status line."""
+        from textual.worker import get_current_worker
+
+        self._scan_text = f"{what} …"
         self._refresh_status()
-        self.run_worker(lambda: self.call_from_thread(self._filter_ready, text, *self.model.prepare_filter(text)),
-                        thread=True, exclusive=True, group="filter")
+        last = [0.0]
+
+        def progress(n: int, total: int) -> None:
+            now = time.monotonic()
+            if now - last[0] >= 0.1:   # a message at most ten times a second
+                last[0] = now
+                # a message, not call_from_thread: the scan never waits for the screen
+                self.post_message(ScanProgress(f"{what} {n:,} of {total:,} events "
+                                               f"({100 * n // max(1, total)}%), Esc stops"))
+
+        def run() -> None:
+            worker = get_current_worker()
+            try:
+                result = work(progress, lambda: worker.is_cancelled)
+            except Cancelled:
+                return
+            self.call_from_thread(self._scan_done, done, result)
+
+        self.run_worker(run, thread=True, exclusive=True, group="scan")
+
+    def on_scan_progress(self, message: "ScanProgress") -> None:
+        if self._scan_text:   # not stopped meanwhile
+            self._scan_text = message.text
+            self._refresh_status()
+
+    def _scan_done(self, done, result) -> None:
+        self._scan_text = ""
+        done(result)
+        self._refresh_status()
+
+    def action_cancel_scan(self) -> None:
+        """Esc: stop a filter or search that is still running."""
+        if not self._scan_text:
+            return
+        self.workers.cancel_group(self, "scan")
+        self._scan_text = ""
+        self.notify("stopped", timeout=1.5)
+        self._refresh_status()
 
     def _filter_ready(self, text: str, pred, upto: int, view) -> None:
         lst = self.event_list
         keep = lst.selected
         self.model.apply_filter(text, pred, upto, view)
-        if self.messages and self.messages[-1].startswith("filtering "):
-            self.messages.pop()
         if keep is not None and not self.model.follow:
             lst.go_to(keep)
         lst.rows_changed()
@@ -518,10 +582,16 @@ class GimbalscopeApp(App):
         self.action_search_next(1)
 
     def action_search_next(self, step: int) -> None:
-        if not self._search_text:
+        text = self._search_text
+        if not text:
             return
-        self._go(self.model.search(self._search_text, self._current(), forward=step > 0),
-                 f"row contains {self._search_text!r}")
+        what = f"row contains {text!r}"
+        after, forward = self._current(), step > 0
+        if self.model.row_count < BACKGROUND_ROWS:
+            self._go(self.model.search(text, after, forward), what)
+            return
+        self._scan(f"searching for {text!r}", lambda progress, cancelled: self.model.search(
+            text, after, forward, progress=progress, cancelled=cancelled), lambda number: self._go(number, what))
 
     # -------------------------------------------------------------- quit
     async def action_quit(self) -> None:

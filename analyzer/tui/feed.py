@@ -28,6 +28,7 @@ from ..writers.mcap import McapWriter
 
 
 MAX_BATCH = 20_000
+RATE_BUCKET = 0.05   # seconds: the line rate is summed over the last second in buckets this long
 
 
 @dataclass
@@ -68,7 +69,7 @@ class Feed(Listener):
         self.interval = interval
         names = runner.info.line_names
         self.lines = {line: LineStatus(line, names[line]) for line in runner.lines}
-        self._window: dict[str, deque[tuple[float, int]]] = {line: deque() for line in runner.lines}
+        self._window: dict[str, deque[list]] = {line: deque() for line in runner.lines}   # [start, bytes]
         self._pending: list[Event] = []
         self._last = time.monotonic()
         self._sent_any = False
@@ -130,12 +131,6 @@ class Feed(Listener):
         self.runner.request_swap()
 
     # ------------------------------------------------------------ listener
-    def on_chunk(self, chunk, offset: int) -> None:
-        st = self.lines.get(chunk.line)
-        if st is not None:
-            st.bytes += len(chunk.data)
-            self._window[chunk.line].append((time.monotonic(), len(chunk.data)))
-
     def on_note(self, note: Note) -> None:
         if note.origin == DOCTOR:
             return   # findings reach the screen as the doctor's list
@@ -183,3 +178,23 @@ class Feed(Listener):
         self.deliver(FeedBatch(events, [] if done else self.runner.unsettled(), self._status(),
                                self.runner.skew, path, size, warnings, findings, done, error,
                                self.runner.serial_settings))
+
+
+class LiveFeed(Feed):
+    """A live tap's feed: it also counts each line's bytes for the status line's
+    rate. A file's feed does not hear chunks at all (a file read flat out gives a
+    million a second, and the rate of reading a file says nothing)."""
+
+    def on_chunk(self, chunk, offset: int) -> None:
+        st = self.lines.get(chunk.line)
+        if st is not None:
+            n = len(chunk.data)
+            st.bytes += n
+            # the last second's bytes in 50 ms buckets: a file read flat out gives
+            # a million chunks a second, and summing each was most of a load's time
+            win = self._window[chunk.line]
+            now = time.monotonic()
+            if win and now - win[-1][0] < RATE_BUCKET:
+                win[-1][1] += n
+            else:
+                win.append([now, n])

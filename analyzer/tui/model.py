@@ -1,34 +1,44 @@
-"""What the TUI shows, without Textual: the events of a capture, the filtered
-view of them, the pairing index ("answers #N", "ACK in #M after 4.2 ms"),
-statistics, marks, follow mode and replay playback. The widgets only read it.
+"""What the TUI shows, without Textual: the rows of a capture, the filtered
+view of them, navigation, follow mode and marks, statistics, the device map and
+plots, and replay playback. The widgets only read it.
+
+The events themselves are in an ``EventStore`` (columns, ``store.py``); the
+parts here read it: ``Follow`` and ``Marks`` (follow.py), the filter's view
+(an array of indices), ``Stats`` (analyzer/stats.py), ``DeviceMap``
+(devices.py). Rows are rebuilt events, made when a row is drawn.
 
 Events arrive in batches from the feed thread (``extend``), already paired and
 settled; ``set_unsettled`` shows what pairing still holds, live, so a command
 appears the moment it is on the wire and its status fills in when its answers
-come. Event numbers are consecutive from 1, so event N is ``events[N - 1]``.
+come. Event numbers are consecutive from 1, so event N is stored at index N - 1.
+
+A replay stores the whole file as it loads; ``shown`` is how many of those
+events the playback has reached. Statistics, plots and the device map describe
+what has been shown.
 """
 
 from __future__ import annotations
 
+from array import array
 from bisect import bisect_left, bisect_right
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Callable
 
-from dissectors.event import (
-    ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RESULT, ST_NAK, ST_NIC, Event, format_address,
-)
+from dissectors.event import COMMAND, Event
 
 from ..filter import compile_filter
 from ..output import device_address, fmt_seconds, summary
 from ..stats import Stats
+from .detail import DetailNode, detail as detail_tree, hex_lines
+from .devices import DeviceInfo, DeviceMap
+from .follow import Follow, Marks
+from .scan import Cancelled, scan_first, scan_matching
+from .store import EventsView, EventStore, is_error
+
+__all__ = ["CaptureModel", "Cancelled", "DetailNode", "DeviceInfo", "Playback", "hex_lines", "is_error"]
 
 TIME_MODES = ("absolute", "relative", "delta")
-
-
-def is_error(ev: Event) -> bool:
-    """Rows the error keys jump between: anything with a problem, NAKs, and
-    commands that did not end ok."""
-    return bool(ev.problems) or ev.kind in (NAK, NOISE) or ev.status in (ST_NAK, ST_NIC, NO_ACK, NO_RESULT)
+_CACHE_MAX = 512   # rebuilt events kept: the rows on screen and their neighbours
 
 
 @dataclass
@@ -47,89 +57,113 @@ class Playback:
         return self.position
 
 
-@dataclass
-class DeviceInfo:
-    """One device of the device map."""
-    address: str
-    lines: set[str] = field(default_factory=set)       # lines its answers came on
-    commands: int = 0
-    answered: int = 0
-    nic: set[str] = field(default_factory=set)         # commands it answered with NIC
-
-
-@dataclass
-class DetailNode:
-    """A line of the detail tree: a label, children, and where Enter goes."""
-    label: str
-    children: list["DetailNode"] = field(default_factory=list)
-    jump: int | None = None                 # an event number
-    span: tuple[int, int] | None = None     # bytes of the event this field covers
-    expanded: bool = True
-
-
 class CaptureModel:
     def __init__(self, *, follow: bool = True, slow: float = 0.1) -> None:
-        self.events: list[Event] = []
+        self.store = EventStore()
+        self.shown = 0                            # settled events shown (a replay: played)
         self.unsettled: list[Event] = []
-        self.follow = follow
-        self.away = False              # the user navigated away from the end (follow stopped)
-        self.new_while_away = 0        # "+N new" since then
+        self._follow = Follow(follow)
         self.slow = slow               # seconds: answers slower than this are coloured
         self.time_mode = "absolute"
         self.filter_text = ""
-        self._pred: Callable[[Event], object] | None = None
-        self._view: list[int] | None = None      # indices of matching settled events
-        self._unsettled_view: list[Event] = []
-        self.answers: dict[int, list[int]] = {}  # command number -> its answers' numbers
-        self.errors: list[int] = []              # numbers of error events, ascending
-        self.stats = Stats()
-        self.devices: dict[str, DeviceInfo] = {}
-        self.marks: set[int] = set()
-        self.series: dict[str, dict[str, list[tuple[float, float]]]] = {}  # device -> name -> (t, deg)
-        self._times: list[float] = []            # events' t (untimed: their index): timeline
-        # Replays: the whole file is decoded into ``loaded`` ahead of the screen; the
-        # playback position moves events from there into the model, so statistics,
-        # plots and the device map describe what has been played so far.
-        self.playback: Playback | None = None
-        self.loaded: list[Event] = []
-        self._loaded_times: list[float] = []
         self.filter_history: list[str] = []
-        self.findings: list = []                 # the wiring doctor's, from the capture thread
-        self.done = False                        # the capture has ended
+        self._pred: Callable[[Event], object] | None = None
+        self._view: array | None = None           # indices of matching shown events
+        self._unsettled_view: list[Event] = []
+        self.stats = Stats()
+        self._devices = DeviceMap()
+        self._marks = Marks()
+        self.playback: Playback | None = None
+        self.findings: list = []                  # the wiring doctor's, from the capture thread
+        self.done = False                         # the capture has ended
+        self._cache: dict[int, Event] = {}
+
+    # ------------------------------------------------------------ parts
+    @property
+    def events(self) -> EventsView:
+        """The shown settled events (rebuilt when read)."""
+        return EventsView(self.store, lambda: self.shown)
+
+    @property
+    def devices(self) -> dict[str, DeviceInfo]:
+        return self._devices.devices
+
+    @property
+    def series(self):
+        return self._devices.series
+
+    @property
+    def marks(self) -> Marks:
+        return self._marks
+
+    @property
+    def error_count(self) -> int:
+        return bisect_right(self.store.errors, self.shown)
+
+    @property
+    def answers(self) -> dict[int, list[int]]:
+        """Command number -> its answers' numbers, for the shown events."""
+        store, shown = self.store, self.shown
+        out = {}
+        for i in range(shown):
+            if store.link[i] and not store.request[i]:
+                found = store.answers_of(i + 1, shown)
+                if found:
+                    out[i + 1] = found
+        return out
+
+    # follow mode (follow.py)
+    @property
+    def follow(self) -> bool:
+        return self._follow.on
+
+    @follow.setter
+    def follow(self, on: bool) -> None:
+        self._follow.on = on
+
+    @property
+    def away(self) -> bool:
+        return self._follow.away
+
+    @property
+    def new_while_away(self) -> int:
+        return self._follow.new_while_away
+
+    def stop_following(self) -> None:
+        """Any navigation: the view stays where the user put it."""
+        self._follow.stop()
+
+    def resume_following(self) -> None:
+        self._follow.resume()
 
     # --------------------------------------------------------------- input
     def add(self, batch: list[Event], unsettled: list[Event]) -> int:
-        """A batch from the capture thread: shown at once, or (replay) loaded for
-        the playback to reach. Returns how many rows became visible."""
-        if self.playback is None:
+        """A batch from the capture thread: shown at once, or (a paced replay)
+        stored for the playback to reach. Returns how many rows became visible."""
+        pb = self.playback
+        if pb is None or pb.speed == 0 and self.shown == len(self.store):
             return self.extend(batch) + self.set_unsettled(unsettled)
-        self.loaded.extend(batch)
-        self._loaded_times.extend(ev.t if ev.t is not None else float(k)
-                                  for k, ev in enumerate(batch, len(self._loaded_times)))
+        self.store.append(batch)
         return 0
 
     def extend(self, batch: list[Event]) -> int:
-        """Add settled events (wire order). Returns how many rows became visible."""
+        """Store and show settled events (wire order). Returns how many rows became visible."""
         before = self.row_count
-        events = self.events
-        answers, errors, stats_add = self.answers, self.errors, self.stats.add
-        times = self._times
-        pred = self._pred
-        view = self._view
-        for ev in batch:
-            idx = len(events)
-            events.append(ev)
-            times.append(ev.t if ev.t is not None else float(idx))
-            req = ev.request
-            if req is not None:
-                answers.setdefault(req, []).append(ev.number)
-            if is_error(ev):
-                errors.append(ev.number)
-            stats_add(ev)
-            self._device(ev)
-            if pred is not None and pred(ev):
-                view.append(idx)
+        start = len(self.store)
+        self.store.append(batch)
+        self._show(batch, start)
         return self._grew(before)
+
+    def _show(self, events: list[Event], start: int) -> None:
+        """``events`` (stored from index ``start`` on) are shown now: the parts learn of them."""
+        self.shown = start + len(events)
+        add = self.stats.add
+        for ev in events:
+            add(ev)
+        self._devices.add(events)
+        pred = self._pred
+        if pred is not None:
+            self._view.extend([i for i, ev in enumerate(events, start) if pred(ev)])
 
     def set_unsettled(self, held: list[Event]) -> int:
         before = self.row_count
@@ -140,55 +174,8 @@ class CaptureModel:
 
     def _grew(self, before: int) -> int:
         added = max(0, self.row_count - before)
-        if self.away:
-            self.new_while_away += added
+        self._follow.grew(added)
         return added
-
-    def stop_following(self) -> None:
-        """Any navigation: the view stays where the user put it."""
-        if self.follow:
-            self.follow = False
-            self.away = True
-            self.new_while_away = 0
-
-    def resume_following(self) -> None:
-        self.follow = True
-        self.away = False
-        self.new_while_away = 0
-
-    def _device(self, ev: Event) -> None:
-        kind = ev.kind
-        if kind not in (COMMAND, RESULT, ACK, NAK, NIC):
-            return
-        if kind != COMMAND and ev.transaction is None:
-            return   # an unpaired answer says nothing about where a device answers
-        addr = ev.device
-        if addr is None:
-            return
-        info = self.devices.get(addr)
-        if info is None:
-            info = self.devices[addr] = DeviceInfo(addr)
-        if kind == COMMAND:
-            info.commands += 1
-            if ev.status == ST_NIC and ev.command:
-                info.nic.add(ev.command)
-            fields = ev.fields
-            if ev.command == "P" and fields and "azimuth_deg" in fields:   # go to (Table 11)
-                self._point(addr, "commanded", ev.t, fields)
-            return
-        info.lines.add(ev.line)
-        if kind in (ACK, NAK):
-            info.answered += 1
-        elif kind == RESULT and ev.command == "P?" and ev.fields and "azimuth_deg" in ev.fields:
-            self._point(addr, "reported", ev.t, ev.fields)
-
-    def _point(self, addr: str, which: str, t: float | None, fields: dict) -> None:
-        if t is None:
-            return
-        series = self.series.setdefault(addr, {})
-        series.setdefault(f"{which} azimuth", []).append((t, fields["azimuth_deg"]))
-        if "elevation_deg" in fields:
-            series.setdefault(f"{which} elevation", []).append((t, fields["elevation_deg"]))
 
     # ------------------------------------------------------------- filter
     def set_filter(self, text: str) -> None:
@@ -198,20 +185,20 @@ class CaptureModel:
         pred, upto, view = self.prepare_filter(text)
         self.apply_filter(text, pred, upto, view)
 
-    def prepare_filter(self, text: str) -> tuple:
-        """The slow half of ``set_filter``, safe in a worker thread (events are only
-        appended): (predicate, events scanned, matching indices)."""
+    def prepare_filter(self, text: str, *, progress=None, cancelled=None) -> tuple:
+        """The slow half of ``set_filter``, safe in a worker thread (the store only
+        grows): (predicate, events scanned, matching indices). ``progress(done,
+        total)`` is called as it goes; raises Cancelled when ``cancelled()``."""
         text = text.strip()
         pred = compile_filter(text) if text else None
-        events = self.events
-        upto = len(events)
+        upto = self.shown
         if pred is None:
             return None, upto, None
-        return pred, upto, [i for i in range(upto) if pred(events[i])]
+        return pred, upto, scan_matching(self.store.event, 0, upto, pred, progress=progress, cancelled=cancelled)
 
-    def apply_filter(self, text: str, pred, upto: int, view: list[int] | None) -> None:
+    def apply_filter(self, text: str, pred, upto: int, view) -> None:
         """The fast half, on the thread that extends the model: catch up with the
-        events that arrived while the view was being computed."""
+        events shown while the view was being computed."""
         text = text.strip()
         self._pred = pred
         self.filter_text = text
@@ -219,8 +206,10 @@ class CaptureModel:
             self._view = None
             self._unsettled_view = self.unsettled
             return
-        events = self.events
-        view.extend(i for i in range(upto, len(events)) if pred(events[i]))
+        if upto > self.shown:   # a replay went back meanwhile
+            view = array("i", view[:bisect_left(view, self.shown)])
+            upto = self.shown
+        view.extend(scan_matching(self.store.event, upto, self.shown, pred))
         self._view = view
         self._unsettled_view = [e for e in self.unsettled if pred(e)]
         if text in self.filter_history:
@@ -230,16 +219,37 @@ class CaptureModel:
     # --------------------------------------------------------------- rows
     @property
     def settled_visible(self) -> int:
-        return len(self.events) if self._view is None else len(self._view)
+        return self.shown if self._view is None else len(self._view)
 
     @property
     def row_count(self) -> int:
         return self.settled_visible + len(self._unsettled_view)
 
+    @property
+    def largest_number(self) -> int:
+        """The largest event number a row can show (the number column's width)."""
+        last = self.unsettled[-1].number if self.unsettled else 0
+        return max(self.shown, last)
+
+    def _stored(self, i: int) -> Event:
+        cache = self._cache
+        ev = cache.get(i)
+        if ev is None:
+            if len(cache) >= _CACHE_MAX:
+                cache.clear()
+            ev = cache[i] = self.store.event(i)
+        return ev
+
+    def index_of_row(self, i: int) -> int | None:
+        """The store index of settled row ``i``, or None (an unsettled row, or none)."""
+        if 0 <= i < self.settled_visible:
+            return i if self._view is None else self._view[i]
+        return None
+
     def row(self, i: int) -> Event | None:
         s = self.settled_visible
         if 0 <= i < s:
-            return self.events[i if self._view is None else self._view[i]]
+            return self._stored(i if self._view is None else self._view[i])
         if 0 <= i - s < len(self._unsettled_view):
             return self._unsettled_view[i - s]
         return None
@@ -248,7 +258,7 @@ class CaptureModel:
         """The row showing event ``number``, or None (filtered out, not yet shown)."""
         idx = number - 1
         s = self.settled_visible
-        if 0 <= idx < len(self.events):
+        if 0 <= idx < self.shown:
             if self._view is None:
                 return idx
             k = bisect_left(self._view, idx)
@@ -259,8 +269,8 @@ class CaptureModel:
         return None
 
     def event(self, number: int) -> Event | None:
-        if 1 <= number <= len(self.events):
-            return self.events[number - 1]
+        if 1 <= number <= self.shown:
+            return self._stored(number - 1)
         for ev in self.unsettled:
             if ev.number == number:
                 return ev
@@ -284,7 +294,8 @@ class CaptureModel:
             return "-"
         mode = self.time_mode
         if mode == "relative":
-            first = self.events[0].t if self.events and self.events[0].t is not None else 0.0
+            store = self.store
+            first = store.t[0] if len(store) and store.timed(0) else 0.0
             return f"+{t - first:.6f}"
         if mode == "delta":
             prev = self.row(row - 1) if row > 0 else None
@@ -317,16 +328,19 @@ class CaptureModel:
     # ---------------------------------------------------------- navigation
     def next_error(self, number: int, forward: bool = True) -> int | None:
         """The next (or previous) error event after ``number`` that is shown."""
-        errs = self.errors
+        errs = self.store.errors
+        last = bisect_right(errs, self.shown)
         if forward:
-            k = bisect_right(errs, number)
-            rng = range(k, len(errs))
+            rng = range(bisect_right(errs, number, 0, last), last)
         else:
-            k = bisect_left(errs, number)
-            rng = range(k - 1, -1, -1)
-        for j in rng:
-            if self.row_of(errs[j]) is not None:
+            rng = range(bisect_left(errs, number, 0, last) - 1, -1, -1)
+        if self._view is None:
+            for j in rng:
                 return errs[j]
+        else:
+            for j in rng:
+                if self.row_of(errs[j]) is not None:
+                    return errs[j]
         return None
 
     def partner(self, number: int) -> int | None:
@@ -335,13 +349,8 @@ class CaptureModel:
         if ev is None:
             return None
         if ev.kind == COMMAND:
-            found = self.answers.get(number)
-            if found:
-                return found[0]
-            for other in self.unsettled:   # still held: answers link to it already
-                if other.request == number:
-                    return other.number
-            return None
+            found = self._answers_of(number)
+            return found[0] if found else None
         return ev.request
 
     def same_device(self, number: int, forward: bool = True) -> int | None:
@@ -355,50 +364,82 @@ class CaptureModel:
         row = self.row_of(number)
         if row is None:
             return None
-        step = 1 if forward else -1
-        r = row + step
-        while 0 <= r < self.row_count:
+        code = self.store.device_code(addr)
+        settled = self.settled_visible
+        if row < settled:
+            found = self._same_device_settled(row, code, forward) if code is not None else None
+            if found is not None or not forward:
+                return found
+            unsettled = range(settled, self.row_count)
+        else:
+            unsettled = range(row + 1, self.row_count) if forward else range(row - 1, settled - 1, -1)
+        for r in unsettled:
             other = self.row(r)
             if other is not None and other.device == addr:
                 return other.number
-            r += step
+        if not forward and row >= settled and code is not None:
+            return self._same_device_settled(settled, code, False)
+        return None
+
+    def _same_device_settled(self, row: int, code: int, forward: bool) -> int | None:
+        """Among settled rows after (before) ``row``, the first whose device has ``code``."""
+        dev = self.store.device
+        view = self._view
+        if view is None:
+            if forward:
+                try:
+                    return dev.index(code, row + 1, self.shown) + 1
+                except ValueError:
+                    return None
+            b = row
+            while b > 0:   # backwards, in reversed chunks searched at C speed
+                a = max(0, b - 65536)
+                chunk = dev[a:b]
+                chunk.reverse()
+                try:
+                    return b - chunk.index(code)   # index b - 1 - k, as a number
+                except ValueError:
+                    b = a
+            return None
+        rng = range(row + 1, len(view)) if forward else range(row - 1, -1, -1)
+        for r in rng:
+            if dev[view[r]] == code:
+                return view[r] + 1
         return None
 
     def toggle_mark(self, number: int) -> bool:
-        if number in self.marks:
-            self.marks.discard(number)
-            return False
-        self.marks.add(number)
-        return True
+        return self._marks.toggle(number)
 
     def next_mark(self, number: int) -> int | None:
-        shown = sorted(m for m in self.marks if self.row_of(m) is not None)
-        if not shown:
-            return None
-        k = bisect_right(shown, number)
-        return shown[k % len(shown)]
+        return self._marks.next(number, lambda m: self.row_of(m) is not None)
 
-    def search(self, text: str, after: int, forward: bool = True) -> int | None:
-        """The next shown event whose row text contains ``text`` (case-insensitive)."""
+    def search(self, text: str, after: int, forward: bool = True, *, progress=None, cancelled=None) -> int | None:
+        """The next shown event whose row text contains ``text`` (case-insensitive),
+        wrapping round. Safe in a worker thread; raises Cancelled when ``cancelled()``."""
         needle = text.lower()
         row = self.row_of(after)
         start = row if row is not None else -1
         n = self.row_count
         step = 1 if forward else -1
-        for k in range(1, n + 1):
-            r = (start + step * k) % n
+
+        def test(r: int) -> bool:
             ev = self.row(r)
-            if ev is not None and needle in " ".join(self.cells(ev, r)).lower():
-                return ev.number
-        return None
+            return ev is not None and needle in " ".join(self.cells(ev, r)).lower()
+
+        order = _Wrapped(start, step, n)
+        r = scan_first(order, test, progress=progress, cancelled=cancelled)
+        if r is None:
+            return None
+        ev = self.row(r)
+        return ev.number if ev is not None else None
 
     def window(self, start: float, end: float, most: int = 4000) -> list[Event]:
         """Events on the wire between ``start`` and ``end`` (timeline), filter or not:
         the timeline shows the wire."""
-        times = self._times
-        i = bisect_left(times, start - 0.5)   # a long frame may start before the window
-        j = bisect_right(times, end, i)
-        out = [e for e in self.events[i:min(j, i + most)] if e.t_end is not None and e.t_end >= start]
+        times = self.store.t
+        i = bisect_left(times, start - 0.5, 0, self.shown)   # a long frame may start before the window
+        j = bisect_right(times, end, i, self.shown)
+        out = [e for e in map(self._stored, range(i, min(j, i + most))) if e.t_end is not None and e.t_end >= start]
         out += [e for e in self.unsettled if e.t is not None and e.t <= end and e.t_end >= start]
         return out
 
@@ -411,43 +452,45 @@ class CaptureModel:
         pb = self.playback
         if pb is None:
             return 0
+        store = self.store
         if pb.speed == 0:
-            return self._play_to(len(self.loaded))
-        if not self.events and self._loaded_times and pb.position == 0.0:
-            pb.position = self._loaded_times[0]   # playing starts at the first event
-        return self._play_to(bisect_right(self._loaded_times, pb.tick(wall)))
+            return self._play_to(len(store))
+        if not self.shown and len(store) and pb.position == 0.0:
+            pb.position = store.t[0]   # playing starts at the first event
+        return self._play_to(bisect_right(store.t, pb.tick(wall)))
 
     def seek(self, seconds: float) -> None:
         """Move a replay's position by ``seconds`` of capture time (either way)."""
         pb = self.playback
-        if pb is None or not self._loaded_times:
+        store = self.store
+        if pb is None or not len(store):
             return
-        first, last = self._loaded_times[0], self._loaded_times[-1]
+        first, last = store.t[0], store.t[len(store) - 1]
         pb.position = min(max(pb.position + seconds, first), last)
-        self._play_to(bisect_right(self._loaded_times, pb.position))
+        self._play_to(bisect_right(store.t, pb.position))
 
     def _play_to(self, k: int) -> int:
-        """Show the first ``k`` loaded events. Going back rebuilds the model's
-        indexes from the start (about a second per 300k events)."""
-        n = len(self.events)
+        """Show the first ``k`` stored events. Going back rebuilds the parts from
+        the start (a few seconds per million events)."""
+        n = self.shown
         if k > n:
-            return self.extend(self.loaded[n:k])
+            before = self.row_count
+            self._show(list(self.store.events(n, k)), n)
+            return self._grew(before)
         if k < n:
             self._reset()
-            self.extend(self.loaded[:k])
+            self._show(list(self.store.events(0, k)), 0)
         return 0
 
     def _reset(self) -> None:
-        """Forget the shown events (not the filter, marks or loaded ones)."""
-        self.events = []
-        self._times = []
-        self.answers = {}
-        self.errors = []
+        """Forget what the parts learnt of the shown events (not the filter,
+        marks or stored events)."""
+        self.shown = 0
         self.stats = Stats()
-        self.devices = {}
-        self.series = {}
+        self._devices = DeviceMap()
+        self._cache.clear()
         if self._view is not None:
-            self._view = []
+            self._view = array("i")
 
     @property
     def position(self) -> float | None:
@@ -456,95 +499,24 @@ class CaptureModel:
     # -------------------------------------------------------------- detail
     def detail(self, ev: Event) -> list[DetailNode]:
         """The detail tree of one event: frame, fields, problems, pairing."""
-        from dissectors.dissect import field_spans
-
-        nodes: list[DetailNode] = []
-        n = len(ev.raw)
-        head = DetailNode(f"#{ev.number} {ev.kind} on line {ev.line}, bytes {ev.offset}–{ev.offset + n - 1}"
-                          f" of the line ({n} byte{'' if n == 1 else 's'})")
-        if ev.t is not None:
-            head.children.append(DetailNode(f"time {ev.t:.6f} s → {ev.t_end:.6f} s"))
-        if ev.dst is not None:
-            head.children.append(DetailNode(f"address {format_address(ev.dst)} (group.port.device)", span=(1, 4)))
-            head.children.append(DetailNode(f"source group {ev.src}", span=(4, 5)))
-            head.children.append(DetailNode(f"length {len(ev.payload)}", span=(5, 6)))
-            ok = "ok" if ev.checksum_ok else "BAD"
-            head.children.append(DetailNode(f"checksum 0x{ev.raw[-1]:02x} {ok}", span=(len(ev.raw) - 1, len(ev.raw))))
-        device = self._device_line(ev)
-        if device is not None:
-            head.children.append(device)
-        nodes.append(head)
-        if ev.command or ev.fields:
-            entry = ev.entry
-            title = f"{ev.command or '?'}"
-            if entry is not None:
-                title += f" — {entry.name} ({entry.ref})"
-            cmd = DetailNode(title)
-            spans = {name: (a, b) for name, a, b in field_spans(ev)}
-            units = {f.name: f.unit for f in _fields_of(entry)} if entry is not None else {}
-            for name, value in (ev.fields or {}).items():
-                unit = units.get(name, "")
-                span = spans.get(name)
-                where = f"  [bytes {span[0]}–{span[1] - 1}]" if span else ""
-                cmd.children.append(DetailNode(f"{name} = {value}{(' ' + unit) if unit else ''}{where}", span=span))
-            nodes.append(cmd)
-        if ev.problems:
-            nodes.append(DetailNode("problems", [DetailNode(p) for p in ev.problems]))
-        pairing = DetailNode("pairing")
-        if ev.kind == COMMAND:
-            pairing.children.append(DetailNode(f"status {ev.status or 'waiting'}"
-                                               + (" (retransmission)" if ev.retransmission else "")))
-            for num in self._answers_of(ev.number):
-                ans = self.event(num)
-                if ans is None:
-                    continue
-                what = {ACK: "ACK", NAK: "NAK", NIC: "NIC", RESULT: "result"}.get(ans.kind, ans.kind)
-                after = f" after {fmt_seconds(ans.latency)}" if ans.latency is not None else ""
-                pairing.children.append(DetailNode(f"{what} in #{num}{after}", jump=num))
-        elif ev.request is not None:
-            after = f", {fmt_seconds(ev.latency)} after it ended" if ev.latency is not None else ""
-            pairing.children.append(DetailNode(f"answers #{ev.request}{after}", jump=ev.request))
-        else:
-            pairing.children.append(DetailNode("not paired"))
-        nodes.append(pairing)
-        return nodes
-
-    @staticmethod
-    def _device_line(ev: Event) -> DetailNode | None:
-        """Where the device is not the header's destination as written: a result
-        (its header addresses the controller) and an ACK/NAK/NIC (no header)."""
-        device = ev.device
-        if device is None or ev.kind == COMMAND:
-            return None
-        if ev.kind == RESULT:
-            return DetailNode(f"device {device} (source group {ev.src}, port and device as addressed)", span=(2, 5))
-        return DetailNode(f"device {device} (the command's, #{ev.request})", jump=ev.request)
+        return detail_tree(ev, self._answers_of, self.event)
 
     def _answers_of(self, number: int) -> list[int]:
-        found = list(self.answers.get(number, ()))
+        found = self.store.answers_of(number, self.shown) if number <= self.shown else []
         found += [e.number for e in self.unsettled if e.request == number and e.number not in found]
         return found
 
 
-def _fields_of(entry) -> list:
-    out = list(entry.layout.fields) if getattr(entry, "layout", None) is not None else []
-    for layout in entry.result or ():
-        out += list(layout.fields)
-    return out
+class _Wrapped:
+    """Rows ``start + step``, ``start + 2·step``, … round ``n`` rows, each once."""
 
+    def __init__(self, start: int, step: int, n: int) -> None:
+        self.start, self.step, self.n = start, step, n
 
-def hex_lines(raw: bytes, highlight: tuple[int, int] | None = None, width: int = 16) -> list[tuple[str, str, list[tuple[int, int]]]]:
-    """Hex and ASCII of ``raw``, ``width`` bytes a line: (offset, hex, ascii) and,
-    per line, the character ranges of the hex text to highlight."""
-    out = []
-    for start in range(0, len(raw), width):
-        part = raw[start:start + width]
-        hx = " ".join(f"{b:02x}" for b in part)
-        asc = "".join(chr(b) if 0x20 <= b < 0x7F else "." for b in part)
-        marks = []
-        if highlight is not None:
-            a, b = max(highlight[0], start), min(highlight[1], start + len(part))
-            if a < b:   # half-open columns of the hex text: "0e 0f" without the space after
-                marks.append(((a - start) * 3, (b - start) * 3 - 1))
-        out.append((f"{start:04x}", hx, asc, marks))
-    return out
+    def __len__(self) -> int:
+        return self.n
+
+    def __iter__(self):
+        start, step, n = self.start, self.step, self.n
+        for k in range(1, n + 1):
+            yield (start + step * k) % n

@@ -58,6 +58,10 @@ class EventList(ScrollView, can_focus=True):
     class Navigated(Message):
         """The user moved: follow mode stops."""
 
+    class FollowEnd(Message):
+        """End in the list: go to the last event and follow (a file still
+        loading: until it has loaded), as the app's End does."""
+
     def __init__(self, model: CaptureModel, **kw) -> None:
         super().__init__(**kw)
         self.model = model
@@ -67,8 +71,10 @@ class EventList(ScrollView, can_focus=True):
     # ------------------------------------------------------------ layout
     def _widths(self) -> list[int]:
         width = max(self.scrollable_content_region.width, 40)
-        fixed = sum(w + 1 for _t, w in COLUMNS)
-        return [w if w else max(10, width - fixed) for _t, w in COLUMNS]
+        widths = [w for _t, w in COLUMNS]
+        widths[0] = max(widths[0], len(str(self.model.largest_number)))   # the number column fits No. 10000000
+        fixed = sum(w + 1 for w in widths)
+        return [w if w else max(10, width - fixed) for w in widths]
 
     def header_text(self) -> Text:
         cells = [_fit(t, w, right=k in (0, 8)) for k, ((t, _), w) in enumerate(zip(COLUMNS, self._widths()))]
@@ -142,6 +148,11 @@ class EventList(ScrollView, can_focus=True):
     def action_page(self, step: int) -> None:
         self._navigate()
         self._set_cursor(self.cursor + step * max(1, self.size.height - 2))
+
+    def action_scroll_end(self) -> None:
+        # ScrollView binds End to scrolling to the end of the rows there are now,
+        # which stopped at the rows loaded so far while a file loads
+        self.post_message(self.FollowEnd())
 
     def action_first(self) -> None:
         self._navigate()

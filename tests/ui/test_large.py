@@ -1,0 +1,99 @@
+"""The TUI on captures too large to handle row by row on the screen's thread:
+End while a file loads, a filter scanned in the background with its progress on
+the status line and stopped by Esc, and the number column's width. Driven by
+keys with Textual's Pilot."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+
+import pytest
+
+import analyzer
+from analyzer.traffic import generate
+from analyzer.tui import app as app_module
+from analyzer.tui import scan
+from analyzer.tui.run import make_app, stop_feed
+from analyzer.tui.widgets import EventList
+from tests.ui.test_pilot import SIZE, settle
+
+
+@pytest.fixture
+def big_capture(tmp_path):
+    """A single-line raw dump of a few thousand events."""
+    tr = generate(2000, baud=115200, seed=4, noise_rate=0.01)
+    path = tmp_path / "bus.bin"
+    path.write_bytes(tr.single_line())
+    return str(path)
+
+
+def test_end_while_loading_follows_to_the_last_event(big_capture):
+    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
+    total = sum(1 for _ in analyzer.open(big_capture, baud=115200))
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.row_count > 0)
+            await pilot.press("end")          # the list's own End, pressed as early as the first rows
+            await settle(pilot, app, lambda a: a.model.done)
+            await pilot.pause()
+            lst = app.query_one(EventList)
+            assert app.model.follow and lst.selected == total == app.model.shown
+    asyncio.run(drive())
+    stop_feed(app)
+
+
+def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkeypatch):
+    # every filter goes to the background, one event a step; the scan is held at
+    # event 500 until Esc has been pressed, so the test does not race it
+    monkeypatch.setattr(app_module, "BACKGROUND_ROWS", 1)
+    monkeypatch.setattr(scan, "STEP", 1)
+    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
+    escaped = threading.Event()
+    reached = threading.Event()
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done)
+            store = app.model.store
+            real = store.event
+
+            def event(i):
+                if i == 500:
+                    reached.set()
+                    escaped.wait(30)
+                return real(i)
+            store.event = event
+            await pilot.press("slash", *'kind == "noise"', "enter")
+            await settle(pilot, app, lambda a: reached.is_set() and "filtering" in a._scan_text)
+            status = str(app.status_bar.render())
+            assert "filtering" in status and "Esc stops" in status
+            await pilot.press("escape")
+            escaped.set()
+            await pilot.pause(0.2)
+            assert app.model.filter_text == "" and app._scan_text == ""
+            assert app.model.row_count == app.model.shown      # the view is as it was
+            # the same filter left to run: it applies, and only noise rows remain
+            store.event = real
+            await pilot.press("slash", "ctrl+u", *'kind == "noise"', "enter")
+            await settle(pilot, app, lambda a: a.model.filter_text == 'kind == "noise"')
+            kinds = {app.model.row(r).kind for r in range(app.model.row_count)}
+            assert kinds == {"noise"}
+    asyncio.run(drive())
+    stop_feed(app)
+
+
+def test_the_number_column_widens_for_large_numbers(big_capture):
+    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done)
+            lst = app.query_one(EventList)
+            assert lst._widths()[0] == 6                  # "No." and up to 999,999
+            app.model.shown = 12_345_678                  # as if a day had loaded: 8 digits
+            assert lst._widths()[0] == 8
+            app.model.shown = len(app.model.store)
+    asyncio.run(drive())
+    stop_feed(app)
