@@ -67,8 +67,8 @@ class GimbalscopeApp(App):
     #filterbar.shown { display: block; }
     #filter-error { color: $error; height: auto; padding: 0 1; }
     #filter-error.ok { color: $success; }
-    #search { display: none; }
-    #search.shown { display: block; }
+    #search, #goto { display: none; }
+    #search.shown, #goto.shown { display: block; }
     """
 
     BINDINGS = [
@@ -82,6 +82,7 @@ class GimbalscopeApp(App):
         Binding("m", "mark", "Mark", show=False, id="app.mark"),
         Binding("apostrophe", "next_mark", "Next mark", show=False, id="app.next_mark"),
         Binding("ctrl+f", "search", "Search", show=False, id="app.search"),
+        Binding("ctrl+g,colon", "goto", "Go to #", show=False, id="app.goto"),
         Binding("n", "search_next(1)", "Next hit", show=False, id="app.search_next"),
         Binding("N", "search_next(-1)", "Prev hit", show=False, id="app.search_prev"),
         Binding("end,G", "follow", "Follow", id="app.follow"),
@@ -160,6 +161,8 @@ class GimbalscopeApp(App):
                                             "applies, Esc cancels, ↑/↓ history)", id="filter")
         self.filter_error = Static("", id="filter-error")
         self.search_box = Input(placeholder="search text (Enter finds, n/N next/previous)", id="search")
+        self.goto_box = Input(placeholder="go to event number (Enter goes, Esc cancels)", id="goto",
+                              type="integer")
         yield self.status_bar
         yield self.event_list
         with Horizontal(id="lower"):
@@ -170,6 +173,7 @@ class GimbalscopeApp(App):
             yield self.filter_box
             yield self.filter_error
         yield self.search_box
+        yield self.goto_box
         yield Footer()
 
     def on_mount(self) -> None:
@@ -561,11 +565,35 @@ class GimbalscopeApp(App):
                 box.value = hist[pos]
                 box.cursor_position = len(box.value)
                 event.stop()
-        search = self.search_box
-        if self.focused is search and event.key == "escape":
-            search.remove_class("shown")
-            self.event_list.focus()
-            event.stop()
+        for box in (self.search_box, self.goto_box):
+            if self.focused is box and event.key == "escape":
+                box.remove_class("shown")
+                self.event_list.focus()
+                event.stop()
+
+    # -------------------------------------------------------------- go to
+    def action_goto(self) -> None:
+        box = self.goto_box
+        box.add_class("shown")
+        box.value = ""
+        box.focus()
+
+    @on(Input.Submitted, "#goto")
+    def _goto_submitted(self, event: Input.Submitted) -> None:
+        event.input.remove_class("shown")
+        self.event_list.focus()
+        try:
+            number = int(event.value)
+        except ValueError:
+            self.bell()
+            return
+        if self.model.event(number) is None:
+            self.bell()
+            self.notify(f"no event #{number} shown (1 to {self.model.largest_number:,})", timeout=2)
+            return
+        self._go(number)
+        if self.model.row_of(number) is None:
+            self.notify(f"#{number} is filtered out: at the nearest shown event", timeout=2)
 
     # ------------------------------------------------------------- search
     def action_search(self) -> None:

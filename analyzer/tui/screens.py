@@ -111,14 +111,22 @@ class StatsScreen(Screen):
         self.query_one("#devices", Static).update(device_map(m))
 
 
-def plot(series: dict[str, list[tuple[float, float]]], width: int, height: int) -> Text:
+def _column(points, k: int):
+    """Times (k = 0) or values (k = 1) of a series: its array, or from (t, v) pairs."""
+    arr = getattr(points, "t" if k == 0 else "v", None)
+    return arr if arr is not None else [p[k] for p in points]
+
+
+def plot(series: dict, width: int, height: int) -> Text:
     """Series as dots on a character grid (one colour each), with the value range."""
     colours = ["cyan", "bright_green", "magenta", "yellow"]
-    points = [p for s in series.values() for p in s]
-    if not points:
+    filled = [s for s in series.values() if len(s)]
+    if not filled:
         return Text("no positions yet (go-to commands and position queries)", style="dim")
-    t0, t1 = min(p[0] for p in points), max(p[0] for p in points)
-    v0, v1 = min(p[1] for p in points), max(p[1] for p in points)
+    # the ranges from the columns (devices.Series), at C speed: a day of polling is
+    # millions of points
+    t0, t1 = min(min(_column(s, 0)) for s in filled), max(max(_column(s, 0)) for s in filled)
+    v0, v1 = min(min(_column(s, 1)) for s in filled), max(max(_column(s, 1)) for s in filled)
     if t1 - t0 < 1e-9:
         t1 = t0 + 1
     if v1 - v0 < 1e-9:

@@ -97,3 +97,42 @@ def test_the_number_column_widens_for_large_numbers(big_capture):
             app.model.shown = len(app.model.store)
     asyncio.run(drive())
     stop_feed(app)
+
+
+def test_go_to_an_event_number(big_capture):
+    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done)
+            lst = app.query_one(EventList)
+            await pilot.press("ctrl+g", *"1500", "enter")
+            await pilot.pause()
+            assert lst.selected == 1500 and not app.model.follow
+            assert 1500 - lst.scroll_y in range(1, lst.size.height)     # on screen
+            await pilot.press("colon", *str(app.model.shown + 1), "enter")   # past the last: refused
+            await pilot.pause()
+            assert lst.selected == 1500
+            answer = next(n for n in range(1, 100) if app.model.event(n).kind == "ack")
+            app.model.set_filter('kind == "command"')
+            lst.rows_changed()
+            await pilot.press("ctrl+g", *str(answer), "enter")   # filtered out: the next command
+            await pilot.pause()
+            ev = app.model.event(lst.selected)
+            assert ev.kind == "command" and lst.selected > answer
+    asyncio.run(drive())
+    stop_feed(app)
+
+
+def test_plot_reads_position_columns():
+    from analyzer.tui.devices import Series
+    from analyzer.tui.screens import plot
+
+    s = Series()
+    for t, deg in ((0.0, -10.0), (5.0, 0.0), (10.0, 10.0)):
+        s.append(t, deg)
+    rows = plot({"reported azimuth": s}, width=11, height=3).plain.splitlines()
+    # 10.00° at the top right, 0 in the middle, -10.00° at the bottom left
+    assert rows[0].startswith("   10.00° │") and rows[0].endswith("●")
+    assert rows[1][len("          │"):] == "     ●     "
+    assert rows[2].startswith("  -10.00° │●")
