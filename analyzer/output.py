@@ -222,8 +222,15 @@ def style_of(ev: Event) -> str:
 
 
 class TextSink(_Sink):
-    """tshark-like lines; colour only when writing to a terminal (Rich decides).
-    ``name`` names ``out`` in errors (default: standard output)."""
+    """tshark-like lines; colour only when writing to a terminal (or ``color=True``).
+    ``name`` names ``out`` in errors (default: standard output).
+
+    Colour is each row style's escape codes, rendered once by Rich (``SgrCodes``)
+    and written around the line: one Rich print per line cost ten times the
+    plain output. A line that is not all printable characters (none of ours:
+    wire bytes are shown as ``\\xNN``) goes through Rich's console as before, so
+    control characters are handled exactly as Rich handles them.
+    """
 
     def __init__(self, out: IO[str] | None = None, color: bool | None = None, flush_each: bool = False,
                  name: str | None = None) -> None:
@@ -233,20 +240,26 @@ class TextSink(_Sink):
         self.color = is_tty if color is None else color
         self.flush_each = flush_each
         self._console = None
+        self._codes: SgrCodes | None = None
         if self.color:
             from rich.console import Console
             self._console = Console(file=self.out, highlight=False, soft_wrap=True, force_terminal=True)
+            self._codes = SgrCodes(self._console)
 
     def __call__(self, ev: Event) -> None:
         if self.broken:
             return
         text, style = text_line(ev)
         with self._writes:
-            if self._console is not None:
+            codes = self._codes
+            if codes is None:
+                self.out.write(text + "\n")
+            elif text.isprintable():
+                start, end = codes[style]
+                self.out.write(start + text + end + "\n")
+            else:
                 from rich.text import Text
                 self._console.print(Text(text, style=style or None))
-            else:
-                self.out.write(text + "\n")
             if self.flush_each:
                 self.out.flush()
 
@@ -255,3 +268,30 @@ class TextSink(_Sink):
             return
         with self._writes:
             self.out.flush()
+
+
+class SgrCodes(dict):
+    """Style name → (the escape codes that start it, those that end it), each
+    rendered once by Rich for ``console``'s colour system (so ``styles.py`` stays
+    the one table of looks, and a 256-colour style is downgraded as Rich would
+    on a 16-colour terminal). The plain style has none."""
+
+    def __init__(self, console) -> None:
+        super().__init__()
+        from rich.console import COLOR_SYSTEMS   # Rich's names ("256") to its ColorSystem
+        system = console.color_system
+        self._system = COLOR_SYSTEMS[system] if system else None
+        self._no_color = console.no_color
+
+    def __missing__(self, name: str) -> tuple[str, str]:
+        from rich.style import Style
+        codes = ("", "")
+        if name and self._system is not None:
+            style = Style.parse(name)
+            if self._no_color:          # NO_COLOR: Rich keeps bold, dim, ... and drops colours
+                style = style.without_color
+            rendered = style.render("\0", color_system=self._system)
+            start, _, end = rendered.partition("\0")
+            codes = (start, end)
+        self[name] = codes
+        return codes

@@ -75,6 +75,7 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="a socat -x -v log, an MCAP recording (or the parts of one, in any order), a raw "
                         "single-line dump, or two raw dumps (line A, line B)")
+    add_quiet_arg(p)
     add_serial_args(p)
 
 
@@ -170,8 +171,7 @@ def options_from(args: argparse.Namespace) -> Options:
         given.add("timeouts")
     value = {key: getattr(args, key) if key in given else default for key, default in DEFAULTS.items()}
     if "baud" in given and value["baud"] not in STANDARD_BAUDS:
-        print(f"gimbalscope: warning: --baud {value['baud']} is not a rate of §1.5.1 "
-              f"({', '.join(map(str, STANDARD_BAUDS))})", file=sys.stderr)
+        warn(f"--baud {value['baud']} is not a rate of §1.5.1 ({', '.join(map(str, STANDARD_BAUDS))})")
     timeouts = Timeouts(ack=value["ack_timeout"], result=value["result_timeout"],
                         result_by_command=dict(per_command))
     return Options(baud=value["baud"], data_bits=value["data_bits"], parity=value["parity"],
@@ -181,8 +181,32 @@ def options_from(args: argparse.Namespace) -> Options:
                    explicit=frozenset(given))
 
 
+# -q/--quiet: warnings are not said (set by cli/main.py for the command running;
+# errors are still one line, exit codes do not change)
+_quiet = False
+
+
+def set_quiet(quiet: bool) -> None:
+    global _quiet
+    _quiet = bool(quiet)
+
+
+def add_quiet_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("-q", "--quiet", action="store_true",
+                   help="say no warnings (errors are still said, exit codes are the same)")
+
+
 def warn(msg: str) -> None:
+    if _quiet:
+        return
     print(f"gimbalscope: warning: {msg}", file=sys.stderr, flush=True)
+
+
+def progress_listener(streams_stdout: bool = False) -> Listener:
+    """The progress bar as a listener, for any command that reads capture files
+    (``export`` too): shown only when ``progress.wanted``."""
+    from ..progress import ProgressListener, ReadProgress, wanted
+    return ProgressListener(ReadProgress(enabled=wanted(streams_stdout)))
 
 
 def open_inputs(args: argparse.Namespace) -> Capture:
@@ -191,12 +215,18 @@ def open_inputs(args: argparse.Namespace) -> Capture:
 
 
 def run_tap(capture: Capture, command: str, *listeners: Listener, info: CaptureInfo | None = None,
-            notes: bool = True, findings: bool = True, say_empty: bool = True) -> TapRunner:
+            notes: bool = True, findings: bool = True, say_empty: bool = True,
+            progress: bool = False, streams_stdout: bool = False) -> TapRunner:
     """Run ``capture`` to its end through ``listeners``, the capture's warnings
-    printed on standard error (``notes``), with the doctor's findings among them
-    (``findings``); an empty capture is said (``say_empty``)."""
+    printed on standard error (``notes``; none with -q), with the doctor's findings
+    among them (``findings``); an empty capture is said (``say_empty``). With
+    ``progress``, a bar of the bytes read shows on a terminal when the work is
+    long (analyzer/progress.py); ``streams_stdout``: the command prints as it
+    goes, so no bar when that is to a terminal."""
+    if progress:
+        listeners = (progress_listener(streams_stdout), *listeners)
     if notes:
-        listeners = (*listeners, NotePrinter(findings=findings))
+        listeners = (*listeners, NotePrinter(findings=findings, quiet=_quiet))
     runner = TapRunner(capture, listeners, info=info or CaptureInfo.of(capture, command=command))
     runner.run()
     if say_empty and runner.events == 0:

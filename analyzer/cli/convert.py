@@ -38,5 +38,5 @@ def run(args: argparse.Namespace) -> int:
     capture = open_inputs(args)
     info = CaptureInfo.of(capture, command="convert")
     with AtomicOutput(args.output) as target:   # a failure on the way removes it
-        run_tap(capture, "convert", open_writer(args.output, info, target.file), info=info)
+        run_tap(capture, "convert", open_writer(args.output, info, target.file), info=info, progress=True)
     return 0

@@ -30,5 +30,6 @@ def run(args: argparse.Namespace) -> int:
         sink = JsonLinesSink()
     else:
         sink = TextSink(color={"auto": None, "always": True, "never": False}[args.color])
-    run_tap(capture, "decode", EventPrinter(sink, keep))
+    # no bar when the lines go to the terminal: they show the progress themselves
+    run_tap(capture, "decode", EventPrinter(sink, keep), progress=True, streams_stdout=True)
     return 0

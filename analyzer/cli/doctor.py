@@ -23,7 +23,7 @@ from ..doctor import INFO, Finding, WiringDoctor
 from ..listeners import DoctorListener
 from ..runner import DOCTOR, Listener, Note
 from ..styles import SEVERITY_STYLE
-from .common import STANDARD_BAUDS, UsageError, add_serial_args, non_negative_float, options_from, positive_float, run_tap
+from .common import STANDARD_BAUDS, UsageError, add_quiet_arg, add_serial_args, non_negative_float, options_from, positive_float, run_tap
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,6 +32,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "dumps, MCAP) or live from one or two ports.")
     p.add_argument("inputs", nargs="+", metavar="INPUT|PORT",
                    help="capture files, or one or two serial ports (device names or pyserial URLs)")
+    add_quiet_arg(p)
     add_serial_args(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--seconds", type=non_negative_float, default=10.0,
@@ -80,12 +81,14 @@ class FindingTeller(Listener):
             print(f"{f.severity.upper():8} {f.title}", flush=True)
 
 
-def examine(capture: Capture, *listeners: Listener, notes: bool = True) -> tuple[WiringDoctor, int]:
+def examine(capture: Capture, *listeners: Listener, notes: bool = True,
+            progress: bool = False) -> tuple[WiringDoctor, int]:
     """Run a capture through the doctor (and ``listeners``, which hear each finding
     the first time it shows, checked about once a second of capture time)."""
     doctor = DoctorListener()
     # findings are printed by the report (or FindingTeller), not as notes
-    runner = run_tap(capture, "doctor", doctor, *listeners, notes=notes, findings=False, say_empty=False)
+    runner = run_tap(capture, "doctor", doctor, *listeners, notes=notes, findings=False, say_empty=False,
+                     progress=progress)
     return doctor.doctor, runner.events
 
 
@@ -105,7 +108,7 @@ def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
 
     tell = [FindingTeller()] if live and args.format == "text" else []
     try:
-        doctor, events = examine(capture, *tell)
+        doctor, events = examine(capture, *tell, progress=not live)   # a bar for a long file
     finally:
         if timer is not None:
             timer.cancel()

@@ -15,7 +15,8 @@ from ..outfile import OutputError, show
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
 from . import convert, decode, demo, doctor, foxglove, live, recover, replay, sim, stats, view
-from .common import UsageError
+from ..sources.base import READS
+from .common import UsageError, set_quiet
 
 EXIT_INPUT = 2
 EXIT_OUTPUT = 1
@@ -80,6 +81,8 @@ def main(argv: list[str] | None = None) -> int:
     if sys.stdout is None:   # started with `>&-`: say so before doing any work
         error("standard output is closed")
         return EXIT_OUTPUT
+    set_quiet(getattr(args, "quiet", False))
+    READS.clear()   # the progress bar counts this command's inputs
     try:
         code = args.run(args)
         flush_stdout()   # a full disk behind stdout is reported here, not at exit

@@ -29,7 +29,8 @@ from ..sources.files import open_input
 from ..sources.mcapscan import (MAGIC, OP_ATTACHMENT, OP_CHANNEL, OP_CHUNK, OP_HEADER, OP_MESSAGE, OP_METADATA,
                                 OP_SCHEMA, RECORD, RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse,
                                 read_chunk, read_cut_chunk, summary_records)
-from .common import UsageError, warn
+from ..progress import ReadProgress, wanted
+from .common import UsageError, add_quiet_arg, warn
 
 EXIT_NOTHING_KEPT = 1
 _TOP = frozenset((OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_METADATA, OP_ATTACHMENT))
@@ -42,6 +43,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("input", metavar="FILE.mcap")
     p.add_argument("-o", "--output", metavar="OUT.mcap", help="default: FILE.recovered.mcap")
     p.add_argument("--force", action="store_true", help="overwrite OUT.mcap if it exists")
+    add_quiet_arg(p)
     p.set_defaults(run=run)
 
 
@@ -58,7 +60,8 @@ def run(args: argparse.Namespace) -> int:
         size = os.fstat(f.fileno()).st_size
         salvage = Salvage(Writer(target.file, compression=CompressionType.ZSTD))
         try:
-            salvage.read(f, size)
+            with ReadProgress(enabled=wanted()):   # a bar of the input read, on a terminal, when it is long
+                salvage.read(f, size)
             if salvage.messages:
                 salvage.finish(src)
         except OSError as e:   # the output's disk is full, or the like

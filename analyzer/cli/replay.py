@@ -13,7 +13,7 @@ from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..outfile import show
 from ..output import JsonLinesSink, TextSink
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, open_inputs, run_tap
+from .common import UsageError, add_filter_arg, add_quiet_arg, add_serial_args, build_filter, open_inputs, run_tap
 from .live import add_foxglove_arg, add_tui_args, open_servers, wants_tui
 
 
@@ -34,6 +34,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Replay an MCAP recording, or the parts of one (in any order): events "
                                    "at their recorded pace.")
     p.add_argument("inputs", nargs="+", metavar="FILE.mcap")
+    add_quiet_arg(p)
     add_serial_args(p)
     p.add_argument("--speed", type=speed, default=1.0, metavar="N|max", help="pace factor (default 1) or max")
     p.add_argument("--format", choices=("text", "jsonl"), default="text")

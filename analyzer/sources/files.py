@@ -20,7 +20,7 @@ import tempfile
 from typing import BinaryIO
 
 from ..outfile import reason, show
-from .base import CaptureError
+from .base import READS, CaptureError
 from .compressed import Decompressed, sniff
 
 STDIN = "-"
@@ -37,12 +37,16 @@ def open_input(path: str) -> BinaryIO:
     """The input opened for reading (``-``: standard input, which is never closed
     here); any failure is a ``CaptureError`` naming it."""
     if path == STDIN:
-        return _stdin()
+        stdin = _stdin()
+        READS.track(stdin)   # counted for progress (a file behind `<` has a size)
+        return stdin
     name = show(path)
     try:
         if os.path.isdir(path):
             raise CaptureError(f"{name}: is a directory, not a capture file")
-        return open(path, "rb")
+        f = open(path, "rb")
+        READS.track(f)       # every capture file is opened here: counted for progress
+        return f
     except FileNotFoundError:
         raise CaptureError(f"{name}: no such file") from None
     except PermissionError:
