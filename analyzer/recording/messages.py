@@ -11,7 +11,12 @@ the baud rate (``wire_byte_time``): as if each line's bytes followed each other
 without pause, which keeps every line in order.
 
 The messages follow the schemas' rules (``schemas`` module doc): no ``null``
-values (the key is left out), bytes as base64.
+values (the key is left out), bytes as base64. They leave out what the
+recording already holds elsewhere (docs/foxglove.md, "Size"): an event's,
+transaction's or position's time is its message's log time (the capture's
+start plus ``t``, to the nanosecond), and an event's bytes are on its line's raw
+topic at its ``offset``; the raw chunks keep their ``t``, the ground truth that
+decoding reads.
 """
 
 from __future__ import annotations
@@ -41,14 +46,12 @@ def base64(data: bytes) -> str:
 
 def event_message(ev: Event) -> dict[str, Any]:
     """The /events message of ``ev`` (schemas.EVENT): the JSON Lines object without
-    its null values, and ``raw`` in base64."""
+    its null values, its ``t`` (the message's log time) and its ``raw`` (on the raw
+    topic of its line, at its offset)."""
     msg: dict[str, Any] = {"number": ev.number}
-    t = ev.t
-    if t is not None:
-        msg["t"] = round(t, 9)
-        t_end = ev.t_end
-        if t_end is not None:
-            msg["t_end"] = round(t_end, 9)
+    t_end = ev.t_end
+    if t_end is not None:
+        msg["t_end"] = round(t_end, 9)
     msg["line"] = ev.line
     msg["offset"] = ev.offset
     msg["kind"] = ev.kind
@@ -70,7 +73,6 @@ def event_message(ev: Event) -> dict[str, Any]:
     msg["retransmission"] = ev.retransmission
     if ev.request is not None:
         msg["request"] = ev.request
-    msg["raw"] = base64(ev.raw)
     device = ev.device
     if device is not None:
         msg["device"] = device
@@ -144,6 +146,7 @@ class Messages:
                 topic = self._position_topics.get(device)
                 if topic is None:
                     topic = self._position_topics[device] = S.POSITION_TOPIC.format(device=device)
+                msg.pop("t", None)   # the message's log time
                 emit(topic, "position", ts, msg)
 
     def finish(self) -> None:
@@ -206,9 +209,7 @@ class _OpenTransaction:
             if answer.number == record.result:
                 fields.update(without_nulls(answer.fields))
             problems.extend(answer.problems)
-        msg: dict[str, Any] = {"txn": record.number, "number": cmd.number}
-        if cmd.t is not None:
-            msg["t"] = cmd.t
+        msg: dict[str, Any] = {"txn": record.number, "number": cmd.number}   # its time: the log time
         if record.command is not None:
             msg["command"] = record.command
         msg["device"] = record.device

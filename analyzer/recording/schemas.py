@@ -90,10 +90,10 @@ RAW = _object(
     ("line", "offset", "data"))
 
 EVENT = _object(
-    "gimbalscope.Event", "One decoded event (README, 'Event contract'); keys without a value are left out",
+    "gimbalscope.Event", "One decoded event (README, 'Event contract'); keys without a value are left out, and so "
+    "are t (the message's log time) and raw (on the line's raw topic at offset)",
     {
         "number": {"type": "integer", "minimum": 1, "description": "event number, 1-based, in wire order"},
-        "t": {**_TIME, "description": "wire time of the first byte, s since capture start"},
         "t_end": {**_TIME, "description": "wire time of the end of the last byte"},
         "line": {"type": "string", "enum": ["A", "B", "AB"]},
         "offset": {"type": "integer", "minimum": 0, "description": "byte offset in the line's stream"},
@@ -111,18 +111,17 @@ EVENT = _object(
         "latency": {"type": "number", "description": "answers: s from the command's end to the answer"},
         "retransmission": {"type": "boolean", "description": "commands: resends a failed command"},
         "request": {"type": "integer", "minimum": 1, "description": "answers: number of the command answered"},
-        "raw": {**_BYTES, "description": "the event's bytes"},
         "device": {"type": "string", "description": "the gimbal's address group.port.device: a command's "
                    "destination, a result's sender, an ACK/NAK/NIC's command's"},
     },
-    ("number", "line", "offset", "kind", "fields", "problems", "retransmission", "raw"))
+    ("number", "line", "offset", "kind", "fields", "problems", "retransmission"))
 
 TRANSACTION = _object(
-    "gimbalscope.Transaction", "A command and its answers (keys without a value are left out)",
+    "gimbalscope.Transaction", "A command and its answers (keys without a value are left out; its time is the "
+    "message's log time)",
     {
         "txn": {"type": "integer", "minimum": 1},
         "number": {"type": "integer", "minimum": 1, "description": "event number of the command"},
-        "t": {**_TIME, "description": "wire time of the command"},
         "command": {"type": "string", "description": "command id"},
         "device": {"type": "string", "description": "group.port.device"},
         "status": {"type": "string", "enum": list(STATUSES)},
@@ -147,7 +146,6 @@ POSITION = _object(
     {
         "device": {"type": "string", "description": "group.port.device"},
         "number": {"type": "integer", "minimum": 1, "description": "the event this message comes from"},
-        "t": {**_TIME, "description": "wire time of that event"},
         "source": {"type": "string", "enum": ["command", "result"],
                    "description": "command: a new target (P, or Pnn of a known preset); result: a P? report"},
         "preset": {"type": "integer", "minimum": 0, "maximum": 255, "description": "the preset a Pnn target is"},

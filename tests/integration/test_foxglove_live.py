@@ -9,7 +9,6 @@ deadline: the machine may be busy.
 """
 
 import asyncio
-import base64
 import contextlib
 import json
 import os
@@ -261,8 +260,8 @@ def serve_a_conversation(tmp_path, fds, pa, pb):
             write_paced(fds, generate(120, seed=7, bit_error_rate=0.02, drop_ack_rate=0.02, noise_rate=0.02).writes)
             last = position_query((1, 1, 1), "7FFF0123")
             write_exchanges(fds, last)
-            last_raw = last[-1][1]
-            wait_for(lambda: any(e["kind"] == "result" and base64.b64decode(e["raw"]) == last_raw
+            # the last report's position (0x7FFF, 0x0123 in bits) is in no other result
+            wait_for(lambda: any(e["kind"] == "result" and e["payload"].endswith("7FFF0123")
                                  for e in c.events()), "the last report")
             assert tap.stop() == 0, "".join(tap.err)
     finally:

@@ -2,6 +2,7 @@
 read back by readers we did not write (pymcap-cli doctor, the official Go
 library), re-dissected into the same events, and readable after a kill."""
 
+import base64
 import json
 import os
 import shutil
@@ -269,3 +270,43 @@ def test_a_recording_with_hex_bytes_decodes_as_before(tmp_path):
     decoded = [run_cli("decode", path, "--format", "jsonl") for path in (new, old)]
     assert all(r.returncode == 0 for r in decoded), [r.stderr for r in decoded]
     assert decoded[0].stdout.count("\n") > 100 and decoded[0].stdout == decoded[1].stdout
+
+
+def test_a_recording_is_indexed_for_the_app_and_its_times_are_its_log_times(tmp_path):
+    """Recording layout (docs/foxglove.md, "Size"): every chunk has a message index
+    for each channel it holds (the Foxglove app's indexed reader takes a chunk's
+    messages from them), and a message's log time is the capture's start plus the
+    event's t, to the nanosecond: /events, /transactions and positions carry no t of
+    their own, nor /events the bytes, which are on the raw topics."""
+    from mcap.reader import make_reader
+    from mcap.records import ChunkIndex
+
+    log = os.path.join(SAMPLES, "demo-socat.log")
+    out = tmp_path / "c.mcap"
+    assert run_cli("convert", log, "-o", out).returncode == 0
+    events = jsonl(log)
+    with open(out, "rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        assert summary.chunk_indexes
+        assert all(isinstance(c, ChunkIndex) and c.message_index_offsets for c in summary.chunk_indexes)
+        indexed = {cid for c in summary.chunk_indexes for cid in c.message_index_offsets}
+        by_topic: dict[str, list] = {}
+        for _schema, channel, msg in reader.iter_messages(log_time_order=False):
+            by_topic.setdefault(channel.topic, []).append((msg.log_time, json.loads(msg.data)))
+            assert channel.id in indexed
+    recorded = by_topic["/events"]
+    assert [m["number"] for _ts, m in recorded] == [e["number"] for e in events]
+    first_raw_ts, first_raw = by_topic["/serial/A/raw"][0]
+    start_ns = first_raw_ts - round(first_raw["t"] * 1e9)
+    for (ts, msg), ev in zip(recorded, events):
+        assert "t" not in msg and "raw" not in msg
+        assert ts - start_ns == round(ev["t"] * 1e9), ev["number"]
+    commands = {e["number"]: e for e in events if e["kind"] == "command"}
+    for ts, txn in by_topic["/transactions"]:
+        assert "t" not in txn and ts - start_ns == round(commands[txn["number"]]["t"] * 1e9)
+    # an event's bytes are on its line's raw topic at its offset
+    lines = {line: b"".join(base64.b64decode(m["data"]) for _ts, m in by_topic[f"/serial/{line}/raw"])
+             for line in "AB"}
+    for ev in events:
+        assert lines[ev["line"]][ev["offset"]:ev["offset"] + len(ev["raw"]) // 2].hex() == ev["raw"]

@@ -60,9 +60,12 @@ def test_an_empty_object_is_no_event_and_nulls_are_refused():
     event = validator("event")
     assert not event.is_valid({})
     good = {"number": 1, "line": "A", "offset": 0, "kind": "command", "fields": {}, "problems": [],
-            "retransmission": False, "raw": base64.b64encode(b"\xf8").decode()}
+            "retransmission": False}
     assert event.is_valid(good)
-    assert not event.is_valid({**good, "t": None})                    # optional means absent
+    assert not event.is_valid({**good, "t_end": None})                # optional means absent
+    # the time is the message's log time, the bytes are on the raw topic: neither is repeated
+    assert not event.is_valid({**good, "t": 0.5})
+    assert not event.is_valid({**good, "raw": base64.b64encode(b"\xf8").decode()})
     assert not event.is_valid({**good, "fields": {"azimuth_deg": "12"}})   # a number (Table 15)
     assert not event.is_valid({**good, "fields": {"no_such_field": 1}})
     assert not event.is_valid({**good, "kind": "frame"})               # a paired event's kinds only
@@ -85,19 +88,21 @@ def test_an_unknown_choice_has_no_value_and_is_out_of_range():
     assert any(p.startswith("value out of range: vector") for p in bad.problems)
 
 
-def test_event_messages_leave_out_what_has_no_value_and_carry_bytes_in_base64(tmp_path):
+def test_event_messages_leave_out_what_has_no_value_or_is_held_elsewhere(tmp_path):
     cmd = frame((1, 1, 1), 0, "C9")          # C9: a reserved rate code, no baud (Table 4)
     events = decoded(tmp_path, [(cmd, ACK), go_to(1, "0FA0", "FC18")])
     event = validator("event")
     for ev in events:
         msg = event_message(ev)
         assert event.is_valid(as_written(msg)), msg
-        assert base64.b64decode(msg["raw"]) == ev.raw
-        assert {k for k, v in ev.to_dict().items() if v is not None} == set(msg) - {"fields"} | {"fields"}
+        # every JSON Lines key with a value, less t (the log time) and raw (the raw topic)
+        assert {k for k, v in ev.to_dict().items() if v is not None} - {"t", "raw"} == set(msg)
     rate_set = events[0]
     assert rate_set.fields["baud"] is None and "baud" not in event_message(rate_set)["fields"]
     assert event_message(rate_set)["fields"] == {"rate_code": 9}
-    assert base64.b64decode(event_message(rate_set)["raw"]) == cmd
+    # the ACK's bytes are where its line and offset say: line B, byte 0
+    ack = event_message(events[1])
+    assert (ack["line"], ack["offset"], ack["kind"]) == ("B", 0, "ack")
 
 
 def test_messages_go_to_their_topics_with_capture_times(tmp_path):
