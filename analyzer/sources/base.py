@@ -162,6 +162,11 @@ class Reader:
         return path.lower().endswith(self.suffixes)
 
 
+def _NO_HANDLE() -> None:
+    """A weak reference to no file: a file read by another process."""
+    return None
+
+
 class ReadMeter:
     """How far the capture files have been read: bytes read of their size on
     disk, for a progress bar (analyzer/progress.py).
@@ -196,6 +201,21 @@ class ReadMeter:
             return
         with self._lock:
             self._files[key] = [size, ref, fd, 0]
+
+    def report(self, path: str, position: int) -> None:
+        """``path`` is being read elsewhere (the MCAP reader process) and has got
+        to ``position``: counted as read, whatever this process's handle says."""
+        try:
+            st = os.stat(path)
+        except OSError:
+            return
+        key = (st.st_dev, st.st_ino)
+        with self._lock:
+            entry = self._files.get(key)
+            if entry is None:
+                entry = self._files[key] = [st.st_size, None, -1, 0]
+            entry[1] = _NO_HANDLE   # the position is reported, not asked of a handle
+            entry[3] = max(entry[3], position)
 
     def total(self) -> int | None:
         """The files' sizes together; None when one has none (a pipe) or none is open."""

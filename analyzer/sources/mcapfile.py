@@ -50,7 +50,7 @@ except ImportError:  # pragma: no cover
     json_loads = json.loads
 
 from ..outfile import show
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, ReadSettings, Source
+from .base import LINE_A, LINE_AB, LINE_B, READS, CaptureError, Chunk, ReadSettings, Source
 from .files import Input, open_input
 from .mcapscan import (MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_SCHEMA, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA,
                        RECORD, RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk,
@@ -250,7 +250,10 @@ class McapSource(Source):
                     raise CaptureError(f"{self.label}: the MCAP reader process ended unexpectedly") from None
                 if item is None:
                     return
-                if isinstance(item, tuple):       # ("warn" | "error", message)
+                if isinstance(item, tuple):       # ("warn" | "error" | "progress", message or bytes read)
+                    if item[0] == "progress":
+                        READS.report(self.path, item[1])   # the progress bar's (analyzer/progress.py)
+                        continue
                     if item[0] == "error":
                         raise CaptureError(item[1])
                     if item[1] not in self._said:
@@ -621,7 +624,8 @@ def _diagnose(payload: bytes, need_t: bool | None) -> str:
 
 def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:
     """The reader process: raw chunks as pickled lists of (line, data, t) tuples,
-    warnings as ("warn", text), a failure as ("error", text), then None."""
+    after each list the file's bytes read so far as ("progress", n), warnings as
+    ("warn", text), a failure as ("error", text), then None."""
     def send(item) -> None:
         pickle.dump(item, out, protocol=pickle.HIGHEST_PROTOCOL)
 
@@ -636,8 +640,10 @@ def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:
             batch.extend(map(tuple, chunks))
             if len(batch) >= _BATCH:
                 send(batch)
+                send(("progress", READS.done()))
                 batch = []
         send(batch)
+        send(("progress", os.path.getsize(path)))   # read to its end (the summary needs no reading)
         send(None)
         out.flush()
     except CaptureError as e:

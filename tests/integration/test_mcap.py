@@ -310,3 +310,27 @@ def test_a_recording_is_indexed_for_the_app_and_its_times_are_its_log_times(tmp_
              for line in "AB"}
     for ev in events:
         assert lines[ev["line"]][ev["offset"]:ev["offset"] + len(ev["raw"]) // 2].hex() == ev["raw"]
+
+
+def test_a_recording_read_by_the_reader_process_reports_its_progress(tmp_path, monkeypatch):
+    # large recordings are read by a second process; its bytes read reach the
+    # progress bar's meter as it goes (after every 4096 raw chunks), up to the
+    # whole file at the end
+    from analyzer.sources import mcapfile
+    from analyzer.sources.base import READS
+    from analyzer.traffic import generate
+
+    log = tmp_path / "tap.log"
+    log.write_text(generate(4000, baud=115200, seed=2).socat_log())
+    rec = tmp_path / "rec.mcap"
+    assert run_cli("convert", log, "--baud", "115200", "-o", rec).returncode == 0
+    monkeypatch.setattr(mcapfile, "READER_PROCESS_MIN", 0)
+    READS.clear()
+    seen = []
+    for k, _ev in enumerate(analyzer.open(str(rec))):
+        if k % 500 == 0:
+            seen.append(READS.done())
+    size = rec.stat().st_size
+    assert READS.total() == size and READS.done() == size
+    assert seen == sorted(seen) and any(0 < n < size for n in seen)
+    READS.clear()

@@ -67,3 +67,16 @@ def test_a_pipe_has_no_total(meter):
 
 def test_nothing_opened_has_no_total():
     assert ReadMeter().total() is None and ReadMeter().done() == 0
+
+
+def test_a_file_read_by_another_process_counts_what_it_reports(tmp_path, meter):
+    path = tmp_path / "big.mcap"
+    path.write_bytes(bytes(1000))
+    with open_input(str(path)) as f:
+        f.read(10)                               # this process's handle: a survey of the head
+        meter.report(str(path), 600)             # the reader process: 600 bytes so far
+        assert meter.total() == 1000 and meter.done() == 600
+        meter.report(str(path), 400)             # a late, older report does not go back
+        assert meter.done() == 600
+    meter.report(str(tmp_path / "gone.mcap"), 5)   # a file that is not there: nothing
+    assert meter.done() == 600
