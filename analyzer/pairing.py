@@ -174,6 +174,7 @@ class Pairer:
         append = out.append
         held = self._held
         number = self._number
+        hold = self.timeouts.untimed_hold
         command, handshake, result, nic = self._command, self._handshake, self._result, self._nic
         for ev in events:
             number += 1
@@ -182,8 +183,9 @@ class Pairer:
             # a rate event (analyzer.rate) must not settle an ACK whose NIC may follow it
             if self._provisional is not None and kind != NIC and kind != RATE:
                 self._settle()
-            if ev.t is not None and (self._awaiting_ack is not None or self._awaiting_result):
-                self._expire(ev.t)
+            t = ev.t
+            if t is not None and (self._awaiting_ack is not None or self._awaiting_result):
+                self._expire(t)
             if kind == FRAME:
                 kind = ev.kind = self._classify(ev)
             if kind == COMMAND:
@@ -211,7 +213,7 @@ class Pairer:
                 append(ev)
                 continue
             held.append(ev)
-            if ev.t is None and len(held) > self.timeouts.untimed_hold:
+            if t is None and len(held) > hold:
                 self._give_up(held[0])
             while held:
                 head = held[0]

@@ -181,12 +181,15 @@ static inline void set_slot(PyObject *ev, Py_ssize_t off, PyObject *value)   /* 
     Py_XDECREF(old);
 }
 
-/* a copy of the blank event with the facts every event has; NULL on error */
+/* a copy of the blank event with the facts every event has (it takes over the
+ * reference to raw, on error too); NULL on error */
 static PyObject *new_event(PyObject *line, Py_ssize_t offset, PyObject *kind, PyObject *raw)
 {
     PyObject *ev = event_type->tp_alloc(event_type, 0);
-    if (ev == NULL)
+    if (ev == NULL) {
+        Py_DECREF(raw);
         return NULL;
+    }
     for (Py_ssize_t k = 0; k < n_slots; k++) {
         PyObject *v = SLOT(blank, slot_offsets[k]);
         Py_XINCREF(v);
