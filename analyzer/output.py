@@ -10,6 +10,7 @@ naming the file otherwise. A reader that went away (``| head``) stays a
 from __future__ import annotations
 
 import sys
+from functools import partial
 from typing import IO, Callable
 
 from .outfile import OutputError, reason, write_error
@@ -31,6 +32,9 @@ try:
 
     def dumps_line(obj) -> bytes:
         return orjson.dumps(obj, option=_NL)
+
+    # the sink's per-event call: orjson itself, without a Python frame around it
+    _dumps_line = partial(orjson.dumps, option=_NL)
 except ImportError:  # pragma: no cover - orjson is a dependency; keep working without it
     import json
 
@@ -39,6 +43,8 @@ except ImportError:  # pragma: no cover - orjson is a dependency; keep working w
 
     def dumps_line(obj) -> bytes:
         return dumps(obj) + b"\n"
+
+    _dumps_line = dumps_line
 
 
 STDOUT = "standard output"
@@ -127,11 +133,12 @@ class JsonLinesSink(_Sink):
         self.out = out or sys.stdout.buffer
         self.flush_each = flush_each
         self._lines: list[bytes] = []
+        self._block = 1 if flush_each else self.BLOCK   # events per write
 
     def __call__(self, ev: Event) -> None:
         lines = self._lines
-        lines.append(dumps_line(ev.to_dict()))
-        if self.flush_each or len(lines) >= self.BLOCK:
+        lines.append(_dumps_line(ev.to_dict()))
+        if len(lines) >= self._block:
             self._write(self.flush_each)
 
     def _write(self, flush: bool) -> None:

@@ -174,6 +174,7 @@ class Pairer:
         append = out.append
         held = self._held
         number = self._number
+        hold = self.timeouts.untimed_hold
         command, handshake, result, nic = self._command, self._handshake, self._result, self._nic
         for ev in events:
             number += 1
@@ -182,8 +183,9 @@ class Pairer:
             # a rate event (analyzer.rate) must not settle an ACK whose NIC may follow it
             if self._provisional is not None and kind != NIC and kind != RATE:
                 self._settle()
-            if ev.t is not None:
-                self._expire(ev.t)
+            t = ev.t
+            if t is not None and (self._awaiting_ack is not None or self._awaiting_result):
+                self._expire(t)
             if kind == FRAME:
                 kind = ev.kind = self._classify(ev)
             if kind == COMMAND:
@@ -211,7 +213,7 @@ class Pairer:
                 append(ev)
                 continue
             held.append(ev)
-            if ev.t is None and len(held) > self.timeouts.untimed_hold:
+            if t is None and len(held) > hold:
                 self._give_up(held[0])
             while held:
                 head = held[0]
@@ -299,9 +301,16 @@ class Pairer:
             if deadline is not None and t > deadline:
                 self._no_ack(cmd, UNANSWERED_TIMEOUT, f"no ACK/NAK within {self.timeouts.ack * 1000:g} ms")
                 self._timed_out = cmd
-        if self._awaiting_result:
+        awaiting = self._awaiting_result
+        if awaiting:
+            for cmd in awaiting:
+                deadline = cmd.transaction.deadline
+                if deadline is not None and t > deadline:
+                    break
+            else:
+                return   # none overdue: the usual case, checked without building a list
             keep = []
-            for cmd in self._awaiting_result:
+            for cmd in awaiting:
                 deadline = cmd.transaction.deadline
                 if deadline is not None and t > deadline:
                     self._no_result(cmd, NO_RESULT_TIMEOUT,
@@ -447,26 +456,33 @@ class Pairer:
         self._last_ack = None
 
     def _result(self, ev: Event) -> None:
-        match = None
+        # the latest command first: the one awaiting its ACK, then those awaiting
+        # results, newest first. A result that fits one's layout is its answer;
+        # else the newest from the right address that must have one.
+        payload = ev.payload
+        decoded = None
         fallback = None
-        candidates = list(self._awaiting_result)
-        if self._awaiting_ack is not None:
-            candidates.append(self._awaiting_ack)
-        for cmd in reversed(candidates):
+        ack_cmd = self._awaiting_ack
+        awaiting = self._awaiting_result
+        for cmd in ((ack_cmd, *reversed(awaiting)) if ack_cmd is not None else reversed(awaiting)):
             if address_fits(cmd, ev):
-                if result_fits(cmd.entry, ev.payload):
-                    match = cmd
-                    break
+                entry = cmd.entry
+                if entry is not None and entry.result:   # result_fits, keeping the decode
+                    decoded = dissect_result(entry, payload)
+                    if decoded[0]:
+                        break
+                    decoded = None
                 if fallback is None and not cmd.transaction.optional:
                     fallback = cmd
-        cmd = match or fallback
-        if cmd is None:
-            ev.add_problem(ORPHAN, "no command awaits this result")
-            return
+        else:
+            cmd = fallback
+            if cmd is None:
+                ev.add_problem(ORPHAN, "no command awaits this result")
+                return
         self._link(ev, cmd)
         ev.command = cmd.command
         ev.entry = cmd.entry
-        fields, problems = dissect_result(cmd.entry, ev.payload)
+        fields, problems = decoded if decoded is not None else dissect_result(cmd.entry, payload)
         ev.fields = fields
         if problems:
             ev.note(*problems)

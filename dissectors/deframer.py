@@ -29,6 +29,7 @@ How broken input is handled (docs/decoding.md, "Deframing"):
 
 from __future__ import annotations
 
+import os
 import re
 from bisect import bisect_right
 
@@ -45,6 +46,29 @@ NOISE_PIECE = 4096   # bytes: the longest noise event (a longer run comes in pie
 # bytes that can begin something other than noise: a frame, or a simple response
 _NOT_NOISE = re.compile(b"[" + re.escape(bytes([START, ACK, NAK, NIC])) + b"]")
 _START = re.compile(re.escape(bytes([START])))   # line A: only a frame
+
+
+_SCAN_INTERFACE = 2   # the version of scan() this module calls (_scan.c, INTERFACE)
+
+
+def _compiled_scan():
+    """The C loop for whole valid frames and simple responses (dissectors/_scan.c),
+    or None: not built (no compiler at install), or ``GIMBALSCOPE_PURE=1`` in the
+    environment. Both give the same events; the pure loop below is the reference."""
+    if os.environ.get("GIMBALSCOPE_PURE", "") not in ("", "0"):
+        return None
+    try:
+        from . import _scan
+    except ImportError:
+        return None
+    if getattr(_scan, "INTERFACE", None) != _SCAN_INTERFACE:   # built from another version of _scan.c
+        return None
+    _scan.configure(Event("", 0, NOISE, b""), Event.__slots__)
+    return _scan.scan
+
+
+_scan = _compiled_scan()
+COMPILED = _scan is not None   # whether this process deframes with the C loop
 
 
 def _suspect(buf: bytes, start: int, end: int) -> bool:
@@ -77,6 +101,8 @@ class Deframer:
         self.line = line
         self.frame_kind = _FRAME_KIND.get(line, FRAME)
         self.simple = (line != "A") if simple_responses is None else simple_responses
+        # the simple response kind of each byte value, for the C loop
+        self._kinds = tuple(_SIMPLE.get(b) if self.simple else None for b in range(256))
         self.byte_time = byte_time
         self._default_gap = frame_gap is None
         self.frame_gap = frame_gap if frame_gap is not None else max(0.05, 20 * byte_time)
@@ -287,8 +313,16 @@ class Deframer:
         timed = self._timed
         fast = not self._gaps   # no silence inside the buffer: frames cannot be cut
         not_noise = (_NOT_NOISE if self.simple else _START).search
+        # no silence inside: the C loop takes what needs no decision
+        scan = _scan if fast else None
+        kinds = self._kinds
+        segments = (self._seg_off, self._seg_t, self._seg_bt) if timed else ()
         i = self._resume - base
         while i < n:
+            if scan is not None and self._noise_start is None:
+                i = scan(buf, i, kinds, line, frame_kind, base, out, *segments)
+                if i >= n:
+                    break
             b = buf[i]
             if b == START:
                 # fast path: a complete frame whose checksum holds

@@ -36,8 +36,10 @@ def _build_index() -> dict[int, list[Command]]:
 
 _INDEX = _build_index()
 _CACHE: dict[bytes, Decoded] = {}
-_RESULT_CACHE: dict[tuple[str, bytes], tuple[dict, tuple[Problem, ...]]] = {}
-_CACHE_MAX = 8192   # per cache; polls repeat, positions vary: bounded memory
+# results by command id, then by payload (a result's layout depends on its command)
+_RESULT_CACHE: dict[str, dict[bytes, tuple[dict, tuple[Problem, ...]]]] = {}
+_result_count = 0   # entries in all of them
+_CACHE_MAX = 8192   # per cache (all results together); polls repeat, positions vary: bounded memory
 _UNKNOWN_CODE = re.compile(rb"\*[A-Za-z]{1,3}|[\s\S]{1,2}")
 
 
@@ -96,8 +98,11 @@ def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[P
     """Decode a result payload as an answer to ``entry`` (never raises)."""
     if entry is None:
         return {}, ()
-    key = (entry.id, payload)
-    hit = _RESULT_CACHE.get(key)
+    # a memo per command: no key tuple to build and hash on every lookup
+    memo = _RESULT_CACHE.get(entry.id)
+    if memo is None:
+        memo = _RESULT_CACHE[entry.id] = {}
+    hit = memo.get(payload)
     if hit is not None:
         return hit
     out: tuple[dict, tuple[Problem, ...]] | None = None
@@ -113,9 +118,13 @@ def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[P
             expected = " or ".join(l.describe() for l in entry.result)
             why = MALFORMED.problem(f"expected {expected} ({entry.ref})")
         out = ({}, (why,))
-    if len(_RESULT_CACHE) >= _CACHE_MAX:
-        _RESULT_CACHE.clear()
-    _RESULT_CACHE[key] = out
+    global _result_count
+    _result_count += 1
+    if _result_count > _CACHE_MAX:   # all memos together stay bounded
+        for m in _RESULT_CACHE.values():
+            m.clear()
+        _result_count = 1
+    memo[payload] = out
     return out
 
 
@@ -161,9 +170,10 @@ def summarize(template: str, fields: dict) -> str:
 
 def apply_command(ev) -> None:
     """Fill a command event's id, fields, problems and table entry."""
-    decoded = dissect_command(ev.payload)
-    ev.entry = decoded.entry
-    ev.command = decoded.command
-    ev.fields = decoded.fields
-    if decoded.problems:
-        ev.note(*decoded.problems)
+    payload = ev.payload
+    decoded = _CACHE.get(payload)   # dissect_command's memo, looked up here: once per command
+    if decoded is None:
+        decoded = dissect_command(payload)
+    ev.entry, ev.command, ev.fields, problems = decoded
+    if problems:
+        ev.note(*problems)

@@ -11,6 +11,7 @@ from typing import Any
 
 from . import problems as _problems
 from .problems import Problem, ProblemInfo
+from .wire import payload_text
 
 # Event kinds. A single-line tap first yields "frame" for every frame; pairing then
 # decides between command and result (docs/decoding.md, "Pairing").
@@ -91,6 +92,12 @@ class DeviceOnly:
     def __init__(self, device: str) -> None:
         self.device = device
 
+
+# Payload texts by payload: polls repeat their payloads, and the text is the one
+# part of an event's JSON that costs a scan of its bytes. Bounded like the
+# dissector's memos.
+_PAYLOAD_TEXT: dict[bytes, str] = {}
+_PAYLOAD_TEXT_MAX = 8192
 
 # Shared, never mutated: most events have no fields and no problems.
 NO_FIELDS: dict = {}
@@ -203,11 +210,35 @@ class Event:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON Lines object (README, "Event contract")."""
-        from .wire import payload_text
-
+        # Written out flat (no property, no helper per key): it runs once per event
+        # of every JSON Lines output, recording and filter.
         payload = self.payload
+        if payload is not None:
+            try:
+                text = _PAYLOAD_TEXT.get(payload)
+            except TypeError:   # a bytearray set by hand: not a key
+                payload = bytes(payload)
+                text = _PAYLOAD_TEXT.get(payload)
+            if text is None:
+                if len(_PAYLOAD_TEXT) >= _PAYLOAD_TEXT_MAX:
+                    _PAYLOAD_TEXT.clear()
+                text = _PAYLOAD_TEXT[payload] = payload_text(payload)
+        else:
+            text = None
         t = self.t
         t_end = self.t_end
+        dst = self.dst
+        kind = self.kind
+        # Event.device, inline
+        if dst is None:
+            txn = self.transaction
+            device = txn.device if txn is not None else None
+        elif kind == COMMAND:
+            device = format_address(dst)
+        elif kind == RESULT:
+            device = format_address((self.src, dst[1], dst[2]))
+        else:
+            device = None
         # tuples stay tuples: JSON encoders write them as arrays
         return {
             "number": self.number,
@@ -215,11 +246,11 @@ class Event:
             "t_end": round(t_end, 9) if t_end is not None else None,
             "line": self.line,
             "offset": self.offset,
-            "kind": self.kind,
+            "kind": kind,
             "command": self.command,
-            "dst": self.dst,
+            "dst": dst,
             "src": self.src,
-            "payload": payload_text(payload) if payload is not None else None,
+            "payload": text,
             "checksum_ok": self.checksum_ok,
             "fields": self.fields,
             "problems": self.problems,
@@ -229,7 +260,7 @@ class Event:
             "retransmission": self.retransmission,
             "request": self.request,
             "raw": self.raw.hex(),
-            "device": self.device,   # last: the keys before it keep their places
+            "device": device,   # last: the keys before it keep their places
         }
 
     def __repr__(self) -> str:

@@ -1,11 +1,27 @@
 """The deframer: framing per Table 1, simple responses per §1.4.2, and the
 behaviour on broken input (resync, repair, silence, noise)."""
 
+import pytest
 from hypothesis import example, given, settings, strategies as st
 
+import dissectors.deframer as deframer_module
 from dissectors import Deframer
 from dissectors.deframer import NOISE_PIECE
 from dissectors.wire import build_frame
+
+
+@pytest.fixture(scope="module", autouse=True, params=["compiled", "pure"])
+def deframing_path(request):
+    """Every test here runs on both deframing loops: the C one (dissectors/_scan.c,
+    when it was built) and the pure-Python one it stands in for."""
+    saved = deframer_module._scan
+    if request.param == "compiled":
+        if saved is None:
+            pytest.skip("the C deframing loop is not built (no compiler at install, or GIMBALSCOPE_PURE=1)")
+    else:
+        deframer_module._scan = None
+    yield request.param
+    deframer_module._scan = saved
 
 
 def frame(dst, src, payload: bytes) -> bytes:
