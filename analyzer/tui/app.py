@@ -297,6 +297,11 @@ class GimbalscopeApp(App):
     # ----------------------------------------------------------- selection
     @on(EventList.Selected)
     def _selected(self, message: EventList.Selected) -> None:
+        if self.model.follow:
+            # following, the cursor moves with every batch: the lower panes catch
+            # up on their timer (``_catch_up_detail``), not once a batch
+            self._detail_due = True
+            return
         self._show_selected(message.number)
 
     def _show_selected(self, number: int | None) -> None:

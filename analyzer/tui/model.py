@@ -33,11 +33,12 @@ from .detail import DetailNode, detail as detail_tree, hex_lines
 from .devices import DeviceInfo, DeviceMap
 from .follow import Follow, Marks
 from .scan import Cancelled, scan_first, scan_matching
-from .store import EventsView, EventStore, is_error
+from .store import KINDS, EventsView, EventStore, is_error
 
 __all__ = ["CaptureModel", "Cancelled", "DetailNode", "DeviceInfo", "Playback", "hex_lines", "is_error"]
 
 TIME_MODES = ("absolute", "relative", "delta")
+COMMAND_CODE = KINDS.index(COMMAND)
 _CACHE_MAX = 512   # rebuilt events kept: the rows on screen and their neighbours
 
 
@@ -106,7 +107,7 @@ class CaptureModel:
         store, shown = self.store, self.shown
         out = {}
         for i in range(shown):
-            if store.link[i] and not store.request[i]:
+            if store.kind[i] == COMMAND_CODE:
                 found = store.answers_of(i + 1, shown)
                 if found:
                     out[i + 1] = found

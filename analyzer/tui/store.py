@@ -48,6 +48,10 @@ ERROR = 32         # a row the error keys stop at (``is_error``)
 LINKED = 64        # has a pairing record (its ``transaction``)
 
 _NAN = math.nan
+# events after a command its answers are looked for in: pairing gives up on a
+# result after its timeout (at most 90 s, IX), a minute and a half of a saturated
+# 115200-baud line is about 100,000 events
+ANSWER_WINDOW = 250_000
 _CHECKSUM_FLAG = {None: 0, True: CHECKSUM_OK, False: CHECKSUM_BAD}
 _ERROR_KINDS = frozenset((NAK, NOISE))
 _ERROR_STATUS = frozenset((ST_NAK, ST_NIC, NO_ACK, NO_RESULT))
@@ -60,18 +64,20 @@ def is_error(ev: Event) -> bool:
     return bool(ev.problems) or ev.kind in (NAK, NOISE) or ev.status in (ST_NAK, ST_NIC, NO_ACK, NO_RESULT)
 
 
+_WIDER = {"H": "I", "I": "q"}
+
+
 def _extend_wide(column: array, values: list[int]) -> array:
-    """Extend a 32-bit column, or a 64-bit copy of it once a value needs more
-    (a line past 4 GB): 4 bytes an event saved on every capture smaller than that."""
+    """Extend a narrow column, or a wider copy of it once a value needs more (a
+    line past 4 GB, garbled input naming 65,536 commands): bytes saved on every
+    event of every capture that needs no more."""
     n = len(column)
     try:
         column.extend(values)
         return column
     except OverflowError:
         del column[n:]
-        wide = array("q", column)
-        wide.extend(values)
-        return wide
+        return _extend_wide(array(_WIDER[column.typecode], column), values)
 
 
 class Link:
@@ -116,28 +122,36 @@ class EventStore:
         self.line = array("B")
         self.status = array("B")
         self.flags = array("B")
-        self.command = array("I")     # (command id, table entry) code
-        self.device = array("I")
+        self.command = array("H")     # (command id, table entry) code (wider when needed)
+        self.device = array("H")
         self.latency = array("d")     # NaN: none
         self.request = array("i")     # 0: none
         self.txn = array("i")         # txn + 1; 0: none
-        self.link = array("i")        # a command: its first answer; an answer: the next answer of its command
         self.errors = array("i")      # numbers of error rows, ascending
         self.problems: dict[int, list] = {}     # index -> the event's problems
         self.fields: dict[int, dict] = {}       # index -> fields re-dissection does not give
         self._lines = _Interned()
-        self._commands = _Interned()
+        self._command_values: list[tuple] = [(None, None)]   # code -> (command id, table entry)
+        self._command_codes: dict[tuple, int] = {(None, id(None)): 0}
         self._devices = _Interned()
         self._checksum_errors = 0
 
     def __len__(self) -> int:
         return len(self.kind)
 
+    def _command_code(self, command: str | None, entry) -> int:
+        key = (command, id(entry))   # table entries live as long as the program
+        c = self._command_codes.get(key)
+        if c is None:
+            c = self._command_codes[key] = len(self._command_values)
+            self._command_values.append((command, entry))
+        return c
+
     @property
     def nbytes(self) -> int:
         """Memory held by the columns and raw bytes (not the sparse dicts)."""
         cols = (self.end, self.t, self.t_end, self.offset, self.kind, self.line, self.status, self.flags,
-                self.command, self.device, self.latency, self.request, self.txn, self.link, self.errors)
+                self.command, self.device, self.latency, self.request, self.txn, self.errors)
         return len(self.raw) + sum(a.itemsize * len(a) for a in cols)
 
     # --------------------------------------------------------------- input
@@ -173,32 +187,26 @@ class EventStore:
             self.line.extend([code(ev.line) for ev in batch])
         sc = _STATUS_CODE
         self.status.extend([sc[ev.status] for ev in batch])
-        commands = self._commands.codes
+        # keyed by the entry's identity: a table entry is a dataclass whose hash
+        # goes through every field, a third of this loop's time
+        commands = self._command_codes
         try:
-            self.command.extend([commands[(ev.command, ev.entry)] for ev in batch])
+            codes = [commands[(ev.command, id(ev.entry))] for ev in batch]
         except KeyError:
-            code = self._commands.code
-            self.command.extend([code((ev.command, ev.entry)) for ev in batch])
+            codes = [self._command_code(ev.command, ev.entry) for ev in batch]
+        self.command = _extend_wide(self.command, codes)
         devices = self._devices.codes
         device = [ev.device for ev in batch]
         try:
-            self.device.extend([devices[d] for d in device])
+            codes = [devices[d] for d in device]
         except KeyError:
             code = self._devices.code
-            self.device.extend([code(d) for d in device])
+            codes = [code(d) for d in device]
+        self.device = _extend_wide(self.device, codes)
         self.latency.extend([_NAN if ev.latency is None else ev.latency for ev in batch])
         request = [ev.request or 0 for ev in batch]
         self.request.extend(request)
         self.txn.extend([0 if ev.txn is None else ev.txn + 1 for ev in batch])
-        self.link.extend([0] * len(batch))
-        link = self.link
-        for number, req in enumerate(request, start + 1):
-            if req:   # an answer: most are their command's first
-                i = req - 1
-                if 0 <= i < number - 1:
-                    while link[i]:
-                        i = link[i] - 1
-                    link[i] = number
         bad = _ERROR_STATUS
         flags = [(UNTIMED if ev.t is None else 0) | (FRAMED if ev.dst is not None else 0)
                  | _CHECKSUM_FLAG[ev.checksum_ok] | (RETRANSMISSION if ev.retransmission else 0)
@@ -238,7 +246,7 @@ class EventStore:
         return KINDS[self.kind[i]]
 
     def command_of(self, i: int) -> str | None:
-        return self._commands.values[self.command[i]][0] if self.command[i] else None
+        return self._command_values[self.command[i]][0] if self.command[i] else None
 
     def device_of(self, i: int) -> str | None:
         return self._devices.values[self.device[i]]
@@ -252,15 +260,20 @@ class EventStore:
 
     def answers_of(self, number: int, upto: int | None = None) -> list[int]:
         """The answers' numbers of command ``number`` in wire order (those up to
-        ``upto`` only)."""
-        out = []
-        link = self.link
-        if not 1 <= number <= len(link):
-            return out
-        nxt = link[number - 1]
-        while nxt and (upto is None or nxt <= upto):
-            out.append(nxt)
-            nxt = link[nxt - 1]
+        ``upto`` only): the events after it whose ``request`` is ``number``,
+        found by the request column's own search (C speed) within
+        ``ANSWER_WINDOW`` events, farther than pairing ever waits."""
+        out: list[int] = []
+        request = self.request
+        stop = min(len(request), number + ANSWER_WINDOW, len(request) if upto is None else upto)
+        i = number   # the index after the command's
+        while i < stop:
+            try:
+                i = request.index(number, i, stop)
+            except ValueError:
+                break
+            i += 1
+            out.append(i)   # index i - 1 is event number i
         return out
 
     def event(self, i: int) -> Event:
@@ -284,7 +297,7 @@ class EventStore:
             ev.checksum_ok = False
         code = self.command[i]
         if code:
-            ev.command, ev.entry = self._commands.values[code]
+            ev.command, ev.entry = self._command_values[code]
         fields = self.fields.get(i)
         if fields is None:
             fields = self._natural_fields(kind, ev.payload, ev.entry)
@@ -307,7 +320,7 @@ class EventStore:
                 command = ev.command
             elif req:
                 c = self.command[req - 1]
-                command = self._commands.values[c][0] if c else None
+                command = self._command_values[c][0] if c else None
             else:
                 command = ev.command
             ev.transaction = Link(command, device)

@@ -104,3 +104,20 @@ def test_offsets_past_4_gb_widen_their_column():
     near.number, far.number = 1, 2
     store = check([near, far], batches=2)
     assert store.event(1).offset == 5_000_000_000 and store.event(0).offset == 7
+
+
+def test_more_devices_than_a_16_bit_code_widens_the_column():
+    # garbled input can name any of 256³ addresses: 70,000 of them here
+    events = []
+    for n in range(1, 70_001):
+        dst = (n >> 16, (n >> 8) & 0xFF, n & 0xFF)
+        raw = frame(dst, 0, "HO")
+        ev = Event("A", n * len(raw), COMMAND, raw, None, None, dst, 0, b"HO", True)
+        ev.number = n
+        events.append(ev)
+    store = EventStore()
+    store.append(events[:60_000])
+    store.append(events[60_000:])
+    assert store.device.itemsize >= 4
+    for i in (0, 65_534, 65_535, 69_999):
+        assert store.event(i).device == events[i].device == f"{(i + 1) >> 16}.{((i + 1) >> 8) & 0xFF}.{(i + 1) & 0xFF}"
