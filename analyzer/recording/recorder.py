@@ -67,6 +67,33 @@ class _Zstd:
 
 mcap.writer.zstandard = _Zstd
 
+SMALL_CHUNK = 4096   # bytes: a chunk this small is compressed only if that makes it smaller
+
+
+class _Writer(Writer):
+    """The MCAP writer, storing a chunk that zstd does not make smaller as it is
+    (the format names each chunk's compression, "" for none). A live tap closes
+    a chunk every second, and at a quiet moment that chunk holds a message or
+    two, which zstd's frame makes larger: readers take it either way, but
+    checkers flag it as inefficient. Only small chunks are tried twice; the
+    writer's chunk builder and compression setting are private, so a writer
+    without them is left to compress every chunk."""
+
+    def _Writer__finalize_chunk(self) -> None:
+        builder = getattr(self, "_Writer__chunk_builder", None)
+        buffer = getattr(getattr(builder, "record_writer", None), "_buffer", None)
+        if buffer is None or not builder.num_messages or builder.count > SMALL_CHUNK \
+                or getattr(self, "_Writer__compression", None) != CompressionType.ZSTD:
+            return super()._Writer__finalize_chunk()
+        data = buffer.getvalue()
+        if len(_Zstd.compress(data)) < len(data):
+            return super()._Writer__finalize_chunk()
+        self._Writer__compression = CompressionType.NONE
+        try:
+            return super()._Writer__finalize_chunk()
+        finally:
+            self._Writer__compression = CompressionType.ZSTD
+
 
 class RecordingError(OutputError):
     """The recording file cannot be written; the message names it, ``reason``
@@ -188,7 +215,7 @@ class McapRecorder:
 
     def _start(self, metadata: dict[str, str], start_time: float | None, lines: tuple[str, ...],
                chunked: bool = True) -> None:
-        self._writer = Writer(self._out, compression=CompressionType.ZSTD, chunk_size=CHUNK_SIZE,
+        self._writer = _Writer(self._out, compression=CompressionType.ZSTD, chunk_size=CHUNK_SIZE,
                               index_types=INDEXES, use_chunking=chunked)
         self._writer.start(profile=S.PROFILE, library="gimbalscope")
         self._messages = Messages(self._emit, start_time=start_time, wire_byte_time=self.wire_byte_time)

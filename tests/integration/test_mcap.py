@@ -5,6 +5,7 @@ library), re-dissected into the same events, and readable after a kill."""
 import base64
 import json
 import os
+import random
 import shutil
 import subprocess
 
@@ -334,3 +335,29 @@ def test_a_recording_read_by_the_reader_process_reports_its_progress(tmp_path, m
     assert READS.total() == size and READS.done() == size
     assert seen == sorted(seen) and any(0 < n < size for n in seen)
     READS.clear()
+
+
+def test_a_chunk_that_zstd_would_make_larger_is_stored_as_it_is(tmp_path):
+    # a live tap closes a chunk every second: at a quiet moment it holds one
+    # read, a burst of line noise (random bytes) that zstd cannot make smaller;
+    # a busy second's chunk compresses
+    from mcap.reader import make_reader
+
+    path = tmp_path / "quiet.mcap"
+    rec = McapRecorder(str(path), metadata={"tool": "gimbalscope test", "baud": "9600"},
+                       start_time=1_795_000_000.0, flush_interval=0.0)
+    rec.raw(Chunk("B", b"\x06", 0.5), 0)        # the first chunk: with the schemas and channels
+    noise = random.Random(16).randbytes(16)
+    rec.raw(Chunk("B", noise, 0.6), 1)          # alone in its chunk
+    rec._flush_interval = None
+    cmd = frame((1, 1, 1), 0, "P?")
+    for k in range(200):                        # 200 polls in one chunk
+        rec.raw(Chunk("A", cmd, 1.0 + k * 0.01), k * len(cmd))
+    rec.close()
+    with open(path, "rb") as f:
+        chunks = list(make_reader(f).get_summary().chunk_indexes)
+    assert [c.compression for c in chunks] == ["zstd", "", "zstd"]
+    assert chunks[1].compressed_size == chunks[1].uncompressed_size
+    assert all(c.compressed_size < c.uncompressed_size for c in chunks if c.compression)
+    assert doctor(path) == []
+    assert [e["kind"] for e in jsonl(path)][:3] == ["ack", "noise", "command"]
