@@ -3,7 +3,7 @@
 An ``Event`` object costs about 600 bytes; a day at 115200 baud is tens of
 millions of them. The store keeps, per event, what the list, the filters, the
 navigation keys and the statistics need, in typed arrays (stdlib ``array``),
-and the event's raw bytes in one ``bytearray``: about 60 bytes plus the raw
+and the event's raw bytes in one ``bytearray``: 56 bytes plus the raw
 bytes an event. ``event(i)`` rebuilds the ``Event`` on demand, from the raw
 bytes (the frame's header, its payload) and the columns, re-dissecting the
 payload through the command table's memo (``dissectors.dissect``), so a row's
@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import math
 from array import array
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 
 from dissectors.dissect import dissect_command, dissect_result
 from dissectors.event import (
