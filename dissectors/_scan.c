@@ -215,6 +215,15 @@ static PyObject *new_event(PyObject *line, Py_ssize_t offset, PyObject *kind, Py
  * simple response kind of each byte value or None. The segments, for a timed
  * buffer: the deframer's lists of where each chunk starts, its first byte's
  * time and its byte time. */
+/* Give a new event its times (a timed buffer) and append it to out; steals ev.
+   0, or -1 with an exception set. */
+static int emit(PyObject *out, PyObject *ev, int timed, double t0, double t1)
+{
+    int r = (timed && set_times(ev, t0, t1) < 0) ? -1 : PyList_Append(out, ev);
+    Py_DECREF(ev);
+    return r;
+}
+
 static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 7 && nargs != 10) {
@@ -306,13 +315,7 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
             set_slot(ev, off_payload, payload);
             Py_INCREF(Py_True);
             set_slot(ev, off_checksum_ok, Py_True);
-            if (timed != NULL && set_times(ev, t0, t1) < 0) {
-                Py_DECREF(ev);
-                return NULL;
-            }
-            int r = PyList_Append(out, ev);
-            Py_DECREF(ev);
-            if (r < 0)
+            if (emit(out, ev, timed != NULL, t0, t1) < 0)
                 return NULL;
             i = end;
             continue;
@@ -334,13 +337,7 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         PyObject *ev = new_event(line, base + i, kind, raw);
         if (ev == NULL)
             return NULL;
-        if (timed != NULL && set_times(ev, t0, t1) < 0) {
-            Py_DECREF(ev);
-            return NULL;
-        }
-        int r = PyList_Append(out, ev);
-        Py_DECREF(ev);
-        if (r < 0)
+        if (emit(out, ev, timed != NULL, t0, t1) < 0)
             return NULL;
         i += 1;
     }

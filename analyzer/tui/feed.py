@@ -190,8 +190,8 @@ class LiveFeed(Feed):
         if st is not None:
             n = len(chunk.data)
             st.bytes += n
-            # the last second's bytes in 50 ms buckets: a file read flat out gives
-            # a million chunks a second, and summing each was most of a load's time
+            # the last second's bytes in 50 ms buckets, not one entry a chunk: a
+            # flooded port gives many chunks a second, summed at every batch
             win = self._window[chunk.line]
             now = time.monotonic()
             if win and now - win[-1][0] < RATE_BUCKET:

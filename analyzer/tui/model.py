@@ -241,12 +241,6 @@ class CaptureModel:
             ev = cache[i] = self.store.event(i)
         return ev
 
-    def index_of_row(self, i: int) -> int | None:
-        """The store index of settled row ``i``, or None (an unsettled row, or none)."""
-        if 0 <= i < self.settled_visible:
-            return i if self._view is None else self._view[i]
-        return None
-
     def row(self, i: int) -> Event | None:
         s = self.settled_visible
         if 0 <= i < s:

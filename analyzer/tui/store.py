@@ -61,7 +61,7 @@ _DISSECTED = frozenset((COMMAND, RESULT))
 def is_error(ev: Event) -> bool:
     """Rows the error keys jump between: anything with a problem, NAKs and noise,
     and commands that did not end ok."""
-    return bool(ev.problems) or ev.kind in (NAK, NOISE) or ev.status in (ST_NAK, ST_NIC, NO_ACK, NO_RESULT)
+    return bool(ev.problems) or ev.kind in _ERROR_KINDS or ev.status in _ERROR_STATUS
 
 
 _WIDER = {"H": "I", "I": "q"}
@@ -93,20 +93,31 @@ class Link:
 
 class _Interned:
     """Values that repeat (lines, devices, command ids with their table entries)
-    as small codes; code 0 is None."""
+    as small codes; code 0 is None. A value is found by its key: itself, or what
+    ``codes_of`` is given (commands are keyed by the table entry's identity: an
+    entry is a dataclass whose hash goes through every field)."""
 
     __slots__ = ("values", "codes")
 
-    def __init__(self) -> None:
+    def __init__(self, none_key=None) -> None:
         self.values: list = [None]
-        self.codes: dict = {None: 0}
+        self.codes: dict = {none_key: 0}
 
-    def code(self, value) -> int:
-        c = self.codes.get(value)
+    def code(self, key, value) -> int:
+        c = self.codes.get(key)
         if c is None:
-            c = self.codes[value] = len(self.values)
+            c = self.codes[key] = len(self.values)
             self.values.append(value)
         return c
+
+    def codes_of(self, keys: list, values=None) -> list[int]:
+        """The codes of ``keys``, new ones made for their ``values()`` (default:
+        the keys themselves). Every key known is the common case: one lookup each."""
+        codes = self.codes
+        try:
+            return [codes[k] for k in keys]
+        except KeyError:
+            return [self.code(k, v) for k, v in zip(keys, keys if values is None else values())]
 
 
 class EventStore:
@@ -131,28 +142,11 @@ class EventStore:
         self.problems: dict[int, list] = {}     # index -> the event's problems
         self.fields: dict[int, dict] = {}       # index -> fields re-dissection does not give
         self._lines = _Interned()
-        self._command_values: list[tuple] = [(None, None)]   # code -> (command id, table entry)
-        self._command_codes: dict[tuple, int] = {(None, id(None)): 0}
+        self._commands = _Interned(none_key=(None, id(None)))   # code -> (command id, table entry)
         self._devices = _Interned()
-        self._checksum_errors = 0
 
     def __len__(self) -> int:
         return len(self.kind)
-
-    def _command_code(self, command: str | None, entry) -> int:
-        key = (command, id(entry))   # table entries live as long as the program
-        c = self._command_codes.get(key)
-        if c is None:
-            c = self._command_codes[key] = len(self._command_values)
-            self._command_values.append((command, entry))
-        return c
-
-    @property
-    def nbytes(self) -> int:
-        """Memory held by the columns and raw bytes (not the sparse dicts)."""
-        cols = (self.end, self.t, self.t_end, self.offset, self.kind, self.line, self.status, self.flags,
-                self.command, self.device, self.latency, self.request, self.txn, self.errors)
-        return len(self.raw) + sum(a.itemsize * len(a) for a in cols)
 
     # --------------------------------------------------------------- input
     def append(self, batch: list[Event]) -> None:
@@ -179,44 +173,26 @@ class EventStore:
         self.offset = _extend_wide(self.offset, [ev.offset for ev in batch])
         kc = _KIND_CODE
         self.kind.extend([kc[ev.kind] for ev in batch])
-        lines = self._lines.codes
-        try:
-            self.line.extend([lines[ev.line] for ev in batch])
-        except KeyError:
-            code = self._lines.code
-            self.line.extend([code(ev.line) for ev in batch])
+        self.line.extend(self._lines.codes_of([ev.line for ev in batch]))
         sc = _STATUS_CODE
         self.status.extend([sc[ev.status] for ev in batch])
-        # keyed by the entry's identity: a table entry is a dataclass whose hash
-        # goes through every field, a third of this loop's time
-        commands = self._command_codes
-        try:
-            codes = [commands[(ev.command, id(ev.entry))] for ev in batch]
-        except KeyError:
-            codes = [self._command_code(ev.command, ev.entry) for ev in batch]
-        self.command = _extend_wide(self.command, codes)
-        devices = self._devices.codes
-        device = [ev.device for ev in batch]
-        try:
-            codes = [devices[d] for d in device]
-        except KeyError:
-            code = self._devices.code
-            codes = [code(d) for d in device]
-        self.device = _extend_wide(self.device, codes)
+        # keyed by the table entry's identity: hashing the entry was a third of this loop
+        self.command = _extend_wide(self.command, self._commands.codes_of(
+            [(ev.command, id(ev.entry)) for ev in batch], lambda: [(ev.command, ev.entry) for ev in batch]))
+        self.device = _extend_wide(self.device, self._devices.codes_of([ev.device for ev in batch]))
         self.latency.extend([_NAN if ev.latency is None else ev.latency for ev in batch])
         request = [ev.request or 0 for ev in batch]
         self.request.extend(request)
         self.txn.extend([0 if ev.txn is None else ev.txn + 1 for ev in batch])
-        bad = _ERROR_STATUS
         flags = [(UNTIMED if ev.t is None else 0) | (FRAMED if ev.dst is not None else 0)
                  | _CHECKSUM_FLAG[ev.checksum_ok] | (RETRANSMISSION if ev.retransmission else 0)
-                 | (LINKED if ev.transaction is not None else 0)
-                 | (ERROR if ev.problems or ev.kind in _ERROR_KINDS or ev.status in bad else 0)
+                 | (LINKED if ev.transaction is not None else 0) | (ERROR if is_error(ev) else 0)
                  for ev in batch]
         self.flags.extend(flags)
-        self.errors.extend([i for i, f in enumerate(flags, start + 1) if f & ERROR])
+        errors = [i for i, f in enumerate(flags, start) if f & ERROR]   # events with problems among them
+        self.errors.extend([i + 1 for i in errors])
         problems = self.problems
-        for i in [i for i, f in enumerate(flags, start) if f & ERROR]:
+        for i in errors:
             ev = batch[i - start]
             if ev.problems:
                 problems[i] = ev.problems
@@ -239,18 +215,6 @@ class EventStore:
         return NO_FIELDS
 
     # --------------------------------------------------------------- reading
-    def raw_of(self, i: int) -> bytes:
-        return bytes(self.raw[self.end[i - 1] if i else 0:self.end[i]])
-
-    def kind_of(self, i: int) -> str:
-        return KINDS[self.kind[i]]
-
-    def command_of(self, i: int) -> str | None:
-        return self._command_values[self.command[i]][0] if self.command[i] else None
-
-    def device_of(self, i: int) -> str | None:
-        return self._devices.values[self.device[i]]
-
     def device_code(self, device: str) -> int | None:
         """The device column's code for ``device``; None if no event has it."""
         return self._devices.codes.get(device)
@@ -297,7 +261,7 @@ class EventStore:
             ev.checksum_ok = False
         code = self.command[i]
         if code:
-            ev.command, ev.entry = self._command_values[code]
+            ev.command, ev.entry = self._commands.values[code]
         fields = self.fields.get(i)
         if fields is None:
             fields = self._natural_fields(kind, ev.payload, ev.entry)
@@ -320,7 +284,7 @@ class EventStore:
                 command = ev.command
             elif req:
                 c = self.command[req - 1]
-                command = self._command_values[c][0] if c else None
+                command = self._commands.values[c][0] if c else None
             else:
                 command = ev.command
             ev.transaction = Link(command, device)

@@ -28,20 +28,29 @@ def big_capture(tmp_path):
     return str(path)
 
 
+def in_view(path: str, drive, ready=lambda app: app.model.done) -> None:
+    """``await drive(app, pilot)`` on the TUI viewing ``path`` once ``ready(app)``
+    (by default: the file has loaded)."""
+    app = make_app(analyzer.open(path, baud=115200), mode="view")
+
+    async def run():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, ready)
+            await drive(app, pilot)
+    asyncio.run(run())
+    stop_feed(app)
+
+
 def test_end_while_loading_follows_to_the_last_event(big_capture):
-    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
     total = sum(1 for _ in analyzer.open(big_capture, baud=115200))
 
-    async def drive():
-        async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.row_count > 0)
-            await pilot.press("end")          # the list's own End, pressed as early as the first rows
-            await settle(pilot, app, lambda a: a.model.done)
-            await pilot.pause()
-            lst = app.query_one(EventList)
-            assert app.model.follow and lst.selected == total == app.model.shown
-    asyncio.run(drive())
-    stop_feed(app)
+    async def drive(app, pilot):
+        await pilot.press("end")          # the list's own End, pressed as early as the first rows
+        await settle(pilot, app, lambda a: a.model.done)
+        await pilot.pause()
+        lst = app.query_one(EventList)
+        assert app.model.follow and lst.selected == total == app.model.shown
+    in_view(big_capture, drive, ready=lambda a: a.model.row_count > 0)
 
 
 def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkeypatch):
@@ -49,79 +58,65 @@ def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkey
     # event 500 until Esc has been pressed, so the test does not race it
     monkeypatch.setattr(app_module, "BACKGROUND_ROWS", 1)
     monkeypatch.setattr(scan, "STEP", 1)
-    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
     escaped = threading.Event()
     reached = threading.Event()
 
-    async def drive():
-        async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done)
-            store = app.model.store
-            real = store.event
+    async def drive(app, pilot):
+        store = app.model.store
+        real = store.event
 
-            def event(i):
-                if i == 500:
-                    reached.set()
-                    escaped.wait(30)
-                return real(i)
-            store.event = event
-            await pilot.press("slash", *'kind == "noise"', "enter")
-            await settle(pilot, app, lambda a: reached.is_set() and "filtering" in a._scan_text)
-            status = str(app.status_bar.render())
-            assert "filtering" in status and "Esc stops" in status
-            await pilot.press("escape")
-            escaped.set()
-            await pilot.pause(0.2)
-            assert app.model.filter_text == "" and app._scan_text == ""
-            assert app.model.row_count == app.model.shown      # the view is as it was
-            # the same filter left to run: it applies, and only noise rows remain
-            store.event = real
-            await pilot.press("slash", "ctrl+u", *'kind == "noise"', "enter")
-            await settle(pilot, app, lambda a: a.model.filter_text == 'kind == "noise"')
-            kinds = {app.model.row(r).kind for r in range(app.model.row_count)}
-            assert kinds == {"noise"}
-    asyncio.run(drive())
-    stop_feed(app)
+        def event(i):
+            if i == 500:
+                reached.set()
+                escaped.wait(30)
+            return real(i)
+        store.event = event
+        await pilot.press("slash", *'kind == "noise"', "enter")
+        await settle(pilot, app, lambda a: reached.is_set() and "filtering" in a._scan_text)
+        status = str(app.status_bar.render())
+        assert "filtering" in status and "Esc stops" in status
+        await pilot.press("escape")
+        escaped.set()
+        await pilot.pause(0.2)
+        assert app.model.filter_text == "" and app._scan_text == ""
+        assert app.model.row_count == app.model.shown      # the view is as it was
+        # the same filter left to run: it applies, and only noise rows remain
+        store.event = real
+        await pilot.press("slash", "ctrl+u", *'kind == "noise"', "enter")
+        await settle(pilot, app, lambda a: a.model.filter_text == 'kind == "noise"')
+        kinds = {app.model.row(r).kind for r in range(app.model.row_count)}
+        assert kinds == {"noise"}
+    in_view(big_capture, drive)
 
 
 def test_the_number_column_widens_for_large_numbers(big_capture):
-    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
-
-    async def drive():
-        async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done)
-            lst = app.query_one(EventList)
-            assert lst._widths()[0] == 6                  # "No." and up to 999,999
-            app.model.shown = 12_345_678                  # as if a day had loaded: 8 digits
-            assert lst._widths()[0] == 8
-            app.model.shown = len(app.model.store)
-    asyncio.run(drive())
-    stop_feed(app)
+    async def drive(app, pilot):
+        lst = app.query_one(EventList)
+        assert lst._widths()[0] == 6                  # "No." and up to 999,999
+        app.model.shown = 12_345_678                  # as if a day had loaded: 8 digits
+        assert lst._widths()[0] == 8
+        app.model.shown = len(app.model.store)
+    in_view(big_capture, drive)
 
 
 def test_go_to_an_event_number(big_capture):
-    app = make_app(analyzer.open(big_capture, baud=115200), mode="view")
-
-    async def drive():
-        async with app.run_test(size=SIZE) as pilot:
-            await settle(pilot, app, lambda a: a.model.done)
-            lst = app.query_one(EventList)
-            await pilot.press("ctrl+g", *"1500", "enter")
-            await pilot.pause()
-            assert lst.selected == 1500 and not app.model.follow
-            assert 1500 - lst.scroll_y in range(1, lst.size.height)     # on screen
-            await pilot.press("colon", *str(app.model.shown + 1), "enter")   # past the last: refused
-            await pilot.pause()
-            assert lst.selected == 1500
-            answer = next(n for n in range(1, 100) if app.model.event(n).kind == "ack")
-            app.model.set_filter('kind == "command"')
-            lst.rows_changed()
-            await pilot.press("ctrl+g", *str(answer), "enter")   # filtered out: the next command
-            await pilot.pause()
-            ev = app.model.event(lst.selected)
-            assert ev.kind == "command" and lst.selected > answer
-    asyncio.run(drive())
-    stop_feed(app)
+    async def drive(app, pilot):
+        lst = app.query_one(EventList)
+        await pilot.press("ctrl+g", *"1500", "enter")
+        await pilot.pause()
+        assert lst.selected == 1500 and not app.model.follow
+        assert 1500 - lst.scroll_y in range(1, lst.size.height)     # on screen
+        await pilot.press("colon", *str(app.model.shown + 1), "enter")   # past the last: refused
+        await pilot.pause()
+        assert lst.selected == 1500
+        answer = next(n for n in range(1, 100) if app.model.event(n).kind == "ack")
+        app.model.set_filter('kind == "command"')
+        lst.rows_changed()
+        await pilot.press("ctrl+g", *str(answer), "enter")   # filtered out: the next command
+        await pilot.pause()
+        ev = app.model.event(lst.selected)
+        assert ev.kind == "command" and lst.selected > answer
+    in_view(big_capture, drive)
 
 
 def test_plot_reads_position_columns():
