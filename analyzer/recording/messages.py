@@ -25,12 +25,13 @@ import time
 from binascii import b2a_base64
 from typing import Any, Callable
 
-from dissectors.event import COMMAND, NO_ACK, NOISE, ST_NAK, Event
+from dissectors.event import NO_ACK, NOISE, ST_NAK, Event
 from dissectors.wire import payload_text
 
 from ..outfile import show
 from ..positions import POSITION_COMMANDS, PositionTracker
 from ..sources.base import Chunk
+from ..transactions import TransactionRows, without_nulls
 from . import schemas as S
 
 Emit = Callable[[str, str, int, dict], None]
@@ -79,14 +80,6 @@ def event_message(ev: Event) -> dict[str, Any]:
     return msg
 
 
-def without_nulls(fields: dict[str, Any]) -> dict[str, Any]:
-    """``fields`` without the names that have no value (a reserved rate code's
-    ``baud``): the schema types each name, and null is no type of it."""
-    if None in fields.values():
-        return {k: v for k, v in fields.items() if v is not None}
-    return fields
-
-
 def log_message(ts: int, level: int, message: str, name: str, file: str = "", line: int = 0) -> dict[str, Any]:
     """A foxglove.Log message (schemas.LOG)."""
     return {"timestamp": {"sec": ts // 1_000_000_000, "nsec": ts % 1_000_000_000}, "level": level,
@@ -104,7 +97,7 @@ class Messages:
         self.positions = PositionTracker()
         self._seq = 0
         self._offsets: dict[str, int] = {}
-        self._open_txn: _OpenTransaction | None = None
+        self._transactions = TransactionRows()
         self._position_topics: dict[str, str] = {}
 
     def raw(self, chunk: Chunk, offset: int) -> None:
@@ -151,9 +144,9 @@ class Messages:
 
     def finish(self) -> None:
         """The end of the input: the transaction still open is complete."""
-        txn, self._open_txn = self._open_txn, None
+        txn = self._transactions.finish()
         if txn is not None:
-            self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.message())
+            self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.to_dict())
 
     def time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
         if t is None:
@@ -171,54 +164,7 @@ class Messages:
                            "gimbalscope", f"line {ev.line}", ev.offset)
 
     def _transaction(self, ev: Event, ts: int) -> None:
-        """A command opens a transaction message; the next command, or the end,
-        writes it from the command's pairing record. Its answers are those the
-        stream brought before that next command: an answer can come much later
-        (an optional result), and a live tap and a re-decode of its recording
-        must write the same message, whatever their batches."""
-        if ev.kind == COMMAND:
-            self.finish()
-            self._open_txn = _OpenTransaction(ts, ev)
-            return
-        record = ev.transaction
-        txn = self._open_txn
-        if record is not None and txn is not None and record is txn.record:
-            txn.answers.append(ev)
-
-
-class _OpenTransaction:
-    """A command recorded, and those of its answers recorded since."""
-
-    __slots__ = ("ts", "command", "record", "answers")
-
-    def __init__(self, ts: int, command: Event) -> None:
-        self.ts = ts
-        self.command = command
-        self.record = command.transaction
-        self.answers: list[Event] = []
-
-    def message(self) -> dict[str, Any]:
-        """The /transactions message (schemas.TRANSACTION): the record's facts, as
-        far as the answers recorded so far go; fields and problems are the
-        command's, then its answers'."""
-        cmd, record, answers = self.command, self.record, self.answers
-        numbers = [a.number for a in answers]
-        fields = dict(without_nulls(cmd.fields))
-        problems = list(cmd.problems)
-        for answer in answers:
-            if answer.number == record.result:
-                fields.update(without_nulls(answer.fields))
-            problems.extend(answer.problems)
-        msg: dict[str, Any] = {"txn": record.number, "number": cmd.number}   # its time: the log time
-        if record.command is not None:
-            msg["command"] = record.command
-        msg["device"] = record.device
-        if record.status is not None:
-            msg["status"] = record.status
-        msg["retransmission"] = record.retransmission
-        if record.ack in numbers and record.ack_latency is not None:
-            msg["ack_latency"] = record.ack_latency
-        if record.result in numbers and record.result_latency is not None:
-            msg["result_latency"] = record.result_latency
-        msg.update(answers=numbers, fields=fields, problems=problems)
-        return msg
+        """A transaction message when a command closes one (analyzer/transactions.py)."""
+        txn = self._transactions.add(ev, ts)
+        if txn is not None:
+            self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.to_dict())

@@ -1,0 +1,67 @@
+"""DuckDB, embedded, over an exported dataset (docs/dataset.md): one connection
+with the views ``events``, ``transactions`` and ``findings``, each over its
+table's Hive-partitioned Parquet files (``date`` read from the path as a DATE).
+A table with no file yet is an empty view of its schema, so every query runs on
+any export."""
+
+from __future__ import annotations
+
+import os
+
+from .schema import PARTITION, TABLES
+
+
+class DatasetError(Exception):
+    """A path that is no dataset, or a query DuckDB refused: one line for people."""
+
+
+def table_glob(root: str, table: str) -> str:
+    return os.path.join(root, table, f"{PARTITION}=*", "*.parquet")
+
+
+def _has_files(root: str, table: str) -> bool:
+    folder = os.path.join(root, table)
+    try:
+        parts = os.scandir(folder)
+    except OSError:
+        return False
+    with parts:
+        for part in parts:
+            if part.is_dir() and part.name.startswith(PARTITION + "="):
+                try:
+                    if any(f.endswith(".parquet") for f in os.listdir(part.path)):
+                        return True
+                except OSError:
+                    continue
+    return False
+
+
+def check_dataset(root: str) -> None:
+    """Refuse, in one line, a path that is no exported dataset."""
+    if not os.path.exists(root):
+        raise DatasetError(f"{root}: no such dataset (make one with: gimbalscope export CAPTURE... -o {root})")
+    if not os.path.isdir(root):
+        raise DatasetError(f"{root}: not a dataset folder (gimbalscope export writes one)")
+    if not any(os.path.isdir(os.path.join(root, t)) for t in TABLES):
+        raise DatasetError(f"{root}: no dataset here: none of the folders {', '.join(TABLES)}")
+
+
+def connect(root: str):
+    """A DuckDB connection (in memory) with the dataset's views."""
+    import duckdb
+    import pyarrow as pa
+
+    check_dataset(root)
+    con = duckdb.connect()
+    for table, schema in TABLES.items():
+        if _has_files(root, table):
+            glob = table_glob(root, table).replace("'", "''")
+            # union_by_name: files written by an older release may lack a newer field column
+            con.execute(f"CREATE VIEW {table} AS SELECT * FROM read_parquet('{glob}', hive_partitioning = true, "
+                        f"union_by_name = true, hive_types = {{'{PARTITION}': DATE}})")
+        else:
+            empty = pa.table({f.name: pa.array([], f.type) for f in schema}
+                             | {PARTITION: pa.array([], pa.date32())})
+            con.register(f"_{table}_empty", empty)
+            con.execute(f"CREATE VIEW {table} AS SELECT * FROM _{table}_empty")
+    return con
