@@ -25,7 +25,7 @@ from operator import attrgetter
 from typing import Callable, Iterator
 
 from dissectors import Deframer
-from dissectors.event import ACK, COMMAND, NAK, Event
+from dissectors.event import ACK, COMMAND, NAK, Event, Origin
 from dissectors.wire import byte_time
 
 from .align import align
@@ -36,6 +36,7 @@ from .rate import RATE_MARK, RateChange, RateFollower
 from .skew import SkewEstimator
 from .sources import LINE_AB, Chunk, ReadSettings, Source, detect
 from .sources.files import display_name
+from .transactions import OpenTransaction, TransactionRows
 
 
 @dataclass
@@ -88,6 +89,8 @@ class Capture:
         self.options = options or Options()
         self.warnings: list[str] = []
         self.on_warning = on_warning     # also told every warning (API users)
+        self.keep: Callable[[Event], bool] | None = None   # open(filter=...): what iterating gives
+        self._origin: Origin | None = None
         # while ``batches()`` runs: told (chunk, offset of its first byte) for every chunk read
         self._tap: Callable[[Chunk, int], None] | None = None
         self._now: float | None = None   # after an idle tick: the time pairing may run on to
@@ -226,9 +229,56 @@ class Capture:
                        f"ACK: decoding stays at {self.baud} bps; if the devices switched, give --baud {baud}")
         self.follower.unconfirmed.clear()
 
+    @property
+    def origin(self) -> Origin:
+        """Where this capture's events come from (``Event.source``, ``Event.ts``)."""
+        origin = self._origin
+        if origin is None:
+            origin = self._origin = Origin("+".join(self.inputs) or self.source.description,
+                                           getattr(self.source, "start_time", None))
+        return origin
+
     def __iter__(self) -> Iterator[Event]:
+        keep = self.keep
         for batch in self.batches():
-            yield from batch
+            if keep is None:
+                yield from batch
+            else:
+                for ev in batch:
+                    if keep(ev):
+                        yield ev
+
+    def transactions(self) -> Iterator[dict]:
+        """One dict per transaction (a command and its answers, analyzer/transactions.py),
+        in the order of the commands: ``txn``, ``number`` (the command's event),
+        ``command``, ``device``, ``status``, ``retransmission``, ``ack_latency``,
+        ``result_latency``, ``answers``, ``fields`` (the command's, then its
+        result's), ``problems``, and ``ts``/``source`` as events have them. With
+        a filter, the transactions whose command matches it. Reads the capture."""
+        keep = self.keep
+        rows = TransactionRows()
+        for batch in self.batches():
+            for ev in batch:
+                done = rows.add(ev)
+                if done is not None and (keep is None or keep(done.command)):
+                    yield _transaction_dict(done)
+        done = rows.finish()
+        if done is not None and (keep is None or keep(done.command)):
+            yield _transaction_dict(done)
+
+    def to_arrow(self):
+        """The capture's events (those the filter keeps) as a pyarrow Table, the
+        columns of the dataset's ``events`` table (docs/dataset.md)."""
+        from .dataset.rows import events_table
+        return events_table(self, keep=self.keep)
+
+    def to_pandas(self):
+        """``to_arrow()`` as a pandas DataFrame (needs pandas: pip install 'gimbalscope[pandas]')."""
+        try:
+            import pandas  # noqa: F401
+        except ImportError:
+            raise ImportError("to_pandas() needs pandas: pip install 'gimbalscope[pandas]'") from None
+        return self.to_arrow().to_pandas()
 
     def batches(self, on_chunk: Callable[[Chunk, int], None] | None = None) -> Iterator[list[Event]]:
         """The events in wire order, a list per step of the source; a live source's
@@ -245,6 +295,7 @@ class Capture:
             pairer = self._pairer = Pairer(self.options.timeouts)
             push_many = pairer.push_many
             strip = self.echo.strip if self.echo is not None else None
+            origin = self.origin
             for batch in self._wire_order():
                 if batch and strip is not None:
                     batch = strip(batch)
@@ -252,8 +303,16 @@ class Capture:
                 if self._tick:   # timeouts expire while the line is quiet
                     self._tick = False
                     out += pairer.advance(self._now)
+                if out:
+                    if origin.start_time is None:   # a source may learn it from its first bytes
+                        origin.start_time = self.source.start_time
+                    for ev in out:
+                        ev.origin = origin
                 yield out
-            yield pairer.finish()
+            out = pairer.finish()
+            for ev in out:
+                ev.origin = origin
+            yield out
         finally:
             if self.options.tune_gc:
                 _gc_busy(-1)
@@ -531,6 +590,14 @@ class _Merge:
         return ready
 
 
+def _transaction_dict(txn: OpenTransaction) -> dict:
+    row = txn.to_dict()
+    cmd = txn.command
+    row["ts"] = cmd.ts
+    row["source"] = cmd.source
+    return row
+
+
 def _inserted(events: list[Event], rates: list[Event]) -> list[Event]:
     """``events`` with each rate event right after the answer that made it (it
     sits one byte past the answer on the answer's line)."""
@@ -591,13 +658,20 @@ def open_live(ports: list[str], options: Options | None = None,
 
 
 def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,
-         **kw) -> Capture:
+         filter: str | None = None, **kw) -> Capture:
     """Open a capture: one socat log, one raw single-line dump, two raw dumps
     (line A then line B), or MCAP recordings of one tap (one, or its parts).
     Keyword arguments set ``Options`` fields (``baud=19200``); those given, like
     the ``explicit`` fields of ``options``, win over what a recording says of its
     own settings, and each that differs from it is said once (a warning).
+    ``filter`` (the language of ``decode --filter``, analyzer/filter.py) keeps
+    only the events it matches when iterating, in ``to_arrow()`` and in
+    ``transactions()`` (by their command); a bad one raises ``FilterError``.
     Raises ``CaptureError`` with a one-line message for anything unreadable."""
+    keep = None
+    if filter is not None:
+        from .filter import compile_filter
+        keep = compile_filter(filter)   # first: a typo costs no file opened
     if options is None:
         timeouts = kw.pop("timeouts", None)
         given = frozenset(kw) | ({"ack_timeout", "result_timeout", "timeouts"} if timeouts else frozenset())
@@ -613,4 +687,5 @@ def open(*paths: str, options: Options | None = None, on_warning: Callable[[str]
         source.warn_later(message)
     capture = Capture(source, options, on_warning)
     capture.inputs = tuple(paths)
+    capture.keep = keep
     return capture

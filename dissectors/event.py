@@ -7,6 +7,7 @@ language, the statistics, MCAP recordings and the TUI use the same names.
 
 from __future__ import annotations
 
+import datetime as _dt
 from typing import Any
 
 from . import problems as _problems
@@ -104,6 +105,21 @@ NO_FIELDS: dict = {}
 NO_PROBLEMS: tuple = ()
 
 
+class Origin:
+    """Where a capture's events come from: ``source`` names it (its inputs as
+    given), ``start_time`` is the epoch of its t = 0 (None when unknown). One
+    object per capture, shared by its events."""
+
+    __slots__ = ("source", "start_time")
+
+    def __init__(self, source: str, start_time: float | None) -> None:
+        self.source = source
+        self.start_time = start_time
+
+    def __repr__(self) -> str:
+        return f"Origin({self.source!r}, {self.start_time!r})"
+
+
 class Event:
     """One thing seen on a line: a frame, a simple response byte, or a run of noise.
 
@@ -128,7 +144,7 @@ class Event:
         "dst", "src", "payload", "checksum_ok",
         "command", "fields", "problems",
         "txn", "status", "latency", "retransmission", "request",
-        "entry", "transaction",
+        "entry", "transaction", "origin",
     )
 
     def __init__(self, line: str, offset: int, kind: str, raw: bytes,
@@ -156,6 +172,29 @@ class Event:
         self.request = None
         self.entry = None  # the command-table entry, for summaries (not serialised)
         self.transaction = None   # set by pairing: the command's and its answers' record
+        self.origin = None        # set by the capture: an ``Origin`` (where, and when t = 0 was)
+
+    @property
+    def source(self) -> str | None:
+        """The capture the event comes from (its inputs as given), or None."""
+        origin = self.origin
+        return origin.source if origin is not None else None
+
+    @property
+    def ts(self) -> float | None:
+        """Absolute time of the event's first byte, epoch seconds (None without
+        time, or when the capture's start is unknown)."""
+        origin = self.origin
+        t = self.t
+        if origin is None or t is None or origin.start_time is None:
+            return None
+        return origin.start_time + t
+
+    @property
+    def datetime(self) -> _dt.datetime | None:
+        """``ts`` as an aware datetime in UTC."""
+        ts = self.ts
+        return None if ts is None else _dt.datetime.fromtimestamp(ts, _dt.timezone.utc)
 
     @property
     def end(self) -> int:

@@ -14,7 +14,7 @@ from .. import __version__
 from ..outfile import OutputError, show
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
-from . import convert, decode, demo, doctor, foxglove, live, recover, replay, sim, stats, view
+from . import convert, decode, demo, doctor, export, foxglove, live, recover, replay, sim, stats, view
 from ..sources.base import READS
 from .common import UsageError, set_quiet
 
@@ -48,6 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     replay.register(sub)
     view.register(sub)
     convert.register(sub)
+    export.register(sub)
     recover.register(sub)
     foxglove.register(sub)
     return p

@@ -19,14 +19,14 @@ import pyarrow as pa
 from dissectors.commands import field_types
 
 # each table's columns before the field columns; order is the files' column order
-_TIME = pa.timestamp("us", tz="UTC")   # microseconds: what Spark reads (it refuses nanoseconds)
+TIME = pa.timestamp("us", tz="UTC")   # microseconds: what Spark reads (it refuses nanoseconds)
 _ARROW = {"integer": pa.int64(), "number": pa.float64(), "string": pa.string(), "boolean": pa.bool_()}
 
 EVENT_COLUMNS: list[tuple[str, pa.DataType]] = [
     ("capture", pa.string()),
     ("site", pa.string()),
     ("number", pa.int64()),
-    ("ts", _TIME),
+    ("ts", TIME),
     ("t", pa.float64()),
     ("t_end", pa.float64()),
     ("line", pa.string()),
@@ -52,7 +52,7 @@ TRANSACTION_COLUMNS: list[tuple[str, pa.DataType]] = [
     ("site", pa.string()),
     ("txn", pa.int64()),
     ("number", pa.int64()),          # the command's event number (the answers' ``request``)
-    ("ts", _TIME),                   # the command's time
+    ("ts", TIME),                   # the command's time
     ("t", pa.float64()),
     ("device", pa.string()),
     ("command", pa.string()),
@@ -69,8 +69,8 @@ TRANSACTION_COLUMNS: list[tuple[str, pa.DataType]] = [
 FINDING_COLUMNS: list[tuple[str, pa.DataType]] = [
     ("capture", pa.string()),
     ("site", pa.string()),
-    ("start", _TIME),                # the capture's first byte
-    ("end", _TIME),                  # its last byte
+    ("start", TIME),                # the capture's first byte
+    ("end", TIME),                  # its last byte
     ("code", pa.string()),
     ("severity", pa.string()),
     ("subject", pa.string()),
@@ -79,7 +79,7 @@ FINDING_COLUMNS: list[tuple[str, pa.DataType]] = [
     ("fix", pa.string()),
     ("evidence", pa.list_(pa.int64())),
     ("first_seen", pa.float64()),
-    ("first_seen_ts", _TIME),
+    ("first_seen_ts", TIME),
     ("first_seen_event", pa.int64()),
 ]
 

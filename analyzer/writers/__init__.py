@@ -20,6 +20,9 @@ from ..info import CaptureInfo
 from ..outfile import OutputRefused, show
 from ..runner import Listener
 
+# a folder output: a dataset of tables rather than one file (``gimbalscope export``)
+FOLDER_WRITER = "analyzer.writers.parquet:ParquetDatasetWriter"
+
 WRITERS: dict[str, str] = {
     ".mcap": "analyzer.writers.mcap:McapWriter",
     ".jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
@@ -45,3 +48,15 @@ def writer_class(path: str) -> type[Listener]:
 def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None) -> Listener:
     """A writer of ``path``'s format, writing into ``file`` (or ``path`` itself)."""
     return writer_class(path)(path, info, file=file)
+
+
+def folder_output(path: str) -> str:
+    """``path`` as the folder of a dataset (``FOLDER_WRITER``): refused, naming the
+    command to use, when it is a file or names a file format."""
+    suffix = os.path.splitext(path.rstrip("/" + os.sep))[1].lower()
+    if os.path.exists(path) and not os.path.isdir(path):
+        raise OutputRefused(f"{show(path)}: is a file; export writes a dataset folder (give a folder's name)")
+    if suffix in WRITERS:
+        raise OutputRefused(f"{show(path)}: export writes a dataset folder; for one {suffix} file use: "
+                            f"gimbalscope convert CAPTURE -o {show(path)}")
+    return path

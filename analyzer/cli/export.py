@@ -1,0 +1,95 @@
+"""``gimbalscope export``: captures into a Parquet dataset folder, for fleet
+analytics (docs/dataset.md): tables ``events`` (the event contract of the
+README with one column per field of the command table, Tables 4-18),
+``transactions`` (a command and its answers, spec §1.4.2-1.4.3) and ``findings``
+(the wiring doctor's), partitioned by date, Hive style. ``query`` and
+``report`` read it; so do DuckDB, Polars and Spark as it is.
+
+Each INPUT is one capture, exported by its own job in a pool of processes
+(``-j``). The files of one capture (two raw dumps, line A and line B; the parts
+of one recording) are one INPUT joined by ``+``: ``ctl.bin+dev.bin``.
+Exporting a capture again replaces its own files and nothing else. An input
+that cannot be read, or a recording cut short, is said and skipped; the others
+are exported, and the command exits 1, listing the skipped ones.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from ..dataset.export import Job, Outcome, export
+from ..outfile import OutputRefused, show
+from ..runner import ERROR, WARNING, Note
+from ..listeners.printer import NotePrinter
+from ..writers import folder_output
+from .common import UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
+from . import common
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("export", help="export captures as a Parquet dataset (query, report, DuckDB, Spark)",
+                       description="Export captures into a dataset folder of Parquet tables (events, "
+                                   "transactions, findings), partitioned by date (docs/dataset.md). Each INPUT "
+                                   "is one capture; join the files of one capture with '+' (ctl.bin+dev.bin).")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="a socat log, an MCAP recording, a raw single-line dump, or FILE+FILE (two raw dumps "
+                        "of lines A and B, or the parts of one recording)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="the dataset folder (made if absent)")
+    p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N",
+                   help="captures exported at once, each in a process of its own (default: %(default)s, "
+                        "the number of cores)")
+    p.add_argument("--site", metavar="NAME",
+                   help="the site column of every row (default: the site a recording names, else empty)")
+    add_quiet_arg(p)
+    add_serial_args(p)
+    p.set_defaults(run=run)
+
+
+def split_input(text: str) -> tuple[str, ...]:
+    """One INPUT's files: the name itself when it exists (a '+' in a file name),
+    else its parts between '+'."""
+    if os.path.exists(text) or "+" not in text:
+        return (text,)
+    return tuple(part for part in text.split("+"))
+
+
+def run(args: argparse.Namespace) -> int:
+    root = folder_output(args.output)
+    options = options_from(args)
+    jobs = []
+    for i, text in enumerate(args.inputs):
+        paths = split_input(text)
+        if "-" in paths or "" in paths:
+            raise UsageError(f"{show(text)}: export reads capture files (standard input is for decode, stats "
+                             "and convert)")
+        jobs.append(Job(i, paths, root, options, site=args.site))
+    try:
+        os.makedirs(root, exist_ok=True)
+    except OSError as e:
+        raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
+
+    from ..progress import wanted
+    notes = NotePrinter(findings=False, quiet=common._quiet)
+
+    def done(outcome: Outcome) -> None:
+        for text in outcome.warnings:
+            notes.on_note(Note(text, WARNING))
+        if outcome.error is not None:
+            notes.on_note(Note(f"skipped {outcome.error}", ERROR))   # said even with -q
+
+    outcomes = export(jobs, args.jobs, show_progress=wanted(), on_done=done)
+    notes.on_stop()
+    exported = [o for o in outcomes if o.error is None]
+    skipped = [o for o in outcomes if o.error is not None]
+    events = sum(o.rows.get("events", 0) for o in exported)
+    txns = sum(o.rows.get("transactions", 0) for o in exported)
+    findings = sum(o.rows.get("findings", 0) for o in exported)
+    print(f"gimbalscope: exported {len(exported)} of {len(outcomes)} captures to {show(root)}: "
+          f"{events:,} events, {txns:,} transactions, {findings:,} findings", file=sys.stderr)
+    if skipped:
+        print(f"gimbalscope: skipped {len(skipped)}: " + ", ".join(show(o.capture) for o in skipped),
+              file=sys.stderr)
+        return 1
+    return 0

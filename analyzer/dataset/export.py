@@ -1,0 +1,214 @@
+"""Exporting captures into a dataset folder (docs/dataset.md): each capture in a
+job of its own, the jobs spread over a pool of processes (decoding is CPU work,
+and one Python process uses one core), with one progress bar over them all.
+
+A job never raises for its input: a capture that cannot be read, or a
+recording cut short (a killed tap's, before ``gimbalscope recover``), is an
+``Outcome`` with its ``error``, its files left as they were, and the export goes
+on with the others.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import time
+from dataclasses import dataclass, field
+
+from ..capture import Options
+from ..capture import open as open_capture
+from ..info import CaptureInfo
+from ..outfile import show
+from ..runner import Listener, TapRunner
+from ..sources import CaptureError
+from ..sources.base import READS
+
+REPORT_EVERY = 0.25   # seconds between a job's reports of the bytes it has read
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+@dataclass
+class Job:
+    index: int
+    paths: tuple[str, ...]     # one capture: a file, or the files of one (two raw dumps, a recording's parts)
+    root: str
+    options: Options
+    site: str | None = None    # --site; None: the recording's own, if it says
+
+
+@dataclass
+class Outcome:
+    index: int
+    capture: str
+    error: str | None = None   # why it was skipped (None: exported)
+    rows: dict[str, int] = field(default_factory=dict)
+    events: int = 0
+    warnings: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+
+def capture_name(paths: tuple[str, ...]) -> str:
+    """The ``capture`` column: the capture's files as given, joined by ``+``."""
+    return "+".join(paths)
+
+
+def cut_mcap(path: str) -> str | None:
+    """Why an MCAP file is not whole (None: it ends with the format's footer magic).
+    A recording cut short still decodes up to its cut, but an archive would keep
+    a part of a capture as if it were all of it."""
+    try:
+        with open(path, "rb") as f:
+            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                return None   # no MCAP: the capture's own reader says what it is
+            f.seek(0, os.SEEK_END)
+            if f.tell() < 2 * len(MCAP_MAGIC):
+                return f"{show(path)}: cut short (an MCAP file of {f.tell()} bytes)"
+            f.seek(-len(MCAP_MAGIC), os.SEEK_END)
+            if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                return (f"{show(path)}: cut short (no MCAP footer: a killed recording?); "
+                        f"'gimbalscope recover {show(path)} -o WHOLE.mcap' rewrites it whole")
+    except OSError:
+        return None   # the capture's own reader says what is wrong, in its words
+    return None
+
+
+class _Reporter(Listener):
+    """Tells the pool's parent how many bytes of its inputs this job has read."""
+
+    def __init__(self, index: int, out) -> None:
+        self.index = index
+        self.out = out
+        self._next = 0.0
+
+    def on_events(self, events) -> None:
+        now = time.monotonic()
+        if now >= self._next:
+            self._next = now + REPORT_EVERY
+            self.out.put((self.index, READS.done()))
+
+
+_PROGRESS = None   # the pool's progress queue, in a worker process
+
+
+def _init_worker(progress) -> None:
+    global _PROGRESS
+    _PROGRESS = progress
+
+
+def run_job(job: Job, progress=None) -> Outcome:
+    """Export one capture (in a worker process, or in this one)."""
+    from ..writers.parquet import ParquetDatasetWriter
+
+    progress = progress if progress is not None else _PROGRESS
+    started = time.monotonic()
+    name = capture_name(job.paths)
+    out = Outcome(job.index, name)
+    READS.clear()
+    for path in job.paths:
+        if path.lower().endswith(".mcap"):
+            why = cut_mcap(path)
+            if why:
+                out.error = why
+                return out
+    writer = None
+    try:
+        capture = open_capture(*job.paths, options=job.options)
+        site = job.site
+        if site is None:
+            site = (getattr(capture.source, "metadata", None) or {}).get("site") or None
+        info = CaptureInfo.of(capture, command="export")
+        writer = ParquetDatasetWriter(job.root, info, capture=name, site=site)
+        listeners = [writer] if progress is None else [_Reporter(job.index, progress), writer]
+        out.events = TapRunner(capture, listeners, info=info).run()
+        out.warnings = list(capture.warnings)
+        cut = next((w for w in capture.warnings if "ends early" in w), None)
+        if cut is not None:
+            writer.abort()
+            out.error = cut
+        else:
+            writer.commit()
+            out.rows = dict(writer.rows)
+    except CaptureError as e:
+        if writer is not None:
+            writer.abort()
+        out.error = str(e)
+    except OSError as e:   # the dataset folder: full, read-only
+        if writer is not None:
+            writer.abort()
+        out.error = f"{show(e.filename or job.root)}: {e.strerror or e}"
+    except BaseException:
+        if writer is not None:
+            writer.abort()
+        raise
+    finally:
+        if progress is not None:
+            progress.put((job.index, None))   # done: all of it counts as read
+        out.seconds = time.monotonic() - started
+    return out
+
+
+class PoolMeter:
+    """Bytes read of every job's inputs, from the jobs' reports (the progress
+    bar's meter, analyzer/progress.py)."""
+
+    def __init__(self, jobs: list[Job], reports) -> None:
+        self.sizes = {}
+        for job in jobs:
+            try:
+                self.sizes[job.index] = sum(os.path.getsize(p) for p in job.paths)
+            except OSError:
+                self.sizes[job.index] = 0
+        self.read = {job.index: 0 for job in jobs}
+        self.reports = reports
+
+    def total(self) -> int | None:
+        return sum(self.sizes.values()) or None
+
+    def done(self) -> int:
+        while True:
+            try:
+                index, n = self.reports.get_nowait()
+            except (queue.Empty, OSError, ValueError, EOFError):
+                break
+            size = self.sizes.get(index, 0)
+            self.read[index] = size if n is None else min(n, size)
+        return sum(self.read.values())
+
+
+def export(jobs: list[Job], workers: int, *, show_progress: bool = False, on_done=None) -> list[Outcome]:
+    """Run every job, ``workers`` at a time; ``on_done(outcome)`` as each ends.
+    The outcomes in the jobs' order."""
+    from ..progress import ReadProgress
+
+    outcomes: dict[int, Outcome] = {}
+    if workers <= 1 or len(jobs) <= 1:
+        reports: queue.Queue = queue.Queue()
+        with ReadProgress(enabled=show_progress, meter=PoolMeter(jobs, reports), label="exporting"):
+            for job in jobs:
+                outcome = outcomes[job.index] = run_job(job, reports)
+                if on_done is not None:
+                    on_done(outcome)
+        return [outcomes[job.index] for job in jobs]
+
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    # spawn: a fresh interpreter per worker (fork would copy the progress bar's thread)
+    ctx = multiprocessing.get_context("spawn")
+    reports = ctx.Queue()
+    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx,
+                               initializer=_init_worker, initargs=(reports,))
+    try:
+        with ReadProgress(enabled=show_progress, meter=PoolMeter(jobs, reports), label="exporting"):
+            futures = [pool.submit(run_job, job) for job in jobs]
+            for future in as_completed(futures):
+                outcome = future.result()
+                outcomes[outcome.index] = outcome
+                if on_done is not None:
+                    on_done(outcome)
+    except BaseException:
+        # Ctrl-C reached the workers too (one process group): each drops its new files
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return [outcomes[job.index] for job in jobs]

@@ -1,0 +1,178 @@
+"""One capture into a Parquet dataset folder (docs/dataset.md): its events,
+transactions (analyzer/transactions.py) and the wiring doctor's findings
+(analyzer/doctor.py) as the tables of ``analyzer.dataset.schema``, partitioned
+by the UTC date of each row.
+
+A capture's files are named by its key (``capture_key``: its files' real
+paths), so exporting it again replaces its own files and nothing else. The new
+files are written beside the old ones under a name readers skip
+(``*.parquet.tmp``) and take their place on ``commit()``, once the capture has
+been read to its end: an export that fails or is stopped leaves the dataset as
+it was (``abort()``).
+"""
+
+from __future__ import annotations
+
+import glob
+import hashlib
+import os
+import re
+
+import pyarrow.parquet as pq
+
+from dissectors.event import Event
+
+from ..doctor import Invocation, WiringDoctor
+from ..info import CaptureInfo
+from ..runner import Listener
+from ..transactions import TransactionRows
+from ..dataset import schema as S
+from ..dataset.rows import EventBatches, TransactionBatches, day_of, findings_batch, partitions
+
+ROWS_PER_GROUP = 128 * 1024   # rows per Parquet row group: big enough to scan fast, small enough to stay flat
+TMP = ".tmp"
+
+
+def capture_key(paths: list[str] | tuple[str, ...]) -> str:
+    """The file name stem of a capture's files: its first file's name (readable)
+    and a hash of its files' real paths (unique)."""
+    real = "\0".join(os.path.realpath(p) for p in paths)
+    digest = hashlib.sha1(real.encode("utf-8", "surrogateescape")).hexdigest()[:12]
+    stem = re.sub(r"[^A-Za-z0-9._-]+", "_", os.path.basename(paths[0]))[:60] or "capture"
+    return f"{stem}-{digest}"
+
+
+class ParquetDatasetWriter(Listener):
+    """The writer of a dataset folder ``path`` (the registry's folder entry)."""
+
+    def __init__(self, path: str, info: CaptureInfo, file=None, *, capture: str | None = None,
+                 site: str | None = None, key: str | None = None) -> None:
+        self.root = path
+        self.info = info
+        self.capture = capture if capture is not None else "+".join(info.inputs)
+        self.site = site
+        self.key = key or capture_key(info.inputs)
+        self.events = self.transactions = None
+        self._txns = TransactionRows()
+        self._writers: dict[tuple[str, str], pq.ParquetWriter] = {}
+        self.doctor: WiringDoctor | None = None
+        self.first_t: float | None = None
+        self.last_t: float | None = None
+        self.rows = {table: 0 for table in S.TABLES}
+        self.committed = False
+
+    # ------------------------------------------------------------ the runner's calls
+    def on_start(self, runner) -> None:
+        info = runner.info
+        self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
+                                   Invocation(info.inputs, info.live, info.command, False))
+
+    def on_events(self, events: list[Event]) -> None:
+        if not events:
+            return
+        if self.events is None:
+            origin = events[0].origin
+            start = origin.start_time if origin is not None else self.info.start_time
+            self.events = EventBatches(self.capture, self.site, start)
+            self.transactions = TransactionBatches(self.capture, self.site, start)
+        add, txn_add, doctor_add = self.events.add, self.transactions.add, self.doctor.add
+        txns = self._txns
+        for ev in events:
+            add(ev)
+            doctor_add(ev)
+            done = txns.add(ev)
+            if done is not None:
+                txn_add(done)
+        t = events[-1].t
+        if t is not None:
+            if self.first_t is None:
+                self.first_t = events[0].t
+            self.last_t = max(t, self.last_t or t)
+        if len(self.events) >= ROWS_PER_GROUP:
+            self._write("events", self.events.batch())
+        if len(self.transactions) >= ROWS_PER_GROUP:
+            self._write("transactions", self.transactions.batch())
+
+    def on_stop(self) -> None:
+        """The end of the run: the last rows and the findings are written and the
+        files closed. They take the place of the capture's old ones only on
+        ``commit()``: the runner stops its listeners after a failure too."""
+        try:
+            if self.events is not None:
+                done = self._txns.finish()
+                if done is not None:
+                    self.transactions.add(done)
+                if len(self.events):
+                    self._write("events", self.events.batch())
+                if len(self.transactions):
+                    self._write("transactions", self.transactions.batch())
+                findings = self.doctor.findings()
+                if findings:
+                    self._write("findings", findings_batch(findings, self.capture, self.site,
+                                                           self.events.start_time, self.first_t, self.last_t))
+            for writer in self._writers.values():
+                writer.close()
+        except BaseException:
+            self.abort()
+            raise
+
+    # ------------------------------------------------------------ files
+    def _file(self, table: str, day: str) -> str:
+        return os.path.join(self.root, table, f"{S.PARTITION}={day}", self.key + ".parquet")
+
+    def _write(self, table: str, batch) -> None:
+        # findings are dated by the capture's start (their rows carry no time of their own)
+        column = "start" if table == "findings" else "ts"
+        undated = day_of(self.events.start_time if self.events is not None else self.info.start_time)
+        for day, rows in partitions(batch, column, undated):
+            writer = self._writers.get((table, day))
+            if writer is None:
+                final = self._file(table, day)
+                os.makedirs(os.path.dirname(final), exist_ok=True)
+                writer = self._writers[(table, day)] = pq.ParquetWriter(final + TMP, S.TABLES[table],
+                                                                        compression="zstd")
+            writer.write_batch(rows, row_group_size=ROWS_PER_GROUP)
+            self.rows[table] += rows.num_rows
+
+    def old_files(self) -> list[str]:
+        """The capture's files in the dataset now (and any left by a failed export)."""
+        out = []
+        for table in S.TABLES:
+            pattern = os.path.join(glob.escape(self.root), table, f"{S.PARTITION}=*", glob.escape(self.key) + ".parquet")
+            out += glob.glob(pattern) + glob.glob(pattern + TMP)
+        return out
+
+    def commit(self) -> None:
+        """The new files take the place of the capture's old ones (after ``on_stop``)."""
+        new = {self._file(table, day) for table, day in self._writers}
+        for old in self.old_files():
+            final = old[:-len(TMP)] if old.endswith(TMP) else old
+            if final not in new:   # a day the capture no longer has, or a failed export's leftover
+                _remove(old)
+        for final in new:
+            os.replace(final + TMP, final)
+        for table in S.TABLES:   # partitions left empty by a capture that moved
+            for folder in glob.glob(os.path.join(glob.escape(self.root), table, f"{S.PARTITION}=*")):
+                try:
+                    os.rmdir(folder)
+                except OSError:
+                    pass
+        self.committed = True
+
+    def abort(self) -> None:
+        """Drop what this export wrote; the capture's old files stay."""
+        for writer in self._writers.values():
+            try:
+                writer.close()
+            except Exception:
+                pass
+        for table, day in self._writers:
+            _remove(self._file(table, day) + TMP)
+        self._writers.clear()
+
+
+def _remove(path: str) -> None:
+    try:
+        os.remove(path)
+    except FileNotFoundError:
+        pass
