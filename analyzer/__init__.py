@@ -13,8 +13,9 @@ __version__ = "0.1.0"   # before the imports: analyzer.info reads it while they 
 from dissectors.event import Event
 
 from .capture import Capture, Options, open
+from .filter import FilterError
 from .pairing import Pairer, Timeouts, Transaction
 from .sources import CaptureError
 
-__all__ = ["Capture", "CaptureError", "Event", "Options", "Pairer", "Timeouts", "Transaction", "open",
+__all__ = ["Capture", "CaptureError", "Event", "FilterError", "Options", "Pairer", "Timeouts", "Transaction", "open",
            "__version__"]
