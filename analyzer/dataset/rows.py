@@ -135,23 +135,26 @@ class EventBatches:
 
     def _reset(self) -> None:
         self.cols: dict[str, list] = {name: [] for name in self._NAMES}
+        # the lists' append methods in _NAMES order: one unpacking per row, no lookups
+        self._appends = tuple(self.cols[name].append for name in self._NAMES)
         self.n = 0
 
     def __len__(self) -> int:
         return self.n
 
     def add(self, ev: Event) -> None:
-        c = self.cols
-        c["number"].append(ev.number)
-        c["t"].append(ev.t)
-        c["t_end"].append(ev.t_end)
-        c["line"].append(ev.line)
-        c["offset"].append(ev.offset)
-        c["kind"].append(ev.kind)
-        c["command"].append(ev.command)
-        c["device"].append(ev.device)
-        c["dst"].append(ev.dst)
-        c["src"].append(ev.src)
+        (number, t, t_end, line, offset, kind, command, device, dst, src, payload_, checksum_ok, problems,
+         txn, status, latency, retransmission, request, raw) = self._appends
+        number(ev.number)
+        t(ev.t)
+        t_end(ev.t_end)
+        line(ev.line)
+        offset(ev.offset)
+        kind(ev.kind)
+        command(ev.command)
+        device(ev.device)
+        dst(ev.dst)
+        src(ev.src)
         payload = ev.payload
         if payload is not None:
             payload = bytes(payload)
@@ -161,15 +164,15 @@ class EventBatches:
                     _PAYLOAD_TEXT.clear()
                 text = _PAYLOAD_TEXT[payload] = payload_text(payload)
             payload = text
-        c["payload"].append(payload)
-        c["checksum_ok"].append(ev.checksum_ok)
-        c["problems"].append(ev.problems)
-        c["txn"].append(ev.txn)
-        c["status"].append(ev.status)
-        c["latency"].append(ev.latency)
-        c["retransmission"].append(ev.retransmission)
-        c["request"].append(ev.request)
-        c["raw"].append(bytes(ev.raw))
+        payload_(payload)
+        checksum_ok(ev.checksum_ok)
+        problems(ev.problems)
+        txn(ev.txn)
+        status(ev.status)
+        latency(ev.latency)
+        retransmission(ev.retransmission)
+        request(ev.request)
+        raw(bytes(ev.raw))
         if ev.fields:
             self.fields.add(self.n, ev.fields)
         self.n += 1

@@ -29,7 +29,7 @@ from ..transactions import TransactionRows
 from ..dataset import schema as S
 from ..dataset.rows import EventBatches, TransactionBatches, day_of, findings_batch, partitions
 
-ROWS_PER_GROUP = 128 * 1024   # rows per Parquet row group: big enough to scan fast, small enough to stay flat
+ROWS_PER_GROUP = 32 * 1024   # rows per row group: a few MB of Python rows per table at a time (memory stays flat)
 TMP = ".tmp"
 
 
