@@ -47,9 +47,10 @@ class CaptureInfo:
     # told to belong together (a recording of a recording keeps its source's)
     capture_id: str = field(default_factory=lambda: _new_id())
     input_per_line: bool = False       # each input is one line (two raw dumps, two ports)
+    site: str | None = None            # where it was captured (--site; the dataset's site column)
 
     @classmethod
-    def of(cls, capture, command: str | None = None) -> "CaptureInfo":
+    def of(cls, capture, command: str | None = None, site: str | None = None) -> "CaptureInfo":
         o = capture.options
         src = capture.source
         recorded = getattr(src, "metadata", None) or {}
@@ -57,6 +58,7 @@ class CaptureInfo:
         kw = {}
         if recorded.get("capture_id"):
             kw["capture_id"] = recorded["capture_id"]
+        site = site or recorded.get("site") or None   # a recording of a recording keeps its site
         return cls(inputs=tuple(capture.inputs), lines=tuple(capture.lines), source=src.description,
                    live=bool(getattr(src, "live", False)), timed=bool(capture.timed), baud=o.baud,
                    data_bits=o.data_bits, parity=o.parity, stop_bits=o.stop_bits,
@@ -64,7 +66,8 @@ class CaptureInfo:
                    time_origin=getattr(src, "time_origin", "") or recorded.get("time_origin", ""),
                    swap_lines=o.swap_lines, follow_rate=o.follow_rate, ack_timeout=t.ack,
                    result_timeout=t.result, timeouts=tuple(sorted(t.result_by_command.items())),
-                   frame_gap=o.frame_gap, tz=o.tz, input_per_line=getattr(src, "input_per_line", False), **kw)
+                   frame_gap=o.frame_gap, tz=o.tz, input_per_line=getattr(src, "input_per_line", False), site=site,
+                   **kw)
 
     @property
     def line_names(self) -> dict[str, str]:
@@ -97,6 +100,8 @@ class CaptureInfo:
         }
         if self.tz is not None:
             meta["tz"] = self.tz
+        if self.site:
+            meta["site"] = self.site
         if self.live:
             meta["ports"] = " ".join(self.inputs)
         meta.update(extra)

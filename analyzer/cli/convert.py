@@ -29,6 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_input_args(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT.mcap|OUT.jsonl")
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
+    p.add_argument("--site", metavar="NAME", help="where the capture was made, kept in a recording's metadata "
+                                                   "(gimbalscope export puts it in the dataset's site column)")
     p.set_defaults(run=run)
 
 
@@ -36,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     check_output(args.output, args.inputs, force=args.force)   # first: an output over an input is worst
     writer_class(args.output)                                    # then: a format we write
     capture = open_inputs(args)
-    info = CaptureInfo.of(capture, command="convert")
+    info = CaptureInfo.of(capture, command="convert", site=args.site)
     with AtomicOutput(args.output) as target:   # a failure on the way removes it
         run_tap(capture, "convert", open_writer(args.output, info, target.file), info=info, progress=True)
     return 0

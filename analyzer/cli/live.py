@@ -57,6 +57,8 @@ def add_record_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
     p.add_argument("--rotate-mb", type=positive_float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
     p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
+    p.add_argument("--site", metavar="NAME", help="with --record: where the tap is, kept in the recording's metadata "
+                                                  "(gimbalscope export puts it in the dataset's site column)")
 
 
 # the SDK's defaults (analyzer/listeners/foxglove.py), here so that parsing the
@@ -142,7 +144,7 @@ def wants_tui(args: argparse.Namespace) -> bool:
 
 def tap(capture: Capture, args: argparse.Namespace, record: str | None, command: str = "live") -> int:
     """Run a live capture: the TUI, or printed events (see ``wants_tui``)."""
-    info = CaptureInfo.of(capture, command=command)
+    info = CaptureInfo.of(capture, command=command, site=getattr(args, "site", None))
     if not wants_tui(args):
         return tap_and_print(capture, info, args, record)
     from ..tui.run import KeymapError, load_keymap, run_app

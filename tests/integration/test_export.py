@@ -245,3 +245,14 @@ def test_progress_bar_on_a_terminal_is_one_bar(tmp_path):
     text = seen.decode(errors="replace")
     assert "exporting" in text and "exported 2 of 2 captures" in text, text[-500:]
 
+
+
+def test_site_from_the_recording_and_from_the_option(tmp_path):
+    rec = tmp_path / "rec.mcap"
+    assert run_cli("convert", SOCAT_LOG, "-o", rec, "--site", "south yard").returncode == 0
+    out = tmp_path / "ds"
+    assert export(rec, "-o", out).returncode == 0
+    assert {e["site"] for e in rows(out, "events")} == {"south yard"}
+    assert export(rec, "-o", out, "--site", "north").returncode == 0   # the option wins
+    assert {e["site"] for e in rows(out, "events")} == {"north"}
+    assert {f["site"] for f in rows(out, "findings")} == {"north"}
