@@ -14,7 +14,8 @@ from .. import __version__
 from ..outfile import OutputError, show
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
-from . import convert, decode, demo, doctor, export, foxglove, live, recover, replay, sim, stats, view
+from ..dataset.errors import DatasetError
+from . import convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, sim, stats, view
 from ..sources.base import READS
 from .common import UsageError, set_quiet
 
@@ -49,6 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     view.register(sub)
     convert.register(sub)
     export.register(sub)
+    query.register(sub)
     recover.register(sub)
     foxglove.register(sub)
     return p
@@ -88,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         code = args.run(args)
         flush_stdout()   # a full disk behind stdout is reported here, not at exit
         return code
-    except (CaptureError, UsageError) as e:
+    except (CaptureError, UsageError, DatasetError) as e:
         error(str(e))
         return EXIT_INPUT
     except StdoutError as e:

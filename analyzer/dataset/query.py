@@ -8,11 +8,8 @@ from __future__ import annotations
 
 import os
 
+from .errors import DatasetError
 from .schema import PARTITION, TABLES
-
-
-class DatasetError(Exception):
-    """A path that is no dataset, or a query DuckDB refused: one line for people."""
 
 
 def table_glob(root: str, table: str) -> str:

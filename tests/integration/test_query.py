@@ -1,0 +1,180 @@
+"""``gimbalscope query`` over exported datasets, the README's queries of
+docs/dataset.md, and another reader (Polars) giving the same counts as DuckDB.
+
+The captures are socat logs written by hand (timed, so latencies are known):
+socat stamps a read when its last byte is in, so at 9600 baud 8N1 an answer
+byte stamped at T began 10/9600 s before T, and its latency is that less the
+command's stamp (spec §1.4.2: latency from the command's last byte)."""
+
+from __future__ import annotations
+
+import csv
+import datetime as dt
+import io
+import json
+import os
+import re
+
+import pytest
+
+from analyzer.dataset.query import connect
+from tests.conftest import ROOT, SOCAT_LOG, BUS, frame, run_cli
+
+BYTE = 10 / 9600          # seconds per byte at 9600 baud, 8N1
+ACK, NAK, NIC = b"\x06", b"\x15", b"?"
+
+
+def socat_log(path, day: str, entries) -> None:
+    """``entries``: (seconds after noon of ``day``, '>' line A or '<' line B, bytes)."""
+    offsets = {">": 0, "<": 0}
+    out = []
+    for secs, way, data in entries:
+        stamp = dt.datetime.fromisoformat(f"{day}T12:00:00") + dt.timedelta(seconds=secs)
+        start = offsets[way]
+        offsets[way] += len(data)
+        # socat -x writes 16 bytes a line
+        rows = "".join(" " + " ".join(f"{b:02x}" for b in data[i:i + 16]) + "\n" for i in range(0, len(data), 16))
+        out.append(f"{way} {stamp:%Y/%m/%d %H:%M:%S}.{stamp.microsecond:06d}000  length={len(data)} "
+                   f"from={start} to={start + len(data) - 1}\n{rows}--\n")
+    path.write_text("".join(out))
+
+
+def identity(revision: str) -> bytes:
+    """A D? result payload (Table 6): type, revision, name, serial."""
+    return f"PT{revision:2}{'GIMBAL':20}{'SN-1':20}".encode()
+
+
+def day_one(path) -> None:
+    """2026-03-02 (a Monday): 1.1.1 identifies as rev 19, ACKs a P? after 10 ms
+    and NICs QZ; 1.1.2 NAKs HO after 5 ms."""
+    socat_log(path, "2026-03-02", [
+        (0.000, ">", frame((1, 1, 1), 0, "D?")),
+        (0.010 + BYTE, "<", ACK),
+        (0.030, "<", frame((0, 1, 1), 1, identity("19"))),
+        (1.000, ">", frame((1, 1, 1), 0, "P?")),
+        (1.010 + BYTE, "<", ACK),
+        (1.030, "<", frame((0, 1, 1), 1, "0FA0FC18")),
+        (2.000, ">", frame((1, 1, 1), 0, "QZ")),
+        (2.004 + BYTE, "<", ACK),
+        (2.006 + BYTE, "<", NIC),
+        (3.000, ">", frame((1, 1, 2), 0, "HO")),
+        (3.005 + BYTE, "<", NAK),
+    ])
+
+
+def day_two(path) -> None:
+    """2026-03-10 (the next week's Tuesday): 1.1.1 ACKs P? after 30 ms; 1.1.2 is
+    silent (HO twice, no answer)."""
+    socat_log(path, "2026-03-10", [
+        (0.000, ">", frame((1, 1, 1), 0, "P?")),
+        (0.030 + BYTE, "<", ACK),
+        (0.050, "<", frame((0, 1, 1), 1, "0FA0FC18")),
+        (1.000, ">", frame((1, 1, 2), 0, "HO")),
+        (4.000, ">", frame((1, 1, 2), 0, "HO")),
+    ])
+
+
+@pytest.fixture
+def fleet(tmp_path):
+    one, two = tmp_path / "mon.log", tmp_path / "tue.log"
+    day_one(one)
+    day_two(two)
+    out = tmp_path / "fleet"
+    r = run_cli("export", one, two, "-o", out, "--tz", "UTC", timeout=300)
+    assert r.returncode == 0, r.stderr
+    return out
+
+
+def query(root, sql, fmt="csv"):
+    r = run_cli("query", root, sql, "--format", fmt)
+    assert r.returncode == 0, r.stderr
+    if fmt == "csv":
+        return list(csv.DictReader(io.StringIO(r.stdout)))
+    return [json.loads(line) for line in r.stdout.splitlines()]
+
+
+def readme_queries() -> dict[str, str]:
+    text = open(os.path.join(ROOT, "docs", "dataset.md"), encoding="utf-8").read()
+    part = text.split("## Queries", 1)[1].split("\n## ", 1)[0]
+    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"###\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)}
+
+
+def test_the_readme_has_the_four_queries():
+    assert set(readme_queries()) == {"NAK rate per device per day", "p95 ACK latency per device per week",
+                                     "Devices silent since a date", "Commands each firmware NICs"}
+
+
+def test_nak_rate_per_device_per_day(fleet):
+    rows = query(fleet, readme_queries()["NAK rate per device per day"])
+    got = [(r["date"], r["device"], int(r["commands"]), int(r["naks"]), float(r["nak_rate"])) for r in rows]
+    assert got == [("2026-03-02", "1.1.1", 3, 0, 0.0), ("2026-03-02", "1.1.2", 1, 1, 1.0),
+                   ("2026-03-10", "1.1.1", 1, 0, 0.0), ("2026-03-10", "1.1.2", 2, 0, 0.0)]
+
+
+def test_p95_ack_latency_per_device_per_week(fleet):
+    rows = query(fleet, readme_queries()["p95 ACK latency per device per week"])
+    got = [(r["week"], r["device"], int(r["acks"]), float(r["ack_p95_ms"])) for r in rows]
+    # week of Monday 2026-03-02: 1.1.1's ACKs after 10, 10 and 4 ms: p95 by linear
+    # interpolation between the two largest (10, 10) is 10; 1.1.2's NAK after 5 ms
+    assert got == [("2026-03-02", "1.1.1", 3, 10.0), ("2026-03-02", "1.1.2", 1, 5.0),
+                   ("2026-03-09", "1.1.1", 1, 30.0)]
+
+
+def test_devices_silent_since_a_date(fleet):
+    sql = readme_queries()["Devices silent since a date"].replace("2026-11-22", "2026-03-05")
+    rows = query(fleet, sql)
+    assert [(r["device"], r["last_answered_day"], r["last_commanded_day"]) for r in rows] == [
+        ("1.1.2", "2026-03-02", "2026-03-10")]
+
+
+def test_commands_each_firmware_nics(fleet):
+    rows = query(fleet, readme_queries()["Commands each firmware NICs"])
+    assert [(r["firmware"], r["command"], int(r["nics"])) for r in rows] == [("19", "QZ", 1)]
+
+
+def test_jsonl_and_table_formats(fleet):
+    rows = query(fleet, "SELECT date, kind, count(*) AS n FROM events WHERE kind = 'nak' GROUP BY ALL", "jsonl")
+    assert rows == [{"date": "2026-03-02", "kind": "nak", "n": 1}]
+    r = run_cli("query", fleet, "SELECT 1 AS one", "--format", "table")
+    assert r.returncode == 0 and "one" in r.stdout and "1 row" in r.stdout
+
+
+def test_bad_sql_and_bad_dataset(tmp_path, fleet):
+    r = run_cli("query", fleet, "SELEC 1")
+    assert r.returncode == 2 and r.stderr.startswith("gimbalscope: error: query:") and "Traceback" not in r.stderr
+    r = run_cli("query", fleet, "SELECT nope FROM events")
+    assert r.returncode == 2 and "nope" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    r = run_cli("query", tmp_path / "missing", "SELECT 1")
+    assert r.returncode == 2 and "no such dataset" in r.stderr
+    (tmp_path / "empty").mkdir()
+    r = run_cli("query", tmp_path / "empty", "SELECT 1")
+    assert r.returncode == 2 and "no dataset here" in r.stderr
+
+
+def test_duckdb_and_polars_give_the_same_counts(tmp_path):
+    pl = pytest.importorskip("polars")
+    one = tmp_path / "mon.log"
+    day_one(one)
+    out = tmp_path / "fleet"
+    assert run_cli("export", SOCAT_LOG, BUS, one, "-o", out, "--tz", "UTC", timeout=300).returncode == 0
+    con = connect(str(out))
+
+    def duck(sql):
+        return [tuple(r) for r in con.execute(sql).fetchall()]
+
+    def polars(table, keys):
+        frame = pl.scan_parquet(str(out / table / "**" / "*.parquet"), hive_partitioning=True)
+        got = frame.group_by(keys).len().collect().rows()
+        return sorted(got, key=lambda r: tuple("" if v is None else str(v) for v in r))
+
+    def same(table, keys):
+        cols = ", ".join(keys)
+        d = duck(f"SELECT {cols}, count(*) FROM {table} GROUP BY ALL")
+        p = polars(table, keys)
+        assert sorted(d, key=lambda r: tuple("" if v is None else str(v) for v in r)) == p, (table, keys)
+        assert sum(r[-1] for r in d) > 0
+
+    same("events", ["kind"])
+    same("events", ["status"])
+    same("events", ["date", "device"])
+    same("transactions", ["status"])
