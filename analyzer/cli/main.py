@@ -15,7 +15,8 @@ from ..outfile import OutputError, show
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
 from ..dataset.errors import DatasetError
-from . import convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, sim, stats, view
+from . import (convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, report, sim,
+               stats, view)
 from ..sources.base import READS
 from .common import UsageError, set_quiet
 
@@ -51,6 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     convert.register(sub)
     export.register(sub)
     query.register(sub)
+    report.register(sub)
     recover.register(sub)
     foxglove.register(sub)
     return p

@@ -108,8 +108,10 @@ class ParquetDatasetWriter(Listener):
                     self._write("transactions", self.transactions.batch())
                 findings = self.doctor.findings()
                 if findings:
+                    # an untimed capture's span is unknown, its start is not (t = 0)
+                    first = self.first_t if self.first_t is not None else 0.0
                     self._write("findings", findings_batch(findings, self.capture, self.site,
-                                                           self.events.start_time, self.first_t, self.last_t))
+                                                           self.events.start_time, first, self.last_t))
             for writer in self._writers.values():
                 writer.close()
         except BaseException:
