@@ -107,14 +107,16 @@ def replicate(src: str, dst: str, copies: int) -> int:
                         moved = pc.add(shifted.column(col), pa.scalar(dt.timedelta(days=k), pa.duration("us")))
                         shifted = shifted.set_column(i, col, moved.cast(shifted.schema.field(col).type))
                 i = shifted.column_names.index("capture")
-                shifted = shifted.set_column(i, "capture", pa.array([f"copy-{k}"] * shifted.num_rows))
+                renamed = pc.binary_join_element_wise(pa.scalar(f"copy-{k}"), shifted.column("capture"), ":")
+                shifted = shifted.set_column(i, "capture", renamed)
                 if "device" in shifted.column_names:
                     i = shifted.column_names.index("device")
                     dev = pc.replace_substring_regex(shifted.column("device"), r"^\d+\.", f"{k + 1}.")
                     shifted = shifted.set_column(i, "device", dev)
                 folder = os.path.join(dst, table, f"date={(day + dt.timedelta(days=k)).isoformat()}")
                 os.makedirs(folder, exist_ok=True)
-                pq.write_table(shifted, os.path.join(folder, f"copy-{k}.parquet"), compression="zstd")
+                name = f"copy-{k}-{os.path.basename(path)}"   # each source capture's copy a file of its own
+                pq.write_table(shifted, os.path.join(folder, name), compression="zstd")
     return dataset_events(dst)
 
 
@@ -143,14 +145,18 @@ def main() -> None:
     ap.add_argument("--captures", type=int, default=4)
     ap.add_argument("--events-per-capture", type=int, default=250_000)
     ap.add_argument("--query-events", type=int, default=10_000_000)
+    ap.add_argument("--skip-export", action="store_true", help="only the queries, on the last run's export")
     ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "gimbalscope-export-bench"))
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
     print(f"making {args.captures} socat logs of {args.events_per_capture:,} events in {args.work} (once) ...",
           flush=True)
     logs = make_logs(args.work, args.captures, args.events_per_capture)
-    throughput(logs, args.work)
+    if not args.skip_export:
+        throughput(logs, args.work)
     base = os.path.join(args.work, "ds-j2")
+    if args.skip_export and not os.path.isdir(base):
+        raise SystemExit(f"{base}: no export yet (run once without --skip-export)")
     n = dataset_events(base)
     copies = max(0, round(args.query_events / n) - 1)
     big = os.path.join(args.work, "ds-big")
