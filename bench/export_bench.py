@@ -4,7 +4,7 @@
   1. `gimbalscope export` of K socat logs of saturated 115200-baud traffic, with
      1 worker and with 2: events/s, MB/s of input, dataset bytes per event, and
      the peak resident memory of the command and of its biggest worker
-  2. the time of each query of docs/dataset.md ("Queries", the README's) run
+  2. the time of each query of the README ("Queries") run
      by `gimbalscope query` on a dataset of about 10M events: one real export
      of N events, copied to further captures on further days with pyarrow
      (the same rows under another capture name, device group and date), so the
@@ -121,19 +121,19 @@ def replicate(src: str, dst: str, copies: int) -> int:
 
 
 def readme_queries() -> list[tuple[str, str]]:
-    """(title, SQL) of each query in docs/dataset.md's "Queries" section."""
-    text = open(os.path.join(ROOT, "docs", "dataset.md"), encoding="utf-8").read()
-    part = text.split("## Queries", 1)[1].split("\n## ", 1)[0]
-    out = []
-    for m in re.finditer(r"###\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S):
-        out.append((m.group(1).strip(), m.group(2).strip()))
-    return out
+    """(title, SQL) of each query in the README's "### Queries" section."""
+    text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
+    if "### Queries\n" not in text:
+        return []
+    part = re.split(r"\n##?#? ", text.split("### Queries\n", 1)[1], maxsplit=1)[0]
+    return [(m.group(1).strip(), m.group(2).strip())
+            for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)]
 
 
 def queries(root: str, events: int) -> None:
     found = readme_queries()
     if not found:
-        print("2. no queries found in docs/dataset.md (## Queries, ### title, ```sql blocks)")
+        print("2. no queries found in the README (### Queries, #### title, ```sql blocks)")
         return
     for title, sql in found:
         seconds, own, _ = measured(["query", root, sql, "--format", "csv"])

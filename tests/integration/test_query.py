@@ -1,5 +1,5 @@
-"""``gimbalscope query`` over exported datasets, the README's queries of
-docs/dataset.md, and another reader (Polars) giving the same counts as DuckDB.
+"""``gimbalscope query`` over exported datasets, the README's queries
+("Queries"), and another reader (Polars) giving the same counts as DuckDB.
 
 The captures are socat logs written by hand (timed, so latencies are known):
 socat stamps a read when its last byte is in, so at 9600 baud 8N1 an answer
@@ -80,8 +80,9 @@ def fleet(tmp_path):
     day_one(one)
     day_two(two)
     out = tmp_path / "fleet"
-    r = run_cli("export", one, two, "-o", out, "--tz", "UTC", timeout=300)
-    assert r.returncode == 0, r.stderr
+    for log in (one, two):   # two exports into one dataset, a day each
+        r = run_cli("export", log, "-o", out, "--tz", "UTC", timeout=300)
+        assert r.returncode == 0, r.stderr
     return out
 
 
@@ -94,9 +95,11 @@ def query(root, sql, fmt="csv"):
 
 
 def readme_queries() -> dict[str, str]:
-    text = open(os.path.join(ROOT, "docs", "dataset.md"), encoding="utf-8").read()
-    part = text.split("## Queries", 1)[1].split("\n## ", 1)[0]
-    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"###\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)}
+    """The README's queries ("### Queries": a "#### title" and an sql block each)."""
+    text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
+    part = text.split("### Queries\n", 1)[1]
+    part = re.split(r"\n##?#? ", part, maxsplit=1)[0]
+    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)}
 
 
 def test_the_readme_has_the_four_queries():
