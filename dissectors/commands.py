@@ -289,7 +289,7 @@ cmd("Z", "Zoom speed", (b"Z", decimal("zoom_speed", 1, desc="Z0 slowest .. Z9 fa
     summary="zoom speed {zoom_speed}")
 cmd("ZA-ZF", "Digital zoom", (b"Z", Field("digital_zoom", rb"[A-Fa-f]", lambda r: int(r, 16), hexdigits=True,
                                           lead=rb"[A-Fa-f]", desc="ZA..ZF",
-                                          type="integer")), "Table 16",
+                                          type="integer", codec="hex")), "Table 16",
     summary="digital zoom {digital_zoom:X}", notes="ZA..ZF; not implemented per the spec")
 cmd("ZI", "Zoom in", (b"ZI",), "Table 16", summary="zoom in")
 cmd("ZO", "Zoom out", (b"ZO",), "Table 16", summary="zoom out")

@@ -33,6 +33,15 @@ class Field:
     # the decoded value's JSON type ("integer", "number", "string", "boolean"):
     # MCAP schemas type every field with it (analyzer/recording/schemas.py)
     type: str = "string"
+    # how ``decode`` reads the characters, said as data for decoders written in
+    # other languages (the Wireshark dissector, analyzer/wireshark/lua.py):
+    # "hex" (``divisor``, ``signed``: 16-bit two's complement), "decimal",
+    # "text" (``strip``) or "choice" (``choices``: character -> value)
+    codec: str = "text"
+    divisor: int | None = None
+    signed: bool = False
+    strip: bool = False
+    choices: tuple = ()
 
     def check(self, value: Any) -> Problem | None:
         if self.valid is not None and isinstance(value, (int, float)):
@@ -67,13 +76,14 @@ def hexnum(name: str, digits: int | tuple[int, int], *, scale: float | None = No
         def dec(raw: bytes, _b=base, _d=divisor) -> float:
             return _b(raw) / _d
     return Field(name, rx, dec, unit, desc, hexdigits=True, valid=valid, lead=HEX,
-                 type="integer" if scale is None else "number")
+                 type="integer" if scale is None else "number", codec="hex",
+                 divisor=None if scale is None else round(1 / scale), signed=signed)
 
 
 def decimal(name: str, max_digits: int = 6, *, unit: str = "", desc: str = "",
             valid: tuple[float, float] | None = None) -> Field:
     return Field(name, rb"[0-9]{1,%d}" % max_digits, int, unit, desc, valid=valid, lead=rb"[0-9]",
-                 type="integer")
+                 type="integer", codec="decimal")
 
 
 def text(name: str, width: int | None = None, *, strip: bool = False, desc: str = "",
@@ -86,7 +96,7 @@ def text(name: str, width: int | None = None, *, strip: bool = False, desc: str 
     else:
         def dec(raw: bytes) -> str:
             return raw.decode("latin-1")
-    return Field(name, rx, dec, "", desc)
+    return Field(name, rx, dec, "", desc, strip=strip)
 
 
 def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes = rb".") -> Field:
@@ -98,7 +108,7 @@ def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes
     types = {_json_type(v) for v in mapping.values()}
     if len(types) != 1:
         raise ValueError(f"choice {name!r}: values of one JSON type, not {sorted(types)}")
-    f = Field(name, regex, dec, "", desc, type=types.pop())
+    f = Field(name, regex, dec, "", desc, type=types.pop(), codec="choice", choices=tuple(mapping.items()))
     allowed = ", ".join(f"{k.decode('latin-1')} ({v})" for k, v in mapping.items())
 
     def check(value: Any, _f=f) -> Problem | None:

@@ -11,6 +11,12 @@ of one recording) are one INPUT joined by ``+``: ``ctl.bin+dev.bin``.
 Exporting a capture again replaces its own files and nothing else. An input
 that cannot be read, or a recording cut short, is said and skipped; the others
 are exported, and the command exits 1, listing the skipped ones.
+
+``-o FILE.pcapng`` writes the captures into one pcapng file for Wireshark
+instead (docs/wireshark.md; the writer registry, analyzer/writers): each job
+writes its capture as a pcapng section of its own, and the sections are joined
+in the inputs' order once all are done, so a skipped capture leaves nothing
+behind and the file appears only when whole.
 """
 
 from __future__ import annotations
@@ -23,7 +29,7 @@ from ..dataset.export import Job, Outcome, export
 from ..outfile import OutputRefused, show
 from ..runner import ERROR, WARNING, Note
 from ..listeners.printer import NotePrinter
-from ..writers import folder_output
+from ..writers import WRITERS, file_output, folder_output, holds_many_captures
 from .common import UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
 from . import common
 
@@ -36,7 +42,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="a socat log, an MCAP recording, a raw single-line dump, or FILE+FILE (two raw dumps "
                         "of lines A and B, or the parts of one recording)")
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help="the dataset folder (made if absent)")
+    p.add_argument("-o", "--output", required=True, metavar="DIR|FILE.pcapng",
+                   help="the dataset folder (made if absent), or one pcapng file for Wireshark")
+    p.add_argument("--force", action="store_true", help="with a file output: replace it if it exists")
     p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N",
                    help="captures exported at once, each in a process of its own (default: %(default)s, "
                         "the number of cores)")
@@ -56,7 +64,8 @@ def split_input(text: str) -> tuple[str, ...]:
 
 
 def run(args: argparse.Namespace) -> int:
-    root = folder_output(args.output)
+    to_file = file_output(args.output)
+    root = args.output if to_file else folder_output(args.output)
     options = options_from(args)
     jobs = []
     for i, text in enumerate(args.inputs):
@@ -65,11 +74,60 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{show(text)}: export reads capture files (standard input is for decode, stats "
                              "and convert)")
         jobs.append(Job(i, paths, root, options, site=args.site))
+    if to_file:
+        return run_to_file(args, jobs)
     try:
         os.makedirs(root, exist_ok=True)
     except OSError as e:
         raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
+    outcomes = run_jobs(args, jobs)
+    exported = [o for o in outcomes if o.error is None]
+    events = sum(o.rows.get("events", 0) for o in exported)
+    txns = sum(o.rows.get("transactions", 0) for o in exported)
+    findings = sum(o.rows.get("findings", 0) for o in exported)
+    print(f"gimbalscope: exported {len(exported)} of {len(outcomes)} captures to {show(root)}: "
+          f"{events:,} events, {txns:,} transactions, {findings:,} findings", file=sys.stderr)
+    return said_skipped(outcomes)
 
+
+def run_to_file(args: argparse.Namespace, jobs: list[Job]) -> int:
+    """The captures into one file of a registry format that holds several (pcapng)."""
+    import shutil
+    import tempfile
+
+    from ..outfile import AtomicOutput, check_output, write_error
+
+    path = args.output
+    if not holds_many_captures(path):
+        suffix = os.path.splitext(path)[1].lower()
+        many = ", ".join(s for s in WRITERS if holds_many_captures(s))
+        raise OutputRefused(f"{show(path)}: export writes a dataset folder or a {many} file; for one {suffix} "
+                            f"file use: gimbalscope convert CAPTURE -o {show(path)}")
+    check_output(path, [p for job in jobs for p in job.paths], force=args.force)
+    parts = tempfile.mkdtemp(prefix=".gimbalscope-export-", dir=os.path.dirname(os.path.abspath(path)))
+    try:
+        for job in jobs:
+            job.file = os.path.join(parts, f"{job.index}{os.path.splitext(path)[1]}")
+        outcomes = run_jobs(args, jobs)
+        exported = [o for o in outcomes if o.error is None]
+        if exported:   # nothing read, no file: an empty one would not open
+            with AtomicOutput(path) as target:
+                try:
+                    for job in jobs:
+                        if outcomes[job.index].error is None:
+                            with open(job.file, "rb") as part:
+                                shutil.copyfileobj(part, target.file, 1 << 20)
+                except OSError as e:
+                    raise write_error(path, e) from None
+    finally:
+        shutil.rmtree(parts, ignore_errors=True)
+    packets = sum(o.rows.get("packets", 0) for o in exported)
+    print(f"gimbalscope: exported {len(exported)} of {len(outcomes)} captures to {show(path)}: "
+          f"{packets:,} packets", file=sys.stderr)
+    return said_skipped(outcomes)
+
+
+def run_jobs(args: argparse.Namespace, jobs: list[Job]) -> list[Outcome]:
     from ..progress import wanted
     notes = NotePrinter(findings=False, quiet=common._quiet)
 
@@ -81,13 +139,12 @@ def run(args: argparse.Namespace) -> int:
 
     outcomes = export(jobs, args.jobs, show_progress=wanted(), on_done=done)
     notes.on_stop()
-    exported = [o for o in outcomes if o.error is None]
+    return outcomes
+
+
+def said_skipped(outcomes: list[Outcome]) -> int:
+    """Lists the skipped captures: the exit status."""
     skipped = [o for o in outcomes if o.error is not None]
-    events = sum(o.rows.get("events", 0) for o in exported)
-    txns = sum(o.rows.get("transactions", 0) for o in exported)
-    findings = sum(o.rows.get("findings", 0) for o in exported)
-    print(f"gimbalscope: exported {len(exported)} of {len(outcomes)} captures to {show(root)}: "
-          f"{events:,} events, {txns:,} transactions, {findings:,} findings", file=sys.stderr)
     if skipped:
         print(f"gimbalscope: skipped {len(skipped)}: " + ", ".join(show(o.capture) for o in skipped),
               file=sys.stderr)

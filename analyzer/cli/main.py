@@ -16,7 +16,7 @@ from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
 from ..dataset.errors import DatasetError
 from . import (convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, report, sim,
-               stats, view)
+               stats, view, wireshark)
 from ..sources.base import READS
 from .common import UsageError, set_quiet
 
@@ -55,6 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
     report.register(sub)
     recover.register(sub)
     foxglove.register(sub)
+    wireshark.register(sub)
     return p
 
 

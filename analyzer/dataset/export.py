@@ -34,6 +34,7 @@ class Job:
     root: str
     options: Options
     site: str | None = None    # --site; None: the recording's own, if it says
+    file: str | None = None    # a file output (a registry format, ``-o F.pcapng``): this capture's part of it
 
 
 @dataclass
@@ -95,6 +96,25 @@ def _init_worker(progress) -> None:
     _PROGRESS = progress
 
 
+def _file_writer(job: Job, info: CaptureInfo) -> Listener:
+    """The writer of a file output's part: a file of its own, which ``export``
+    joins with the others in the inputs' order (a pcapng file may hold several
+    sections one after the other)."""
+    from ..writers import writer_class
+    return writer_class(job.root)(job.file, info, capture=job.index)
+
+
+def _discard(job: Job, writer) -> None:
+    if job.file is None:
+        writer.abort()
+    else:
+        writer.on_stop()
+        try:
+            os.unlink(job.file)
+        except OSError:
+            pass
+
+
 def run_job(job: Job, progress=None) -> Outcome:
     """Export one capture (in a worker process, or in this one)."""
     from ..writers.parquet import ParquetDatasetWriter
@@ -116,29 +136,34 @@ def run_job(job: Job, progress=None) -> Outcome:
         site = job.site
         if site is None:
             site = (getattr(capture.source, "metadata", None) or {}).get("site") or None
-        info = CaptureInfo.of(capture, command="export")
-        writer = ParquetDatasetWriter(job.root, info, capture=name, site=site)
+        info = CaptureInfo.of(capture, command="export", site=site)
+        if job.file is not None:
+            writer = _file_writer(job, info)
+        else:
+            writer = ParquetDatasetWriter(job.root, info, capture=name, site=site)
         listeners = [writer] if progress is None else [_Reporter(job.index, progress), writer]
         out.events = TapRunner(capture, listeners, info=info).run()
         out.warnings = list(capture.warnings)
         cut = next((w for w in capture.warnings if "ends early" in w), None)
         if cut is not None:
-            writer.abort()
+            _discard(job, writer)
             out.error = cut
+        elif job.file is not None:
+            out.rows = {"packets": writer.packets}
         else:
             writer.commit()
             out.rows = dict(writer.rows)
     except CaptureError as e:
         if writer is not None:
-            writer.abort()
+            _discard(job, writer)
         out.error = str(e)
     except OSError as e:   # the dataset folder: full, read-only
         if writer is not None:
-            writer.abort()
+            _discard(job, writer)
         out.error = f"{show(e.filename or job.root)}: {e.strerror or e}"
     except BaseException:
         if writer is not None:
-            writer.abort()
+            _discard(job, writer)
         raise
     finally:
         if progress is not None:

@@ -27,6 +27,7 @@ WRITERS: dict[str, str] = {
     ".mcap": "analyzer.writers.mcap:McapWriter",
     ".jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
     ".ndjson": "analyzer.writers.jsonl:JsonLinesWriter",
+    ".pcapng": "analyzer.writers.pcapng:PcapngWriter",
 }
 
 
@@ -41,6 +42,10 @@ def writer_class(path: str) -> type[Listener]:
     if entry is None:
         what = f"unknown output format {show(suffix)!r}" if suffix else "no suffix to choose the output format"
         raise OutputRefused(f"{show(path)}: {what}; use one of {', '.join(WRITERS)}")
+    return _load(entry)
+
+
+def _load(entry: str) -> type[Listener]:
     module, _, name = entry.partition(":")
     return getattr(importlib.import_module(module), name)
 
@@ -50,13 +55,23 @@ def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None) -> L
     return writer_class(path)(path, info, file=file)
 
 
+def file_output(path: str) -> bool:
+    """Does ``path`` name one file of a registry format (by its suffix), rather
+    than a dataset folder (``FOLDER_WRITER``)?"""
+    return os.path.splitext(path.rstrip("/" + os.sep))[1].lower() in WRITERS and not os.path.isdir(path)
+
+
+def holds_many_captures(path: str) -> bool:
+    """Can one file of ``path``'s format (or of the suffix ``path``) hold several
+    captures (``export``)?"""
+    suffix = path.lower() if path.startswith(".") else os.path.splitext(path)[1].lower()
+    entry = WRITERS.get(suffix)
+    return entry is not None and bool(getattr(_load(entry), "many_captures", False))
+
+
 def folder_output(path: str) -> str:
-    """``path`` as the folder of a dataset (``FOLDER_WRITER``): refused, naming the
-    command to use, when it is a file or names a file format."""
-    suffix = os.path.splitext(path.rstrip("/" + os.sep))[1].lower()
+    """``path`` as the folder of a dataset (``FOLDER_WRITER``): refused when it is a file."""
     if os.path.exists(path) and not os.path.isdir(path):
-        raise OutputRefused(f"{show(path)}: is a file; export writes a dataset folder (give a folder's name)")
-    if suffix in WRITERS:
-        raise OutputRefused(f"{show(path)}: export writes a dataset folder; for one {suffix} file use: "
-                            f"gimbalscope convert CAPTURE -o {show(path)}")
+        raise OutputRefused(f"{show(path)}: is a file; export writes a dataset folder or a "
+                            f"{', '.join(s for s in WRITERS if holds_many_captures(s))} file")
     return path

@@ -1,0 +1,96 @@
+"""pcapng output, for Wireshark and tshark (docs/wireshark.md): one interface per
+line of the capture (A and B, or AB), one packet per event on the wire (a
+frame, an ACK, NAK or NIC, a run of noise) at its wire time, its problems as
+the packet's comment. The packets' data is ``analyzer.wireshark.pdu``: the
+exported-PDU link type naming the ``gimbal`` dissector that
+``gimbalscope wireshark install`` puts in place.
+
+A rate change (docs/time.md, "Rate changes") is not bytes on the wire and makes
+no packet. Times are those of the MCAP writer (docs/time.md, "Message times"):
+the capture's start plus each event's wire time; raw dumps, which carry none,
+from byte offsets at the line's rate.
+
+Several captures can share one file (``gimbalscope export A B -o F.pcapng``):
+each gets interfaces of its own and a capture number in its packets, because
+pairing (transaction numbers) is per capture.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import BinaryIO
+
+from dissectors.event import Event
+
+from ..info import LINE_ROLES, CaptureInfo
+from ..outfile import write_error
+from ..runner import Listener
+from ..wireshark import pdu
+from ..wireshark.pcapng import PcapngStream
+from .mcap import message_clock
+
+APPLICATION = "gimbalscope"
+
+
+def open_stream(file: BinaryIO) -> PcapngStream:
+    from .. import __version__
+    return PcapngStream(file, f"{APPLICATION} {__version__}")
+
+
+class PcapngWriter(Listener):
+    """The registry's ``.pcapng`` writer. ``stream`` and ``capture``: the file
+    is shared with other captures (this one is number ``capture``); ``flush``:
+    push each batch out as it comes (a live FIFO)."""
+
+    many_captures = True   # export may put several captures in one file
+
+    def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None,
+                 stream: PcapngStream | None = None, capture: int = 0, flush: bool = False) -> None:
+        self.info = info
+        self.capture = capture
+        self.flush = flush
+        self._own = None
+        if stream is None:
+            if file is None:
+                try:
+                    file = self._own = open(path, "wb")
+                except OSError as e:
+                    raise write_error(path, e) from None
+            stream = open_stream(file)
+        self.stream = stream
+        names = info.line_names
+        self.interface = {
+            line: stream.add_interface(pdu.LINKTYPE, line, f"{LINE_ROLES.get(line, line)}: {names.get(line, '')}")
+            for line in info.lines}
+        clock = message_clock(info)
+        start = clock["start_time"]
+        self.start_ns = int((start if start is not None else time.time()) * 1e9)
+        self.byte_ns = clock["wire_byte_time"] * 1e9 if clock["wire_byte_time"] is not None else None
+        self.packets = 0
+
+    def _ns(self, ev: Event) -> int:
+        if ev.t is not None:
+            return self.start_ns + round(ev.t * 1e9)
+        if self.byte_ns is not None:
+            return self.start_ns + round(ev.offset * self.byte_ns)
+        return self.start_ns + ev.number   # no time, no rate: in order
+
+    def on_events(self, events: list[Event]) -> None:
+        packet, encode, comment = self.stream.packet, pdu.encode, pdu.comment
+        interface, capture = self.interface, self.capture
+        first = next(iter(interface.values()))
+        n = 0
+        for ev in events:
+            if not pdu.on_the_wire(ev):
+                continue
+            packet(interface.get(ev.line, first), self._ns(ev), encode(ev, capture), comment(ev))
+            n += 1
+        self.packets += n
+        if self.flush and n:
+            self.stream.flush()
+
+    def on_stop(self) -> None:
+        if self._own is not None:
+            self._own.close()
+        elif self.flush:
+            self.stream.flush()
