@@ -35,9 +35,11 @@ from . import common
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("export", help="export captures as a Parquet dataset (query, report, DuckDB, Spark)",
+    p = sub.add_parser("export", help="export captures as a Parquet dataset (query, report, DuckDB, Spark) "
+                                      "or as pcapng (Wireshark)",
                        description="Export captures into a dataset folder of Parquet tables (events, "
-                                   "transactions, findings), partitioned by date (docs/dataset.md). Each INPUT "
+                                   "transactions, findings), partitioned by date (docs/dataset.md), or into one "
+                                   "pcapng file for Wireshark (-o FILE.pcapng; docs/wireshark.md). Each INPUT "
                                    "is one capture; join the files of one capture with '+' (ctl.bin+dev.bin).")
     p.add_argument("inputs", nargs="+", metavar="INPUT",
                    help="a socat log, an MCAP recording, a raw single-line dump, or FILE+FILE (two raw dumps "
