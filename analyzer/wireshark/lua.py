@@ -278,7 +278,7 @@ local RETRANSMISSION, CHECKSUM_KNOWN, CHECKSUM_OK, HAS_LATENCY, HAS_DEVICE = 1, 
 
 -- bit k of v (arithmetic: Lua 5.2 to 5.4 without a bit library)
 local function bit(v, k) return math.floor(v / 2 ^ k) % 2 == 1 end
-local function has(flags, f) return bit(flags, math.floor(math.log(f, 2) + 0.5)) end
+local function has(flags, f) return flags % (2 * f) >= f end   -- f: one flag bit
 local function bit_names(v, tbl)
   local out = {}
   for _, e in ipairs(tbl) do if bit(v, e[1]) then out[#out + 1] = e[2] end end
@@ -403,29 +403,37 @@ local function add_fields(tree, layout, prange)
 end
 
 -- ---------------------------------------------------------------- pairing links
--- transaction -> {cmd = frame number, answers = {frame numbers}}, per capture:
--- filled on the first pass through the file, read on every later dissection
-local txns = {}
-function gimbal.init() txns = {} end
+-- Filled on the first pass through the file, read on every later dissection.
+-- Flat tables of numbers keyed by (capture, transaction) as one number: a table
+-- per transaction would cost the garbage collector dearly over a day's capture.
+local MAX_ANSWERS = 8
+local cmd_frame, answer_count, answer_frame = {}, {}, {}
+function gimbal.init() cmd_frame, answer_count, answer_frame = {}, {}, {} end
 
+-- the command's frame number and the key of its answers, for a transaction
 local function link(pinfo, kind, capture, txn)
-  if txn == 0 then return nil end
-  local key = capture .. ":" .. txn
-  local t = txns[key]
+  if txn == 0 then return nil, nil end
+  local key = capture * 4294967296 + txn
   if not pinfo.visited then
+    local number = pinfo.number
     if kind == "command" then
-      t = {cmd = pinfo.number, answers = {}}
-      txns[key] = t
-    elseif t ~= nil then
-      t.answers[#t.answers + 1] = pinfo.number
+      cmd_frame[key] = number
+      answer_count[key] = 0
+    else
+      local n = answer_count[key]
+      if n ~= nil and n < MAX_ANSWERS then
+        answer_frame[key * MAX_ANSWERS + n] = number
+        answer_count[key] = n + 1
+      end
     end
   end
-  return t
+  return cmd_frame[key], key
 end
 
 -- ---------------------------------------------------------------- the dissector
 function gimbal.dissector(tvb, pinfo, tree)
-  pinfo.cols.protocol = "GIMBAL"
+  local cols = pinfo.cols
+  cols.protocol = "GIMBAL"
   local root = tree:add(gimbal, tvb())
   if tvb:len() < 39 or tvb(0, 1):uint() ~= @@HEADER_VERSION@@ then
     root:add_proto_expert_info(ef_header)
@@ -451,15 +459,14 @@ function gimbal.dissector(tvb, pinfo, tree)
     problems[#problems + 1] = {id = tvb(pos, 2):uint(), text = tvb(pos + 4, k):string(ENC_UTF_8), at = pos}
     pos = pos + 4 + k
   end
-  local header = tvb(0, pos)
-  local wtvb = tvb(pos):tvb("Wire bytes")
-  local wire = wtvb()
+  local len = tvb:len() - pos   -- the wire bytes: tvb(pos, len)
+  local function w(at, n) return tvb(pos + at, n) end
 
   local device
   if has(flags, HAS_DEVICE) then
     device = string.format("%d.%d.%d", tvb(34, 1):uint(), tvb(35, 1):uint(), tvb(36, 1):uint())
   end
-  local t = link(pinfo, kind, capture, txn)
+  local cmd, key = link(pinfo, kind, capture, txn)
 
   -- the summary line and the columns
   local what = command or kind
@@ -467,11 +474,11 @@ function gimbal.dissector(tvb, pinfo, tree)
   if device then root:append_text((kind == "command" and " to " or " from ") .. device) end
   if status then root:append_text(" (" .. status .. ")") end
   if kind == "command" then
-    pinfo.cols.src = "controller"
-    if device then pinfo.cols.dst = device end
+    cols.src = "controller"
+    if device then cols.dst = device end
   elseif device then
-    pinfo.cols.src = device
-    pinfo.cols.dst = "controller"
+    cols.src = device
+    cols.dst = "controller"
   end
   local info = string.format("%s %-7s %s", line, kind, command or "")
   if status then info = info .. " [" .. status .. "]" end
@@ -480,7 +487,7 @@ function gimbal.dissector(tvb, pinfo, tree)
     info = info .. string.format(" %.1f ms", tvb(20, 8):int64():tonumber() / 1e6)
   end
   if #problems > 0 then info = info .. " ! " .. problems[1].text end
-  pinfo.cols.info = info
+  cols.info = info
 
   -- what gimbalscope decided (the header)
   root:add(hf.kind, tvb(1, 1), kind)
@@ -498,11 +505,13 @@ function gimbal.dissector(tvb, pinfo, tree)
   if status then root:add(hf.status, tvb(2, 1), status) end
   if txn > 0 then root:add(hf.txn, tvb(8, 4)) end
   if request > 0 then root:add(hf.request, tvb(12, 4)) end
-  if t ~= nil then
+  if cmd ~= nil then
     if kind == "command" then
-      for _, f in ipairs(t.answers) do root:add(hf.response_in, tvb(8, 4), f):set_generated() end
-    elseif t.cmd < pinfo.number then
-      root:add(hf.request_in, tvb(8, 4), t.cmd):set_generated()
+      for k = 0, answer_count[key] - 1 do
+        root:add(hf.response_in, tvb(8, 4), answer_frame[key * MAX_ANSWERS + k]):set_generated()
+      end
+    elseif cmd < pinfo.number then
+      root:add(hf.request_in, tvb(8, 4), cmd):set_generated()
     end
   end
   if has(flags, HAS_LATENCY) then
@@ -512,20 +521,19 @@ function gimbal.dissector(tvb, pinfo, tree)
   if kind == "command" then root:add(hf.retransmission, tvb(3, 1), has(flags, RETRANSMISSION)) end
 
   -- the wire bytes
-  local wt = root:add(hf.wire, wire)
-  local len = wtvb:len()
-  if p_at ~= NO_PAYLOAD and len >= 5 and wtvb(0, 1):uint() == 0xF8 then
-    local g, p, d = wtvb(1, 1):uint(), wtvb(2, 1):uint(), wtvb(3, 1):uint()
-    local dt = wt:add(hf.dst, wtvb(1, 3), string.format("%d.%d.%d", g, p, d))
-    dt:add(hf.dst_group, wtvb(1, 1))
-    dt:add(hf.dst_port, wtvb(2, 1))
-    dt:add(hf.dst_device, wtvb(3, 1))
-    wt:add(hf.src, wtvb(4, 1))
-    if len >= 6 then wt:add(hf.length, wtvb(5, 1)) end
+  local wt = root:add(hf.wire, tvb(pos, len))
+  if p_at ~= NO_PAYLOAD and len >= 5 and w(0, 1):uint() == 0xF8 then
+    local g, p, d = w(1, 1):uint(), w(2, 1):uint(), w(3, 1):uint()
+    local dt = wt:add(hf.dst, w(1, 3), string.format("%d.%d.%d", g, p, d))
+    dt:add(hf.dst_group, w(1, 1))
+    dt:add(hf.dst_port, w(2, 1))
+    dt:add(hf.dst_device, w(3, 1))
+    wt:add(hf.src, w(4, 1))
+    if len >= 6 then wt:add(hf.length, w(5, 1)) end
     if p_len > 0 and p_at + p_len <= len then
-      local prange = wtvb(p_at, p_len)
+      local prange = w(p_at, p_len)
       wt:add(hf.payload, prange)
-      if p_at + p_len < len then wt:add(hf.checksum, wtvb(p_at + p_len, 1)) end
+      if p_at + p_len < len then wt:add(hf.checksum, w(p_at + p_len, 1)) end
       if entry and layout_no ~= NO_LAYOUT and entry.layouts[layout_no] then
         add_fields(root, entry.layouts[layout_no], prange)
       end

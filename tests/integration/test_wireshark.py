@@ -367,6 +367,19 @@ def tshark_live(tshark, installed, tmp_path, *options, seconds=3):
     return r, out
 
 
+def extcap_running(home) -> bool:
+    """Is an extcap program of this home's install still running?"""
+    program = str(home / ".config/wireshark/extcap/gimbalscope-extcap").encode()
+    for pid in filter(str.isdigit, os.listdir("/proc")):
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                if program in f.read():
+                    return True
+        except OSError:   # gone meanwhile
+            continue
+    return False
+
+
 SITE = """
 import sys, time
 from analyzer.simulation import scenario
@@ -392,6 +405,11 @@ def test_a_live_tshark_capture_from_the_simulator_decodes(installed, tshark, tmp
         site.wait(timeout=PATIENCE)
     assert r.returncode == 0, r.stderr
     assert "Traceback" not in r.stderr
+    # stopped cleanly: the extcap program has gone with tshark
+    deadline = time.monotonic() + 10
+    while extcap_running(installed) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not extcap_running(installed)
     env = home_env(installed)
     rows = subprocess.run([tshark, "-r", str(out), "-T", "fields", "-e", "gimbal.kind", "-e", "gimbal.line",
                            "-e", "gimbal.command", "-e", "gimbal.checksum_ok"],
