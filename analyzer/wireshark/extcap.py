@@ -28,7 +28,7 @@ from dissectors.commands import BAUD_CODES
 from . import pdu
 
 INTERFACE = "gimbalscope"
-DISPLAY = "Gimbal serial bus (gimbalscope): one or two serial ports"
+DISPLAY = "Gimbal serial bus, one or two serial ports"
 FRAMINGS = ("8N1", "8E1", "8O1", "8N2", "7E1", "7O1", "7E2", "7N2")
 _FRAMING = re.compile(r"([5-8])([NEOMS])(1|1\.5|2)")
 

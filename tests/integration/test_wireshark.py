@@ -322,7 +322,7 @@ def test_install_puts_the_plugin_where_tshark_loads_it(installed, tshark):
     protocols = subprocess.run([tshark, "-G", "protocols"], capture_output=True, text=True, env=env).stdout
     assert any(line.split("\t")[2:3] == ["gimbal"] for line in protocols.splitlines())
     interfaces = subprocess.run([tshark, "-D"], capture_output=True, text=True, env=env).stdout
-    assert "gimbalscope (Gimbal serial bus (gimbalscope)" in interfaces
+    assert "gimbalscope (Gimbal serial bus, one or two serial ports)" in interfaces
 
 
 def test_install_needs_no_wireshark(tmp_path):
