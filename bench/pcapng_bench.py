@@ -7,8 +7,8 @@
   2. `gimbalscope export LOG -o F.pcapng` of a socat log of saturated
      115200-baud traffic against `decode --format jsonl` of it: events/s,
      bytes per packet, peak memory
-  3. tshark reading the file with the dissector (`-T fields`), events/s, when
-     tshark is installed
+  3. `decode F.pcapng` (reading it back), and tshark reading the file with the
+     dissector (`-T fields`), events/s, when tshark is installed
 
     python3 bench/pcapng_bench.py [--events 250000]
 """
@@ -80,6 +80,8 @@ def main() -> None:
         print(f"decode --format jsonl: {n / dt_jsonl:,.0f} events/s ({dt_jsonl:.1f} s, peak {rss_jsonl:.0f} MB)")
         print(f"export -o F.pcapng:    {n / dt_pcap:,.0f} events/s ({dt_pcap:.1f} s, peak {rss_pcap:.0f} MB), "
               f"{size / n:.1f} bytes/packet, {n:,} packets")
+        dt_back, rss_back = run_measured(["decode", out, "--format", "jsonl"])
+        print(f"decode F.pcapng --format jsonl: {n / dt_back:,.0f} events/s ({dt_back:.1f} s, peak {rss_back:.0f} MB)")
         tshark = shutil.which("tshark")
         if tshark:
             home = os.path.join(work, "home")

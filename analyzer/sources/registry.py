@@ -13,7 +13,7 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 
 from __future__ import annotations
 
-from . import rawdump, socatlog
+from . import pcapngfile, rawdump, socatlog
 from .base import CaptureError, Reader, ReadSettings, Source
 from .files import Input
 
@@ -67,6 +67,7 @@ MCAP = Reader(
 # inputs reads them all.
 READERS: list[Reader] = [
     MCAP,               # magic bytes
+    pcapngfile.READER,  # magic bytes: gimbalscope's own pcapng (an export, a Wireshark capture through the extcap)
     socatlog.READER,    # text whose first line is a socat chunk header
     rawdump.READER,     # any bytes: the fallback, last
 ]

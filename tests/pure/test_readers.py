@@ -18,6 +18,7 @@ from mcap.writer import Writer
 from analyzer.sources import (LINE_AB, CaptureError, Chunk, Input, RawDumpSource, Reader, SocatLogSource, Source,
                               detect, formats, registry)
 from analyzer.sources.mcapfile import McapSource
+from analyzer.sources.pcapngfile import PcapngSource
 from tests.conftest import BUS, CTL, DEV, ROOT, SOCAT_LOG
 
 BT = 10 / 9600
@@ -42,6 +43,36 @@ def write_mcap(path) -> str:
     return str(path)
 
 
+def write_pcapng(path) -> str:
+    """A single-line pcapng of a command and its ACK as gimbalscope packets:
+    exported-PDU tags naming "gimbal", the header (analyzer/wireshark/pdu.py)
+    with no problems, then the wire bytes; written block by block here."""
+    import struct
+
+    def block(kind: int, body: bytes) -> bytes:
+        return struct.pack("<II", kind, 12 + len(body)) + body + struct.pack("<I", 12 + len(body))
+
+    def packet(ns: int, wire: bytes, kind: int) -> bytes:
+        tags = struct.pack(">HH", 12, 8) + b"gimbal\0\0" + struct.pack(">HH", 0, 0)
+        header = bytes((1, kind, 0, 0)) + bytes(14) + bytes((2, 255)) + bytes(8) + bytes(2) + b"\xff\xff" \
+            + bytes(2) + bytes(3) + bytes((0,)) + bytes((0,))
+        data = tags + header + wire
+        data += bytes(-len(data) % 4)
+        return block(6, struct.pack("<IIIII", 0, ns >> 32, ns & 0xFFFFFFFF, len(tags + header + wire),
+                                    len(tags + header + wire)) + data)
+
+    name = b"AB"
+    idb_opts = struct.pack("<HH", 2, 2) + name + b"\0\0" + struct.pack("<HH", 9, 1) + b"\x09\0\0\0" \
+        + struct.pack("<HH", 0, 0)
+    out = block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1))
+    out += block(1, struct.pack("<HHI", 252, 0, 0) + idb_opts)
+    t0 = 1_795_000_000_000_000_000
+    out += packet(t0, CMD, 1) + packet(t0 + 20_000_000, ACK, 3)
+    with open(path, "wb") as f:
+        f.write(out)
+    return str(path)
+
+
 def gzipped(tmp_path, path: str) -> str:
     out = tmp_path / (os.path.basename(path) + ".gz")
     with open(path, "rb") as f:
@@ -51,7 +82,7 @@ def gzipped(tmp_path, path: str) -> str:
 
 def samples(tmp_path) -> dict[str, list[str]]:
     return {"socat": [SOCAT_LOG], "one raw": [BUS], "two raw": [CTL, DEV],
-            "mcap": [write_mcap(tmp_path / "rec.mcap")]}
+            "mcap": [write_mcap(tmp_path / "rec.mcap")], "pcapng": [write_pcapng(tmp_path / "cap.pcapng")]}
 
 
 EXPECTED = {   # sample -> (reader name, source class, lines)
@@ -59,6 +90,7 @@ EXPECTED = {   # sample -> (reader name, source class, lines)
     "one raw": ("raw dump", RawDumpSource, (LINE_AB,)),
     "two raw": ("raw dump", RawDumpSource, ("A", "B")),
     "mcap": ("MCAP recording", McapSource, (LINE_AB,)),
+    "pcapng": ("pcapng (gimbalscope packets)", PcapngSource, (LINE_AB,)),
 }
 
 
@@ -86,7 +118,7 @@ def test_each_sample_is_picked_by_its_reader(tmp_path, sample, packed):
 
 
 def test_the_fallback_comes_last_and_the_names_are_listed():
-    assert formats() == ["MCAP recording", "socat -x -v log", "raw dump"]
+    assert formats() == ["MCAP recording", "pcapng (gimbalscope packets)", "socat -x -v log", "raw dump"]
     assert registry.most_inputs() == 2
 
 
@@ -200,7 +232,7 @@ def test_a_registered_reader_that_takes_one_input_refuses_two(tmp_path, toy_regi
 
 def test_the_registry_is_restored_after_the_toy():
     assert TOY not in registry.READERS
-    assert formats() == ["MCAP recording", "socat -x -v log", "raw dump"]
+    assert formats() == ["MCAP recording", "pcapng (gimbalscope packets)", "socat -x -v log", "raw dump"]
 
 
 def test_a_reader_must_say_how_it_recognises_its_input():

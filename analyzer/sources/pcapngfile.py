@@ -1,0 +1,212 @@
+"""pcapng files gimbalscope wrote (docs/wireshark.md): an export, or a live
+capture saved by Wireshark or tshark through the extcap, read back as a
+capture.
+
+Every byte on the wire is in exactly one packet (a frame, an ACK, NAK or NIC,
+a run of noise), after the exported-PDU tags and gimbalscope's header
+(analyzer/wireshark/pdu.py). Each packet is a chunk of its line at its time,
+so decoding the file decodes the conversation afresh, with this version's
+command table and pairing, rather than trusting the header. What the header
+decided is not read back.
+
+The lines are the first section's interfaces (``A`` and ``B``, or ``AB``). A
+file holding several captures (sections) is read as one, in order; packets of
+a line the first capture does not have are skipped and said once. Packets that
+are not gimbalscope's (another link type or dissector) are skipped and counted.
+A file cut short (a capture killed while writing) is read up to its cut and
+said.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import BinaryIO, Iterator
+
+from ..wireshark import pdu
+from .base import LINE_A, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
+from .files import Input
+
+MAGIC = b"\x0a\x0d\x0d\x0a"
+_BOM = 0x1A2B3C4D
+_SHB, _IDB, _EPB = 0x0A0D0D0A, 1, 6
+_LINES = {LINE_A: LINE_A, LINE_B: LINE_B, "AB": "AB"}
+
+
+class _Interface:
+    __slots__ = ("link_type", "name", "scale")
+
+    def __init__(self, link_type: int, name: str, scale: float) -> None:
+        self.link_type = link_type
+        self.name = name
+        self.scale = scale   # seconds per timestamp unit
+
+
+def _options(body: bytes, endian: str) -> dict[int, bytes]:
+    out: dict[int, bytes] = {}
+    at = 0
+    while at + 4 <= len(body):
+        code, length = struct.unpack_from(endian + "HH", body, at)
+        if code == 0:
+            break
+        out.setdefault(code, body[at + 4:at + 4 + length])
+        at += 4 + length + (-length % 4)
+    return out
+
+
+def _scale(tsresol: bytes | None) -> float:
+    if not tsresol:
+        return 1e-6
+    v = tsresol[0]
+    return 2.0 ** -(v & 0x7F) if v & 0x80 else 10.0 ** -v
+
+
+def _wire(data: bytes) -> tuple[str, bytes] | None:
+    """(line, wire bytes) of a gimbalscope packet's data, or None when it is not one."""
+    if not data.startswith(pdu.TAGS):
+        return None
+    h = data[len(pdu.TAGS):]
+    if len(h) < 39 or h[0] != pdu.VERSION:
+        return None
+    line = pdu.LINE_CODES[h[18]] if h[18] < len(pdu.LINE_CODES) else None
+    at = 38 + h[37]
+    if at >= len(h):
+        return None
+    count = h[at]
+    at += 1
+    for _ in range(count):
+        if at + 4 > len(h):
+            return None
+        at += 4 + struct.unpack_from(">H", h, at + 2)[0]
+    if line is None or at > len(h):
+        return None
+    return line, h[at:]
+
+
+class PcapngSource(Source):
+    timed = True
+    clocks = 1   # the file's times are one time line (a two-port tap's were aligned when written)
+
+    def __init__(self, inp: Input) -> None:
+        super().__init__()
+        self.input = inp
+        self.name = inp.name
+        self.description = inp.describe("pcapng (gimbalscope packets)")
+        self.on_close(inp.close)
+        self.lines, self.start_time = self._first_section(inp.head)
+
+    def _first_section(self, head: bytes) -> tuple[tuple[str, ...], float | None]:
+        """The first section's lines and its first packet's time, from the head."""
+        lines: list[str] = []
+        start = None
+        interfaces: list[_Interface] = []
+        for kind, endian, body in _blocks_in(head):
+            if kind == _SHB and (lines or interfaces):
+                break
+            if kind == _IDB:
+                interfaces.append(self._interface(body, endian))
+                line = _LINES.get(interfaces[-1].name)
+                if interfaces[-1].link_type == pdu.LINKTYPE and line and line not in lines:
+                    lines.append(line)
+            elif kind == _EPB and start is None:
+                iface, hi, lo = struct.unpack_from(endian + "III", body, 0)
+                if iface < len(interfaces) and interfaces[iface].link_type == pdu.LINKTYPE:
+                    start = ((hi << 32) | lo) * interfaces[iface].scale
+        if not lines:
+            raise CaptureError(f"{self.name}: a pcapng file without gimbalscope's interfaces (link type "
+                               f"{pdu.LINKTYPE} named A, B or AB): not written by gimbalscope")
+        if "AB" in lines and len(lines) > 1:
+            raise CaptureError(f"{self.name}: mixes a single-line tap (AB) with lines A/B in one capture")
+        order = ("AB",) if "AB" in lines else (LINE_A, LINE_B)
+        return order, start
+
+    @staticmethod
+    def _interface(body: bytes, endian: str) -> _Interface:
+        link_type = struct.unpack_from(endian + "H", body, 0)[0]
+        opts = _options(body[8:], endian)
+        name = opts.get(2, b"").split(b"\0", 1)[0].decode("utf-8", "replace")
+        return _Interface(link_type, name, _scale(opts.get(9)))
+
+    def chunks(self) -> Iterator[Chunk]:
+        try:
+            yield from self._read(self.input.stream())
+        except OSError as e:
+            raise CaptureError(f"{self.name}: cannot read: {e.strerror or e}") from None
+
+    def _read(self, f: BinaryIO) -> Iterator[Chunk]:
+        interfaces: list[_Interface] = []
+        start = self.start_time
+        foreign = other_lines = 0
+        for kind, endian, body in _blocks(f, self.name, self.warn):
+            if kind == _SHB:
+                interfaces = []
+            elif kind == _IDB:
+                interfaces.append(self._interface(body, endian))
+            elif kind == _EPB:
+                iface, hi, lo, caplen = struct.unpack_from(endian + "IIII", body, 0)
+                info = interfaces[iface] if iface < len(interfaces) else None
+                got = _wire(body[20:20 + caplen]) if info is not None and info.link_type == pdu.LINKTYPE else None
+                if got is None:
+                    foreign += 1
+                    continue
+                line, data = got
+                if line not in self.lines:
+                    other_lines += 1
+                    continue
+                ts = ((hi << 32) | lo) * info.scale
+                if start is None:
+                    start = self.start_time = ts
+                if data:
+                    yield Chunk(line, data, ts - start)
+        if foreign:
+            self.warn(f"{self.name}: {foreign} packets are not gimbalscope's (another link type or dissector); "
+                      "skipped")
+        if other_lines:
+            self.warn(f"{self.name}: {other_lines} packets of lines the first capture does not have; skipped")
+
+
+def _blocks_in(data: bytes) -> Iterator[tuple[int, str, bytes]]:
+    """Whole blocks in ``data`` (a head): (type, byte order, body)."""
+    at, endian = 0, "<"
+    while at + 12 <= len(data):
+        kind = struct.unpack_from("<I", data, at)[0]
+        if kind == _SHB:
+            endian = "<" if struct.unpack_from("<I", data, at + 8)[0] == _BOM else ">"
+        kind, total = struct.unpack_from(endian + "II", data, at)
+        if total < 12 or at + total > len(data):
+            return
+        yield kind, endian, data[at + 8:at + total - 4]
+        at += total
+
+
+def _blocks(f: BinaryIO, name: str, warn) -> Iterator[tuple[int, str, bytes]]:
+    """Every block of the stream ``f``; a cut at the end is said, not raised."""
+    endian = "<"
+    while True:
+        head = f.read(12)
+        if not head:
+            return
+        if len(head) < 12:
+            warn(f"{name}: the file ends inside a block (cut short?): read up to there")
+            return
+        kind = struct.unpack_from("<I", head, 0)[0]
+        if kind == _SHB:
+            endian = "<" if struct.unpack_from("<I", head, 8)[0] == _BOM else ">"
+        kind, total = struct.unpack_from(endian + "II", head, 0)
+        if total < 12 or total % 4:
+            raise CaptureError(f"{name}: a pcapng block of length {total}: the file is damaged")
+        rest = f.read(total - 12)
+        if len(rest) < total - 12:
+            warn(f"{name}: the file ends inside a block (cut short?): read up to there")
+            return
+        yield kind, endian, head[8:] + rest[:-4]
+
+
+def open_pcapng(inputs: list[Input], settings: ReadSettings) -> PcapngSource:
+    return PcapngSource(inputs[0])
+
+
+READER = Reader(
+    "pcapng (gimbalscope packets)", open_pcapng, magic=MAGIC,
+    crowded="a pcapng file carries its lines; give it on its own",
+    suffixes=(".pcapng",), misnamed="not a pcapng file (it does not start with a section header block)",
+)
