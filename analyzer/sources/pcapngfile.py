@@ -15,6 +15,12 @@ a line the first capture does not have are skipped and said once. Packets that
 are not gimbalscope's (another link type or dissector) are skipped and counted.
 A file cut short (a capture killed while writing) is read up to its cut and
 said.
+
+A capture that had no time (raw dumps) was written with times made from byte
+offsets, and its section says so (``pdu.UNTIMED``): it is read untimed again,
+as the dumps were (no latencies; two lines aligned by addresses and layouts,
+each line read by a stream of its own, so such a file must be a file, not a
+pipe).
 """
 
 from __future__ import annotations
@@ -39,6 +45,11 @@ class _Interface:
         self.link_type = link_type
         self.name = name
         self.scale = scale   # seconds per timestamp unit
+
+    def ns(self, ticks: int) -> int:
+        """A timestamp in integer nanoseconds: times stay exact (an epoch in float
+        seconds holds only about a quarter of a microsecond)."""
+        return ticks if self.scale == 1e-9 else round(ticks * self.scale * 1e9)
 
 
 def _options(body: bytes, endian: str) -> dict[int, bytes]:
@@ -95,14 +106,20 @@ class PcapngSource(Source):
         self.lines, self.start_time = self._first_section(inp.head)
 
     def _first_section(self, head: bytes) -> tuple[tuple[str, ...], float | None]:
-        """The first section's lines and its first packet's time, from the head."""
+        """The first section's lines and its first packet's time, from the head;
+        whether it is timed."""
         lines: list[str] = []
         start = None
         interfaces: list[_Interface] = []
         for kind, endian, body in _blocks_in(head):
             if kind == _SHB and (lines or interfaces):
                 break
-            if kind == _IDB:
+            if kind == _SHB:
+                comment = _options(body[16:], endian).get(1, b"")
+                if comment.startswith(pdu.UNTIMED.encode()):
+                    self.timed = False
+                    self.clocks = 0
+            elif kind == _IDB:
                 interfaces.append(self._interface(body, endian))
                 line = _LINES.get(interfaces[-1].name)
                 if interfaces[-1].link_type == pdu.LINKTYPE and line and line not in lines:
@@ -110,14 +127,14 @@ class PcapngSource(Source):
             elif kind == _EPB and start is None:
                 iface, hi, lo = struct.unpack_from(endian + "III", body, 0)
                 if iface < len(interfaces) and interfaces[iface].link_type == pdu.LINKTYPE:
-                    start = ((hi << 32) | lo) * interfaces[iface].scale
+                    self._start_ns = start = interfaces[iface].ns((hi << 32) | lo)
         if not lines:
             raise CaptureError(f"{self.name}: a pcapng file without gimbalscope's interfaces (link type "
                                f"{pdu.LINKTYPE} named A, B or AB): not written by gimbalscope")
         if "AB" in lines and len(lines) > 1:
             raise CaptureError(f"{self.name}: mixes a single-line tap (AB) with lines A/B in one capture")
         order = ("AB",) if "AB" in lines else (LINE_A, LINE_B)
-        return order, start
+        return order, start / 1e9 if start is not None else None
 
     @staticmethod
     def _interface(body: bytes, endian: str) -> _Interface:
@@ -132,11 +149,30 @@ class PcapngSource(Source):
         except OSError as e:
             raise CaptureError(f"{self.name}: cannot read: {e.strerror or e}") from None
 
-    def _read(self, f: BinaryIO) -> Iterator[Chunk]:
+    def line_chunks(self, line: str) -> Iterator[Chunk]:
+        """One line's chunks, by a stream of its own: untimed lines are read side
+        by side, each at its own pace (analyzer/align.py)."""
+        if self.timed or len(self.lines) == 1:
+            yield from super().line_chunks(line)
+            return
+        if not self.input.regular:
+            raise CaptureError(f"{self.name}: an untimed capture of two lines is read one line at a time: "
+                               "give it as a file, not through a pipe")
+        own = Input(self.input.path)
+        try:
+            for chunk in self._read(own.stream(), say=line == self.lines[0]):   # warnings once
+                if chunk.line == line:
+                    yield chunk
+        except OSError as e:
+            raise CaptureError(f"{self.name}: cannot read: {e.strerror or e}") from None
+        finally:
+            own.close()
+
+    def _read(self, f: BinaryIO, say: bool = True) -> Iterator[Chunk]:
         interfaces: list[_Interface] = []
-        start = self.start_time
+        start = getattr(self, "_start_ns", None)
         foreign = other_lines = 0
-        for kind, endian, body in _blocks(f, self.name, self.warn):
+        for kind, endian, body in _blocks(f, self.name, self.warn if say else _quiet):
             if kind == _SHB:
                 interfaces = []
             elif kind == _IDB:
@@ -152,16 +188,25 @@ class PcapngSource(Source):
                 if line not in self.lines:
                     other_lines += 1
                     continue
-                ts = ((hi << 32) | lo) * info.scale
+                if not data:
+                    continue
+                if not self.timed:
+                    yield Chunk(line, data)
+                    continue
+                ns = info.ns((hi << 32) | lo)
                 if start is None:
-                    start = self.start_time = ts
-                if data:
-                    yield Chunk(line, data, ts - start)
-        if foreign:
+                    start = self._start_ns = ns
+                    self.start_time = ns / 1e9
+                yield Chunk(line, data, (ns - start) / 1e9)
+        if foreign and say:
             self.warn(f"{self.name}: {foreign} packets are not gimbalscope's (another link type or dissector); "
                       "skipped")
-        if other_lines:
+        if other_lines and say:
             self.warn(f"{self.name}: {other_lines} packets of lines the first capture does not have; skipped")
+
+
+def _quiet(_msg: str) -> None:
+    pass
 
 
 def _blocks_in(data: bytes) -> Iterator[tuple[int, str, bytes]]:

@@ -45,10 +45,13 @@ class PcapngStream:
     """Blocks written to ``file`` as they come; ``flush`` pushes them out (a FIFO
     read live)."""
 
-    def __init__(self, file: BinaryIO, application: str) -> None:
+    def __init__(self, file: BinaryIO, application: str, comment: str | None = None) -> None:
         self.file = file
         self.interfaces = 0
-        body = struct.pack("<IHHq", _MAGIC, 1, 0, -1) + _options([(_SHB_USERAPPL, application.encode("utf-8"))])
+        options = [(_SHB_USERAPPL, application.encode("utf-8"))]
+        if comment:
+            options.append((_OPT_COMMENT, comment.encode("utf-8")))
+        body = struct.pack("<IHHq", _MAGIC, 1, 0, -1) + _options(options)
         file.write(_block(_SHB, body))
 
     def add_interface(self, link_type: int, name: str, description: str = "") -> int:

@@ -48,6 +48,11 @@ LINKTYPE = 252            # LINKTYPE_WIRESHARK_UPPER_PDU
 DISSECTOR = "gimbal"      # the name the Lua dissector registers
 VERSION = 1
 
+# The section comment of a capture that had no time (raw dumps): its packet
+# times are byte offsets at the line's rate, and reading the file back must not
+# take them for measured times (analyzer/sources/pcapngfile.py).
+UNTIMED = "gimbalscope: untimed capture; packet times are byte offsets at the line rate"
+
 # Exported-PDU tags (Wireshark's epan/exported_pdu.h); values padded to 4 bytes
 _TAG_DISSECTOR_NAME = 12
 _TAG_END = 0

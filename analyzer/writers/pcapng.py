@@ -8,7 +8,8 @@ exported-PDU link type naming the ``gimbal`` dissector that
 A rate change (docs/time.md, "Rate changes") is not bytes on the wire and makes
 no packet. Times are those of the MCAP writer (docs/time.md, "Message times"):
 the capture's start plus each event's wire time; raw dumps, which carry none,
-from byte offsets at the line's rate.
+from byte offsets at the line's rate, and their section says so (``pdu.UNTIMED``),
+so reading the file back does not take those times for measured ones.
 
 Several captures can share one file (``gimbalscope export A B -o F.pcapng``):
 each gets interfaces of its own and a capture number in its packets, because
@@ -32,9 +33,10 @@ from .mcap import message_clock
 APPLICATION = "gimbalscope"
 
 
-def open_stream(file: BinaryIO) -> PcapngStream:
+def open_stream(file: BinaryIO, info: CaptureInfo) -> PcapngStream:
+    """A new section for the capture ``info`` describes; an untimed one says so."""
     from .. import __version__
-    return PcapngStream(file, f"{APPLICATION} {__version__}")
+    return PcapngStream(file, f"{APPLICATION} {__version__}", comment=None if info.timed else pdu.UNTIMED)
 
 
 class PcapngWriter(Listener):
@@ -56,7 +58,7 @@ class PcapngWriter(Listener):
                     file = self._own = open(path, "wb")
                 except OSError as e:
                     raise write_error(path, e) from None
-            stream = open_stream(file)
+            stream = open_stream(file, info)
         self.stream = stream
         names = info.line_names
         self.interface = {
