@@ -86,14 +86,31 @@ def log_message(ts: int, level: int, message: str, name: str, file: str = "", li
             "message": message, "name": name, "file": file, "line": line}
 
 
-class Messages:
+class WireClock:
+    """Capture times as epoch nanoseconds (module doc): the start plus the wire
+    time, or for untimed input the byte offset at the line's rate. Shared by
+    MCAP messages and pcapng packets (analyzer/writers/pcapng.py), so both put
+    an event at the same instant."""
+
+    def __init__(self, start_time: float | None = None, wire_byte_time: float | None = None) -> None:
+        self.wire_byte_time = wire_byte_time   # untimed input: seconds per byte offset
+        self.start_ns = int((start_time if start_time is not None else time.time()) * 1e9)
+
+    def time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
+        if t is None:
+            if offset is not None and self.wire_byte_time is not None:
+                return self.start_ns + int(round(offset * self.wire_byte_time * 1e9))
+            return self.start_ns + order
+        return self.start_ns + int(round(t * 1e9))
+
+
+class Messages(WireClock):
     """Turns a tap's input into topic messages, handed to ``emit`` (module doc)."""
 
     def __init__(self, emit: Emit, *, start_time: float | None = None,
                  wire_byte_time: float | None = None) -> None:
+        super().__init__(start_time, wire_byte_time)
         self.emit = emit
-        self.wire_byte_time = wire_byte_time   # untimed input: seconds per byte offset
-        self.start_ns = int((start_time if start_time is not None else time.time()) * 1e9)
         self.positions = PositionTracker()
         self._seq = 0
         self._offsets: dict[str, int] = {}
@@ -147,13 +164,6 @@ class Messages:
         txn = self._transactions.finish()
         if txn is not None:
             self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.to_dict())
-
-    def time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
-        if t is None:
-            if offset is not None and self.wire_byte_time is not None:
-                return self.start_ns + int(round(offset * self.wire_byte_time * 1e9))
-            return self.start_ns + order
-        return self.start_ns + int(round(t * 1e9))
 
     @staticmethod
     def _problem_log(ev: Event, ts: int) -> dict:

@@ -25,6 +25,7 @@ pipe).
 
 from __future__ import annotations
 
+import io
 import struct
 from typing import BinaryIO, Iterator
 
@@ -71,28 +72,6 @@ def _scale(tsresol: bytes | None) -> float:
     return 2.0 ** -(v & 0x7F) if v & 0x80 else 10.0 ** -v
 
 
-def _wire(data: bytes) -> tuple[str, bytes] | None:
-    """(line, wire bytes) of a gimbalscope packet's data, or None when it is not one."""
-    if not data.startswith(pdu.TAGS):
-        return None
-    h = data[len(pdu.TAGS):]
-    if len(h) < 39 or h[0] != pdu.VERSION:
-        return None
-    line = pdu.LINE_CODES[h[18]] if h[18] < len(pdu.LINE_CODES) else None
-    at = 38 + h[37]
-    if at >= len(h):
-        return None
-    count = h[at]
-    at += 1
-    for _ in range(count):
-        if at + 4 > len(h):
-            return None
-        at += 4 + struct.unpack_from(">H", h, at + 2)[0]
-    if line is None or at > len(h):
-        return None
-    return line, h[at:]
-
-
 class PcapngSource(Source):
     timed = True
     clocks = 1   # the file's times are one time line (a two-port tap's were aligned when written)
@@ -103,6 +82,7 @@ class PcapngSource(Source):
         self.name = inp.name
         self.description = inp.describe("pcapng (gimbalscope packets)")
         self.on_close(inp.close)
+        self._start_ns: int | None = None   # the first packet's time: t = 0
         self.lines, self.start_time = self._first_section(inp.head)
 
     def _first_section(self, head: bytes) -> tuple[tuple[str, ...], float | None]:
@@ -111,7 +91,7 @@ class PcapngSource(Source):
         lines: list[str] = []
         start = None
         interfaces: list[_Interface] = []
-        for kind, endian, body in _blocks_in(head):
+        for kind, endian, body in _blocks(io.BytesIO(head), self.name, _quiet):   # a head ends mid-block
             if kind == _SHB and (lines or interfaces):
                 break
             if kind == _SHB:
@@ -170,7 +150,7 @@ class PcapngSource(Source):
 
     def _read(self, f: BinaryIO, say: bool = True) -> Iterator[Chunk]:
         interfaces: list[_Interface] = []
-        start = getattr(self, "_start_ns", None)
+        start = self._start_ns
         foreign = other_lines = 0
         for kind, endian, body in _blocks(f, self.name, self.warn if say else _quiet):
             if kind == _SHB:
@@ -180,7 +160,7 @@ class PcapngSource(Source):
             elif kind == _EPB:
                 iface, hi, lo, caplen = struct.unpack_from(endian + "IIII", body, 0)
                 info = interfaces[iface] if iface < len(interfaces) else None
-                got = _wire(body[20:20 + caplen]) if info is not None and info.link_type == pdu.LINKTYPE else None
+                got = pdu.wire_of(body[20:20 + caplen]) if info is not None and info.link_type == pdu.LINKTYPE else None
                 if got is None:
                     foreign += 1
                     continue
@@ -207,20 +187,6 @@ class PcapngSource(Source):
 
 def _quiet(_msg: str) -> None:
     pass
-
-
-def _blocks_in(data: bytes) -> Iterator[tuple[int, str, bytes]]:
-    """Whole blocks in ``data`` (a head): (type, byte order, body)."""
-    at, endian = 0, "<"
-    while at + 12 <= len(data):
-        kind = struct.unpack_from("<I", data, at)[0]
-        if kind == _SHB:
-            endian = "<" if struct.unpack_from("<I", data, at + 8)[0] == _BOM else ">"
-        kind, total = struct.unpack_from(endian + "II", data, at)
-        if total < 12 or at + total > len(data):
-            return
-        yield kind, endian, data[at + 8:at + total - 4]
-        at += total
 
 
 def _blocks(f: BinaryIO, name: str, warn) -> Iterator[tuple[int, str, bytes]]:

@@ -469,7 +469,6 @@ function gimbal.dissector(tvb, pinfo, tree)
   local cmd, key = link(pinfo, kind, capture, txn)
 
   -- the summary line and the columns
-  local what = command or kind
   root:append_text(string.format(", %s %s", kind, command or ""))
   if device then root:append_text((kind == "command" and " to " or " from ") .. device) end
   if status then root:append_text(" (" .. status .. ")") end

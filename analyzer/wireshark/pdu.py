@@ -152,6 +152,29 @@ def encode(ev: Event, capture: int = 0) -> bytes:
     return b"".join(out)
 
 
+def wire_of(data: bytes) -> tuple[str, bytes] | None:
+    """The line and the wire bytes of a packet ``encode`` made (tags included),
+    or None when ``data`` is not one: the reverse of ``encode`` for what reading
+    a file back needs (analyzer/sources/pcapngfile.py)."""
+    if not data.startswith(TAGS):
+        return None
+    h = data[len(TAGS):]
+    if len(h) < _FIXED.size + 1 or h[0] != VERSION or h[18] >= len(LINE_CODES):
+        return None
+    at = _FIXED.size + h[_FIXED.size - 1]   # past the command id
+    if at >= len(h):
+        return None
+    count = h[at]
+    at += 1
+    for _ in range(count):   # the problems: (index, length, text) each
+        if at + 4 > len(h):
+            return None
+        at += 4 + struct.unpack_from(">H", h, at + 2)[0]
+    if at > len(h):
+        return None
+    return LINE_CODES[h[18]], h[at:]
+
+
 def comment(ev: Event) -> str | None:
     """The packet's comment: its problems, one per line (None when clean)."""
     return "\n".join(ev.problems) if ev.problems else None

@@ -12,19 +12,19 @@ from byte offsets at the line's rate, and their section says so (``pdu.UNTIMED``
 so reading the file back does not take those times for measured ones.
 
 Several captures can share one file (``gimbalscope export A B -o F.pcapng``):
-each gets interfaces of its own and a capture number in its packets, because
+each is a section of its own with a capture number in its packets, because
 pairing (transaction numbers) is per capture.
 """
 
 from __future__ import annotations
 
-import time
 from typing import BinaryIO
 
 from dissectors.event import Event
 
 from ..info import LINE_ROLES, CaptureInfo
 from ..outfile import write_error
+from ..recording.messages import WireClock
 from ..runner import Listener
 from ..wireshark import pdu
 from ..wireshark.pcapng import PcapngStream
@@ -40,52 +40,40 @@ def open_stream(file: BinaryIO, info: CaptureInfo) -> PcapngStream:
 
 
 class PcapngWriter(Listener):
-    """The registry's ``.pcapng`` writer. ``stream`` and ``capture``: the file
-    is shared with other captures (this one is number ``capture``); ``flush``:
-    push each batch out as it comes (a live FIFO)."""
+    """The registry's ``.pcapng`` writer: one section, for the capture ``info``
+    describes. ``capture``: its number in a file of several (``export``);
+    ``flush``: push each batch out as it comes (a live FIFO)."""
 
     many_captures = True   # export may put several captures in one file
 
-    def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None,
-                 stream: PcapngStream | None = None, capture: int = 0, flush: bool = False) -> None:
+    def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, capture: int = 0,
+                 flush: bool = False) -> None:
         self.info = info
         self.capture = capture
         self.flush = flush
         self._own = None
-        if stream is None:
-            if file is None:
-                try:
-                    file = self._own = open(path, "wb")
-                except OSError as e:
-                    raise write_error(path, e) from None
-            stream = open_stream(file, info)
-        self.stream = stream
+        if file is None:
+            try:
+                file = self._own = open(path, "wb")
+            except OSError as e:
+                raise write_error(path, e) from None
+        self.stream = open_stream(file, info)
         names = info.line_names
         self.interface = {
-            line: stream.add_interface(pdu.LINKTYPE, line, f"{LINE_ROLES.get(line, line)}: {names.get(line, '')}")
+            line: self.stream.add_interface(pdu.LINKTYPE, line, f"{LINE_ROLES.get(line, line)}: {names.get(line, '')}")
             for line in info.lines}
-        clock = message_clock(info)
-        start = clock["start_time"]
-        self.start_ns = int((start if start is not None else time.time()) * 1e9)
-        self.byte_ns = clock["wire_byte_time"] * 1e9 if clock["wire_byte_time"] is not None else None
+        self.clock = WireClock(**message_clock(info))
         self.packets = 0
 
-    def _ns(self, ev: Event) -> int:
-        if ev.t is not None:
-            return self.start_ns + round(ev.t * 1e9)
-        if self.byte_ns is not None:
-            return self.start_ns + round(ev.offset * self.byte_ns)
-        return self.start_ns + ev.number   # no time, no rate: in order
-
     def on_events(self, events: list[Event]) -> None:
-        packet, encode, comment = self.stream.packet, pdu.encode, pdu.comment
+        packet, encode, comment, time_ns = self.stream.packet, pdu.encode, pdu.comment, self.clock.time_ns
         interface, capture = self.interface, self.capture
         first = next(iter(interface.values()))
         n = 0
         for ev in events:
             if not pdu.on_the_wire(ev):
                 continue
-            packet(interface.get(ev.line, first), self._ns(ev), encode(ev, capture), comment(ev))
+            packet(interface.get(ev.line, first), time_ns(ev.t, ev.number, ev.offset), encode(ev, capture), comment(ev))
             n += 1
         self.packets += n
         if self.flush and n:
