@@ -17,6 +17,7 @@ import threading
 import time
 
 from dissectors.deframer import NOISE_PIECE
+from tests.child import LISTENING, wait_for
 from tests.conftest import ROOT, run_cli
 from tests.integration.test_live import pty_pair
 
@@ -48,8 +49,9 @@ def start_tap(tmp_path, *ports):
                              "--record", str(rec)], stdout=out, stderr=err, cwd=ROOT)
     out.close()
     err.close()
-    time.sleep(1.0)
-    assert proc.poll() is None, (tmp_path / "err.txt").read_text()
+    said = tmp_path / "err.txt"
+    wait_for(lambda: LISTENING in said.read_text() or proc.poll() is not None, "the tap to listen")
+    assert proc.poll() is None, said.read_text()
     return proc, rec
 
 

@@ -3,14 +3,12 @@ time on real ptys, ``gimbalscope doctor`` listening on its tap ports with pyseri
 Each fault must be found, and nothing else raised; a clean run raises nothing."""
 
 import json
-import subprocess
-import sys
-import time
 
 import pytest
 
 from analyzer.simulation import scenario
-from tests.conftest import ROOT, run_cli
+from tests.child import Child
+from tests.conftest import run_cli
 
 # fault -> (the finding it must give, other warnings that are true consequences of it)
 EXPECTED = {
@@ -33,18 +31,15 @@ EXPECTED = {
 def doctor_on(faults: set[str], seconds: float = 7.0, *extra: str) -> dict:
     site = scenario.build(faults, clean=True)
     a, b = site.link.tap_ports
-    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "doctor", a, b, "--seconds", str(seconds),
-                             "--format", "json", *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, cwd=ROOT)
+    doctor = Child("doctor", a, b, "--seconds", str(seconds), "--format", "json", *extra)
     try:
-        time.sleep(0.5)          # the doctor has the ports open before traffic starts
+        doctor.wait_listening()    # its ports are open before traffic starts
         site.start()
-        out, err = proc.communicate(timeout=seconds + 60)
+        code, out, err = doctor.wait()
     finally:
         site.stop()
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 0, err
+        doctor.kill()
+    assert code == 0, err
     return json.loads(out)
 
 

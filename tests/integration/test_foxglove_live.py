@@ -13,11 +13,9 @@ import contextlib
 import json
 import os
 import re
-import signal
 import socket
 import struct
 import subprocess
-import sys
 import threading
 import time
 import tty
@@ -32,9 +30,9 @@ from analyzer.info import CaptureInfo
 from analyzer.listeners.foxglove import FoxgloveServer
 from analyzer.traffic import generate
 from analyzer.tui.run import make_app, stop_feed
-from tests.conftest import ROOT, SOCAT_LOG, frame, run_cli
+from tests.child import PATIENCE, Child, wait_for
+from tests.conftest import SOCAT_LOG, frame, run_cli
 
-PATIENCE = 60.0                 # seconds to wait for a condition
 SUBPROTOCOL = "foxglove.sdk.v1"   # what the SDK's server accepts (it refuses foxglove.websocket.v1)
 REFUSED = re.compile(r"Unknown channel ID: (\d+)")
 PARAMETERS = "does not support parameters"   # the answer to a request for parameters
@@ -63,38 +61,14 @@ def two_lines():
                 os.close(fd)
 
 
-def wait_for(predicate, what: str, timeout: float = PATIENCE) -> None:
-    end = time.monotonic() + timeout
-    while not predicate():
-        assert time.monotonic() < end, f"gave up waiting for {what}"
-        time.sleep(0.02)
-
-
-class Tap:
+class Tap(Child):
     """``gimbalscope ARGS`` in a child process, its standard error read as it comes."""
 
-    def __init__(self, *args, stdout=subprocess.DEVNULL) -> None:
-        self.proc = subprocess.Popen([sys.executable, "-m", "analyzer", *map(str, args)], stdout=stdout,
-                                     stderr=subprocess.PIPE, text=True, cwd=ROOT)
-        self.err: list[str] = []
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-
-    def _read(self) -> None:
-        for line in self.proc.stderr:
-            self.err.append(line)
+    def __init__(self, *args) -> None:
+        super().__init__(*args, stdout=subprocess.DEVNULL)
 
     def wait_serving(self, port: int) -> None:
-        line = SERVING.format(port=port) + "\n"
-        wait_for(lambda: line in self.err or self.proc.poll() is not None, "the serving line")
-        assert line in self.err, "".join(self.err)
-
-    def stop(self) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGINT)
-        code = self.proc.wait(PATIENCE)
-        self._reader.join(PATIENCE)
-        return code
+        self.wait_said(SERVING.format(port=port) + "\n", "the serving line")
 
 
 class Client:
@@ -263,7 +237,7 @@ def serve_a_conversation(tmp_path, fds, pa, pb):
             # the last report's position (0x7FFF, 0x0123 in bits) is in no other result
             wait_for(lambda: any(e["kind"] == "result" and e["payload"].endswith("7FFF0123")
                                  for e in c.events()), "the last report")
-            assert tap.stop() == 0, "".join(tap.err)
+            assert tap.stop()[0] == 0, "".join(tap.err)
     finally:
         tap.stop()
     return c, tap, rec
@@ -301,7 +275,7 @@ def test_demo_serves():
                                                                        for t, m in c.messages.items()),
                      "events and positions")
     finally:
-        assert tap.stop() == 0, "".join(tap.err)
+        assert tap.stop()[0] == 0, "".join(tap.err)
     events = c.events()
     assert [e["number"] for e in events] == list(range(events[0]["number"], events[-1]["number"] + 1))
     assert c.messages["/serial/A/raw"] and c.messages["/serial/B/raw"]
@@ -317,7 +291,7 @@ def test_replay_serves_at_its_pace(tmp_path):
         with client(port) as c:
             wait_for(lambda: tap.proc.poll() is not None, "the end of the replay")
     finally:
-        assert tap.stop() == 0, "".join(tap.err)
+        assert tap.stop()[0] == 0, "".join(tap.err)
     # what came is a run of what the recording holds (the replay started as the client connected)
     got, want = [m for _t, m in c.messages["/events"]], [m for _t, m in recorded(rec)["/events"]]
     assert len(got) > 100
@@ -357,7 +331,7 @@ def test_the_server_listens_only_while_it_serves():
     port = free_port()
     tap = Tap("demo", "--seconds", "0", "--no-tui", "--foxglove", f"127.0.0.1:{port}")
     tap.wait_serving(port)
-    assert tap.stop() == 0, "".join(tap.err)
+    assert tap.stop()[0] == 0, "".join(tap.err)
     with socket.socket() as s:
         s.bind(("127.0.0.1", port))
 

@@ -4,14 +4,14 @@ import json
 import os
 import signal
 import subprocess
-import sys
 import time
 import tty
 
 import pytest
 import serial
 
-from tests.conftest import ROOT, frame, run_cli
+from tests.child import Child
+from tests.conftest import frame, run_cli
 from tests.integration.test_mcap import doctor, go_read, jsonl
 
 BT = 10 / 9600
@@ -24,14 +24,10 @@ def pty_pair():
 
 
 def start_live(*args):
-    exe = [sys.executable, "-m", "analyzer"]
-    return subprocess.Popen(exe + ["live", *map(str, args)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True, cwd=ROOT)
-
-
-def wait_open(proc, seconds=1.0):
-    time.sleep(seconds)
-    assert proc.poll() is None, proc.communicate()
+    """``gimbalscope live ARGS``, returned once it says it is listening."""
+    tap = Child("live", *args)
+    tap.wait_listening()
+    return tap
 
 
 def recording_tap(tmp_path, name="live.mcap"):
@@ -40,9 +36,7 @@ def recording_tap(tmp_path, name="live.mcap"):
     ma, sa, pa = pty_pair()
     mb, sb, pb = pty_pair()
     rec = tmp_path / name
-    proc = start_live(pa, pb, "--format", "jsonl", "--record", rec)
-    wait_open(proc)
-    return ma, mb, sb, pa, pb, rec, proc
+    return ma, mb, sb, pa, pb, rec, start_live(pa, pb, "--format", "jsonl", "--record", rec)
 
 
 def conversation(ma, mb, rounds=3):
@@ -69,10 +63,8 @@ def conversation(ma, mb, rounds=3):
     return a, b
 
 
-def stop(proc):
-    proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=15)
-    return proc.returncode, out, err
+def stop(tap):
+    return tap.stop(signal.SIGINT)
 
 
 def test_live_equals_decode_of_recording_and_of_the_same_bytes(tmp_path):
@@ -127,8 +119,7 @@ def test_sigkill_during_record_leaves_a_file_that_reads_and_recovers(tmp_path):
     conversation(ma, mb, rounds=3)
     time.sleep(1.5)       # the recorder flushes about once a second
     conversation(ma, mb, rounds=1)
-    proc.send_signal(signal.SIGKILL)
-    proc.communicate(timeout=10)
+    proc.stop(signal.SIGKILL)
     events = jsonl(rec)
     assert len(events) >= 15                      # at least what was flushed
     assert [e["kind"] for e in events[:5]] == ["command", "ack", "result", "command", "ack"]
@@ -165,11 +156,9 @@ def test_busy_port():
 
 
 def test_loop_url_is_accepted_and_sigterm_ends_cleanly():
-    proc = start_live("loop://", "--format", "jsonl")
-    wait_open(proc, 0.7)
-    proc.send_signal(signal.SIGTERM)
-    out, err = proc.communicate(timeout=10)
-    assert proc.returncode == 0 and out == "" and "Traceback" not in err
+    code, out, err = start_live("loop://", "--format", "jsonl").stop(signal.SIGTERM)
+    assert code == 0 and out == "" and "Traceback" not in err
+    assert "gimbalscope live: listening on loop:// (until Ctrl-C)\n" in err
 
 
 def drifted_round(ma, mb, cmd):
@@ -251,7 +240,6 @@ def test_vanished_port_is_reopened_when_it_returns(tmp_path, socat_bin):
     rec = tmp_path / "live.mcap"
     proc = start_live(pa, tap_b, "--format", "jsonl", "--record", rec)
     try:
-        wait_open(proc)
         cmd = frame((1, 1, 1), 0, "HO")
         os.write(ma, cmd)
         time.sleep(0.01 + BT)
@@ -269,8 +257,7 @@ def test_vanished_port_is_reopened_when_it_returns(tmp_path, socat_bin):
         time.sleep(0.5)
         code, out, err = stop(proc)
     finally:
-        if proc.poll() is None:
-            proc.kill()
+        proc.kill()
         dev.close()
         adapter.terminate()
         adapter.wait(5)
