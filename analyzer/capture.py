@@ -416,6 +416,7 @@ class Capture:
         # near, is merge.arrived inline: this loop runs once per chunk
         plain = merge.estimator is None
         follow = self.follower is not None
+        follower, watch_all = self.follower, self._watch_all
         tap = self._tap
         since_release = 0
         # one clock: a chunk read later started no earlier than the other line's
@@ -435,9 +436,10 @@ class Capture:
             else:
                 if self.swap_lines:
                     chunk = Chunk(_SWAP[chunk.line], data, chunk.t)
-                if follow:
-                    self._marked(chunk.line, data)
-                d = deframers[chunk.line]
+                line = chunk.line
+                if follow and line != "B":   # (_marked's own first test, saving a call a chunk)
+                    self._marked(line, data)
+                d = deframers[line]
                 if tap is not None:
                     tap(chunk, d.offset)
                 t = chunk.t
@@ -445,7 +447,8 @@ class Capture:
                     arrived(self._skip(d, chunk))
                 else:
                     events = d.feed(data, t, last_read if one_clock else None)
-                    if plain and not (follow and self._watching()):
+                    # (self._watching() inline: this runs once a chunk)
+                    if plain and not (follow and (watch_all or self._marks > 0 or follower.busy)):
                         merge.held += events
                     else:
                         arrived(events)

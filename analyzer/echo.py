@@ -26,27 +26,35 @@ class EchoStripper:
         # commands of this batch and the last ones before it, by their bytes (a copy
         # can be stamped a little before its original, so both ways round)
         commands = [ev for ev in batch if ev.kind == COMMAND and ev.line == "A" and ev.t is not None]
-        if not commands and not self._recent:
+        results = [ev for ev in batch if ev.kind == RESULT and ev.line == "B" and ev.t is not None]
+        recent = self._recent
+        if not results:
+            recent.extend(commands)
             return batch
+        # only commands with a result's bytes can have been copied: a real result
+        # never has its command's bytes, so this is usually empty
+        raws = {ev.raw for ev in results}
         by_raw: dict[bytes, list[Event]] = {}
-        for ev in (*self._recent, *commands):
-            by_raw.setdefault(ev.raw, []).append(ev)
-        self._recent.extend(commands)
+        for ev in (*recent, *commands):
+            if ev.raw in raws:
+                by_raw.setdefault(ev.raw, []).append(ev)
+        recent.extend(commands)
+        if not by_raw:
+            return batch
         copies: set[int] | None = None   # ids of the copies; usually none, and the batch is kept as it is
         window = self.window
-        for ev in batch:
-            if ev.kind == RESULT and ev.line == "B" and ev.t is not None:
-                originals = by_raw.get(ev.raw)
-                if originals:
-                    match = next((c for c in originals if abs(c.t - ev.t) < window), None)
-                    if match is not None:
-                        originals.remove(match)    # one copy per command
-                        self.count += 1
-                        if len(self._echoed) < 10_000:   # nobody taking them: keep memory flat
-                            self._echoed.append(match)
-                        if copies is None:
-                            copies = set()
-                        copies.add(id(ev))
+        for ev in results:
+            originals = by_raw.get(ev.raw)
+            if originals:
+                match = next((c for c in originals if abs(c.t - ev.t) < window), None)
+                if match is not None:
+                    originals.remove(match)    # one copy per command
+                    self.count += 1
+                    if len(self._echoed) < 10_000:   # nobody taking them: keep memory flat
+                        self._echoed.append(match)
+                    if copies is None:
+                        copies = set()
+                    copies.add(id(ev))
         if copies is None:
             return batch
         return [ev for ev in batch if id(ev) not in copies]

@@ -210,6 +210,62 @@ static PyObject *new_event(PyObject *line, Py_ssize_t offset, PyObject *kind, Py
     return ev;
 }
 
+/* The event of a whole valid frame of n bytes at p (its checksum checked), at
+ * absolute offset offset; NULL with an exception set. */
+static PyObject *frame_event(const unsigned char *p, Py_ssize_t n, PyObject *line, Py_ssize_t offset,
+                             PyObject *frame_kind)
+{
+    PyObject *raw = PyBytes_FromStringAndSize((const char *)p, n);
+    if (raw == NULL)
+        return NULL;
+    PyObject *ev = new_event(line, offset, frame_kind, raw);
+    if (ev == NULL)
+        return NULL;
+    PyObject *dst = Py_BuildValue("(iii)", p[1], p[2], p[3]);
+    PyObject *src = PyLong_FromLong(p[4]);
+    PyObject *payload = PyBytes_FromStringAndSize((const char *)p + 6, n - 7);
+    if (dst == NULL || src == NULL || payload == NULL) {
+        Py_XDECREF(dst);
+        Py_XDECREF(src);
+        Py_XDECREF(payload);
+        Py_DECREF(ev);
+        return NULL;
+    }
+    set_slot(ev, off_dst, dst);
+    set_slot(ev, off_src, src);
+    set_slot(ev, off_payload, payload);
+    Py_INCREF(Py_True);
+    set_slot(ev, off_checksum_ok, Py_True);
+    return ev;
+}
+
+/* The event of the simple response byte at p, of kind kind. */
+static PyObject *simple_event(const unsigned char *p, PyObject *line, Py_ssize_t offset, PyObject *kind)
+{
+    PyObject *raw = PyBytes_FromStringAndSize((const char *)p, 1);
+    return raw == NULL ? NULL : new_event(line, offset, kind, raw);
+}
+
+/* the length of the whole valid frame at p (n bytes available, p[0] a start
+ * byte), or 0: cut short, a checksum that fails, or a start byte inside the
+ * payload (deframer._suspect) */
+static Py_ssize_t valid_frame(const unsigned char *p, Py_ssize_t n)
+{
+    if (n < 6)
+        return 0;
+    Py_ssize_t len = (p[5] ? p[5] : 256) + 7;
+    if (len > n)
+        return 0;
+    unsigned int sum = 0;
+    for (Py_ssize_t k = 1; k < len - 1; k++)
+        sum += p[k];
+    if ((sum & 0xFF) != p[len - 1])
+        return 0;
+    if (memchr(p + 6, START, (size_t)(len - 7)) != NULL)
+        return 0;
+    return len;
+}
+
 /* scan(buf, i, kinds, line, frame_kind, base, out[, seg_off, seg_t, seg_bt])
  * -> index of the first byte not turned into an event. kinds: a 256-tuple, the
  * simple response kind of each byte value or None. The segments, for a timed
@@ -272,20 +328,10 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     while (i < n) {
         unsigned char b = buf[i];
         if (b == START) {
-            if (n - i < 6)
+            Py_ssize_t len = valid_frame(buf + i, n - i);
+            if (len == 0)
                 break;
-            Py_ssize_t len = buf[i + 5] ? buf[i + 5] : 256;
-            Py_ssize_t end = i + len + 7;
-            if (end > n)
-                break;
-            unsigned int sum = 0;
-            for (Py_ssize_t k = i + 1; k < end - 1; k++)
-                sum += buf[k];
-            if ((sum & 0xFF) != buf[end - 1])
-                break;
-            /* a start byte inside the payload makes the frame suspect (deframer._suspect) */
-            if (memchr(buf + i + 6, START, (size_t)(end - 1 - (i + 6))) != NULL)
-                break;
+            Py_ssize_t end = i + len;
             double t0 = 0.0, t1 = 0.0;
             if (timed != NULL) {
                 int r = times(timed, base + i, base + end - 1, &t0, &t1);
@@ -294,27 +340,9 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
                 if (r > 0)
                     break;
             }
-            PyObject *raw = PyBytes_FromStringAndSize((const char *)buf + i, end - i);
-            if (raw == NULL)
-                return NULL;
-            PyObject *ev = new_event(line, base + i, frame_kind, raw);
+            PyObject *ev = frame_event(buf + i, end - i, line, base + i, frame_kind);
             if (ev == NULL)
                 return NULL;
-            PyObject *dst = Py_BuildValue("(iii)", buf[i + 1], buf[i + 2], buf[i + 3]);
-            PyObject *src = PyLong_FromLong(buf[i + 4]);
-            PyObject *payload = PyBytes_FromStringAndSize((const char *)buf + i + 6, end - 1 - (i + 6));
-            if (dst == NULL || src == NULL || payload == NULL) {
-                Py_XDECREF(dst);
-                Py_XDECREF(src);
-                Py_XDECREF(payload);
-                Py_DECREF(ev);
-                return NULL;
-            }
-            set_slot(ev, off_dst, dst);
-            set_slot(ev, off_src, src);
-            set_slot(ev, off_payload, payload);
-            Py_INCREF(Py_True);
-            set_slot(ev, off_checksum_ok, Py_True);
             if (emit(out, ev, timed != NULL, t0, t1) < 0)
                 return NULL;
             i = end;
@@ -331,10 +359,7 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
             if (r > 0)
                 break;
         }
-        PyObject *raw = PyBytes_FromStringAndSize((const char *)buf + i, 1);
-        if (raw == NULL)
-            return NULL;
-        PyObject *ev = new_event(line, base + i, kind, raw);
+        PyObject *ev = simple_event(buf + i, line, base + i, kind);
         if (ev == NULL)
             return NULL;
         if (emit(out, ev, timed != NULL, t0, t1) < 0)
@@ -344,10 +369,65 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     return PyLong_FromSsize_t(i);
 }
 
+
+/* whole(data, t, bt, base, line, frame_kind, kinds) -> Event or None: the event
+ * Deframer._whole makes of a read that is exactly one whole valid frame or one
+ * simple response byte, timed from t (None: untimed) at bt a byte; None for
+ * anything else, and for times that are not floats (the Python path decides). */
+static PyObject *whole(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 7) {
+        PyErr_SetString(PyExc_TypeError, "whole() takes 7 arguments");
+        return NULL;
+    }
+    PyObject *data = args[0], *t = args[1], *bt = args[2], *line = args[4], *frame_kind = args[5];
+    PyObject *kinds = args[6];
+    if (!PyBytes_Check(data) || !PyTuple_Check(kinds) || PyTuple_GET_SIZE(kinds) != 256) {
+        PyErr_SetString(PyExc_TypeError, "whole(bytes, float|None, float, int, str, str, 256-tuple)");
+        return NULL;
+    }
+    if (event_type == NULL) {
+        PyErr_SetString(PyExc_RuntimeError, "whole() before configure()");
+        return NULL;
+    }
+    int timed = t != Py_None;
+    if (timed && (!PyFloat_CheckExact(t) || !PyFloat_CheckExact(bt)))
+        Py_RETURN_NONE;
+    Py_ssize_t base = PyLong_AsSsize_t(args[3]);
+    if (base == -1 && PyErr_Occurred())
+        return NULL;
+    const unsigned char *p = (const unsigned char *)PyBytes_AS_STRING(data);
+    Py_ssize_t n = PyBytes_GET_SIZE(data);
+    PyObject *ev;
+    if (n == 1) {
+        PyObject *kind = PyTuple_GET_ITEM(kinds, p[0]);
+        if (kind == Py_None)
+            Py_RETURN_NONE;
+        ev = simple_event(p, line, base, kind);
+    } else {
+        if (n == 0 || p[0] != START || valid_frame(p, n) != n)
+            Py_RETURN_NONE;
+        ev = frame_event(p, n, line, base, frame_kind);
+    }
+    if (ev == NULL)
+        return NULL;
+    if (timed) {
+        /* as Deframer._whole: t + n * bt */
+        double t0 = PyFloat_AS_DOUBLE(t);
+        if (set_times(ev, t0, t0 + (double)n * PyFloat_AS_DOUBLE(bt)) < 0) {
+            Py_DECREF(ev);
+            return NULL;
+        }
+    }
+    return ev;
+}
+
 static PyMethodDef methods[] = {
     {"configure", configure, METH_VARARGS, "configure(blank_event, slot_names): events are made as copies of it"},
     {"scan", (PyCFunction)(void (*)(void))scan, METH_FASTCALL,
      "scan(buf, i, kinds, line, frame_kind, base, out) -> index: whole valid frames and simple responses from i"},
+    {"whole", (PyCFunction)(void (*)(void))whole, METH_FASTCALL,
+     "whole(data, t, bt, base, line, frame_kind, kinds) -> Event or None: a read that is one whole token"},
     {NULL, NULL, 0, NULL},
 };
 
@@ -361,7 +441,7 @@ PyMODINIT_FUNC PyInit__scan(void)
     PyObject *m = PyModule_Create(&module);
     /* what scan() takes and does; deframer.py uses only the version it was written
      * for (a stale build left in a source tree falls back to the pure loop) */
-    if (m != NULL && PyModule_AddIntConstant(m, "INTERFACE", 2) < 0) {
+    if (m != NULL && PyModule_AddIntConstant(m, "INTERFACE", 3) < 0) {
         Py_DECREF(m);
         return NULL;
     }

@@ -48,26 +48,27 @@ _NOT_NOISE = re.compile(b"[" + re.escape(bytes([START, ACK, NAK, NIC])) + b"]")
 _START = re.compile(re.escape(bytes([START])))   # line A: only a frame
 
 
-_SCAN_INTERFACE = 2   # the version of scan() this module calls (_scan.c, INTERFACE)
+_SCAN_INTERFACE = 3   # the version of scan() and whole() this module calls (_scan.c, INTERFACE)
 
 
-def _compiled_scan():
-    """The C loop for whole valid frames and simple responses (dissectors/_scan.c),
-    or None: not built (no compiler at install), or ``GIMBALSCOPE_PURE=1`` in the
-    environment. Both give the same events; the pure loop below is the reference."""
+def _compiled():
+    """The C loop for whole valid frames and simple responses, and its one-read
+    form (dissectors/_scan.c: ``scan``, ``whole``), or Nones: not built (no
+    compiler at install), or ``GIMBALSCOPE_PURE=1`` in the environment. Both give
+    the same events; the pure code below is the reference."""
     if os.environ.get("GIMBALSCOPE_PURE", "") not in ("", "0"):
-        return None
+        return None, None
     try:
         from . import _scan
     except ImportError:
-        return None
+        return None, None
     if getattr(_scan, "INTERFACE", None) != _SCAN_INTERFACE:   # built from another version of _scan.c
-        return None
+        return None, None
     _scan.configure(Event("", 0, NOISE, b""), Event.__slots__)
-    return _scan.scan
+    return _scan.scan, _scan.whole
 
 
-_scan = _compiled_scan()
+_scan, _whole_read = _compiled()
 COMPILED = _scan is not None   # whether this process deframes with the C loop
 
 
@@ -112,7 +113,9 @@ class Deframer:
         self._seg_t: list[float] = []   # wire time of that chunk's first byte
         self._seg_bt: list[float] = []  # and the time each of its bytes took (its byte time)
         self._gaps: list[int] = []      # absolute offsets preceded by a silence > frame_gap
-        self._last_end: float | None = None  # wire time the last fed byte ended
+        # when the last byte fed (or skipped) ended, as placed; None untimed (an
+        # attribute, not a property: a capture reads it after every read)
+        self.last_end: float | None = None
         self._noise_start: int | None = None  # absolute offset of a pending noise run
         self._timed = False
         self._resume = 0             # absolute offset where scanning resumes
@@ -148,34 +151,37 @@ class Deframer:
         where the line's previous bytes ended instead, or at ``not_before`` when
         later (the other line's latest read, for a capture with one clock), and
         are spread so that they end when they were read."""
-        if not data:
+        n = len(data)
+        if not n:
             return []
         bt = self.byte_time
+        buf = self._buf
         if t is not None:
             self._timed = True
-            last = self._last_end
+            last = self.last_end
             floor = last if not_before is None or (last is not None and last >= not_before) else not_before
             if floor is not None and t < floor:
-                n = len(data)
                 read = t + n * bt
                 bt = (read - floor) / n if read > floor else 0.0
                 t = floor
-            if last is not None and t - last > self.frame_gap and self._buf:
-                self._gaps.append(self._base + len(self._buf))
-            self._last_end = t + len(data) * bt
-        if not self._buf and self._noise_start is None and not self._gaps:
+            if buf and last is not None and t - last > self.frame_gap:
+                self._gaps.append(self._base + len(buf))
+            self.last_end = t + n * bt
+        if not buf and self._noise_start is None and not self._gaps:
             # the usual read: one whole token with nothing pending becomes its event
             # directly (no segment bookkeeping: nothing of it stays buffered)
-            ev = self._whole(bytes(data), t, bt)
+            if _whole_read is not None:
+                ev = _whole_read(bytes(data), t, bt, self._base, self.line, self.frame_kind, self._kinds)
+            else:
+                ev = self._whole(bytes(data), t, bt)
             if ev is not None:
-                self._base += len(data)
-                self._resume = self._base
+                self._base = self._resume = self._base + n
                 return [ev]
         if t is not None:
-            self._seg_off.append(self._base + len(self._buf))
+            self._seg_off.append(self._base + len(buf))
             self._seg_t.append(t)
             self._seg_bt.append(bt)
-        self._buf = self._buf + data if self._buf else bytes(data)
+        self._buf = buf + data if buf else bytes(data)
         return self._parse(final=False)
 
     def _whole(self, data: bytes, t: float | None, bt: float) -> Event | None:
@@ -198,7 +204,7 @@ class Deframer:
 
     def idle(self, now: float) -> list[Event]:
         """Live input: nothing arrived until ``now``; close what a silence closes."""
-        if self._buf and self._last_end is not None and now - self._last_end > self.frame_gap:
+        if self._buf and self.last_end is not None and now - self.last_end > self.frame_gap:
             return self._parse(final=True)
         return []
 
@@ -225,18 +231,13 @@ class Deframer:
         self._seg_t.clear()
         self._seg_bt.clear()
         self._gaps.clear()
-        last = self._last_end
+        last = self.last_end
         if t is None:
-            self._last_end = None   # the skipped bytes ended later; the next chunk's time stands
+            self.last_end = None   # the skipped bytes ended later; the next chunk's time stands
         else:
             end = t + n * self.byte_time
-            self._last_end = end if last is None or end > last else last
+            self.last_end = end if last is None or end > last else last
         return out
-
-    @property
-    def last_end(self) -> float | None:
-        """When the last byte fed (or skipped) ended, as placed; None untimed."""
-        return self._last_end
 
     # ------------------------------------------------------------------ time
     def _time_at(self, off: int, after: int = 0) -> float | None:

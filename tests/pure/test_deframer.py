@@ -8,20 +8,17 @@ import dissectors.deframer as deframer_module
 from dissectors import Deframer
 from dissectors.deframer import NOISE_PIECE
 from dissectors.wire import build_frame
+from tests.pure.test_deframer_paths import pure_loop
 
 
 @pytest.fixture(scope="module", autouse=True, params=["compiled", "pure"])
 def deframing_path(request):
     """Every test here runs on both deframing loops: the C one (dissectors/_scan.c,
     when it was built) and the pure-Python one it stands in for."""
-    saved = deframer_module._scan
-    if request.param == "compiled":
-        if saved is None:
-            pytest.skip("the C deframing loop is not built (no compiler at install, or GIMBALSCOPE_PURE=1)")
-    else:
-        deframer_module._scan = None
-    yield request.param
-    deframer_module._scan = saved
+    if request.param == "compiled" and deframer_module._scan is None:
+        pytest.skip("the C deframing loop is not built (no compiler at install, or GIMBALSCOPE_PURE=1)")
+    with pure_loop(request.param == "pure"):
+        yield request.param
 
 
 def frame(dst, src, payload: bytes) -> bytes:

@@ -2,6 +2,8 @@
 in for: the same events, field by field, for any bytes in any split; and the
 environment switch that selects the pure loop."""
 
+import contextlib
+import itertools
 import os
 import subprocess
 import sys
@@ -23,14 +25,23 @@ def frame(dst, src, payload: bytes) -> bytes:
     return b"\xf8" + body + bytes([sum(body) & 0xFF])
 
 
+@contextlib.contextmanager
+def pure_loop(pure: bool = True):
+    """Deframe with the pure-Python code while inside (``pure``), the C parts put back after."""
+    saved = deframer_module._scan, deframer_module._whole_read
+    if pure:
+        deframer_module._scan = deframer_module._whole_read = None
+    try:
+        yield
+    finally:
+        deframer_module._scan, deframer_module._whole_read = saved
+
+
 def events(data: bytes, line: str, cuts: list[int], pure: bool, times: list[float] | None = None,
            byte_time: float = 0.0) -> list[Event]:
     """Deframe ``data`` fed in pieces cut at ``cuts``; ``times``: each piece's time
     (timed input), taken in turn."""
-    saved = deframer_module._scan
-    if pure:
-        deframer_module._scan = None
-    try:
+    with pure_loop(pure):
         d = Deframer(line, byte_time=byte_time)
         out, pos = [], 0
         for k, cut in enumerate(sorted(cuts) + [len(data)]):
@@ -39,8 +50,6 @@ def events(data: bytes, line: str, cuts: list[int], pure: bool, times: list[floa
                 out += d.feed(data[pos:cut], t)
                 pos = cut
         return out + d.finish()
-    finally:
-        deframer_module._scan = saved
 
 
 def facts(ev: Event) -> tuple:
@@ -84,6 +93,23 @@ def test_compiled_loop_gives_the_pure_loops_times(parts, line, cuts, times, byte
 
 
 @compiled
+@settings(max_examples=300, deadline=None)
+@given(st.lists(tokens, min_size=1, max_size=30), st.sampled_from(["A", "B", "AB"]),
+       st.lists(st.floats(0, 100, allow_nan=False), min_size=1, max_size=7),
+       st.sampled_from([1 / 9600 * 10, 1 / 115200 * 10, 0.0]), st.booleans())
+def test_one_token_a_read_gives_the_pure_events(parts, line, times, byte_time, timed):
+    # a recording or a live port: each read is usually one whole token, which
+    # the C code turns into its event directly (_scan.c, whole)
+    data = b"".join(parts)
+    cuts = list(itertools.accumulate(len(p) for p in parts))[:-1]
+    times = times if timed else None
+    fast = events(data, line, cuts, pure=False, times=times, byte_time=byte_time)
+    slow = events(data, line, cuts, pure=True, times=times, byte_time=byte_time)
+    assert [facts(e) for e in fast] == [facts(e) for e in slow]
+    assert [(type(e.t), type(e.t_end)) for e in fast] == [(type(e.t), type(e.t_end)) for e in slow]
+
+
+@compiled
 def test_compiled_events_carry_the_wire_facts():
     # §1.4.1: F8 G P D S L payload C; a result from 0.1.2 (source group 1) on line B, then an ACK
     res = frame((0, 1, 2), 1, b"0FA0FC18")
@@ -108,6 +134,13 @@ def test_compiled_events_are_timed_from_the_byte_time():
     assert [(e.t, e.t_end) for e in evs] == [(2.0, 2.0 + 9 * bt), (2.0 + 9 * bt, 2.0 + 18 * bt)]
     two = events(b"\x06\x06", "B", [], pure=False, times=[3.0], byte_time=bt)
     assert [(e.t, e.t_end) for e in two] == [(3.0, 3.0 + bt), (3.0 + bt, 3.0 + 2 * bt)]
+    # one read one token: a result read at 4.0 (15 bytes), then an ACK read on its own
+    res = frame((0, 1, 1), 1, b"0FA0FC18")
+    one = events(res + b"\x06", "B", [len(res)], pure=False, times=[4.0, 5.0], byte_time=bt)
+    assert [(e.kind, e.t, e.t_end) for e in one] == [("result", 4.0, 4.0 + 15 * bt), ("ack", 5.0, 5.0 + bt)]
+    # a time given as an int (by hand through the API) stays an int, as Python's arithmetic keeps it
+    whole_int = events(b"\x06", "B", [], pure=False, times=[3], byte_time=0)
+    assert [(e.t, type(e.t)) for e in whole_int] == [(3, int)]
 
 
 def test_pure_switch_in_the_environment():
@@ -118,7 +151,7 @@ def test_pure_switch_in_the_environment():
 
 
 @compiled
-@pytest.mark.parametrize("inputs", [["demo-ctl.bin", "demo-dev.bin"], ["demo-bus.bin"]])
+@pytest.mark.parametrize("inputs", [["demo-ctl.bin", "demo-dev.bin"], ["demo-bus.bin"], ["demo-socat.log"]])
 def test_decode_output_is_the_same_on_both_paths(inputs):
     here = os.path.dirname(os.path.abspath(__file__))
     paths = [os.path.join(here, "..", "..", "captures", name) for name in inputs]
