@@ -26,25 +26,28 @@ class SkewEstimator:
         self.near = near
         self.guard = guard      # a device needs at least this long to answer
         self._samples: deque[float] = deque(maxlen=window)
-        self._cmd: Event | None = None       # a command waiting for its ACK/NAK
-        self._answer: Event | None = None    # an ACK/NAK that came before its command
+        self._cmd_end: float | None = None   # when a command waiting for its ACK/NAK ended
+        # when an ACK/NAK that came before its command started, as read: its event
+        # is moved later by the correction of the moment (the capture shifts line
+        # B), and a sample must measure the skew itself, not what the correction left
+        self._answer_t: float | None = None
         self.skew = 0.0                      # seconds to add to line B's times
 
     def observe(self, ev: Event) -> bool:
-        """Take one deframed event; True when the estimate changed."""
+        """Take one deframed event, before any correction; True when the estimate changed."""
         kind = ev.kind
         if kind == COMMAND and ev.t_end is not None:
-            answer = self._answer
-            if answer is not None and abs(answer.t - ev.t_end) < self.near:
-                self._answer = None
-                return self._sample(answer.t - ev.t_end)
-            self._cmd = ev
+            answer = self._answer_t
+            if answer is not None and abs(answer - ev.t_end) < self.near:
+                self._answer_t = None
+                return self._sample(answer - ev.t_end)
+            self._cmd_end = ev.t_end
         elif (kind == ACK or kind == NAK) and ev.t is not None:
-            cmd = self._cmd
-            if cmd is not None and abs(ev.t - cmd.t_end) < self.near:
-                self._cmd = None
-                return self._sample(ev.t - cmd.t_end)
-            self._answer = ev
+            end = self._cmd_end
+            if end is not None and abs(ev.t - end) < self.near:
+                self._cmd_end = None
+                return self._sample(ev.t - end)
+            self._answer_t = ev.t
         return False
 
     def _sample(self, latency: float) -> bool:

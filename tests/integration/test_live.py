@@ -194,9 +194,10 @@ def test_skewed_adapters_are_detected_and_corrected(tmp_path):
     assert len(commands) == len(acks) == 6
     # after the first pair taught the estimate, every ACK pairs with its command
     assert all(c["status"] == "ok" for c in commands[1:]), [(c["number"], c["status"]) for c in commands]
-    # uncorrected they would be -12 ms; corrected they are causal to within the
-    # harness's write jitter (a sub-millisecond residue is noted for investigation)
-    assert all(a["latency"] is not None and a["latency"] > -0.001 for a in acks[1:]), \
+    # uncorrected they would be -12 ms (more where the machine overslept the
+    # harness's 12 ms: the skew then grows, and is corrected as it grows); corrected
+    # every one is causal
+    assert all(a["latency"] is not None and a["latency"] >= 0 for a in acks[1:]), \
         [(a["number"], a["latency"], a["t"]) for a in acks]
     assert jsonl(rec) == live
 

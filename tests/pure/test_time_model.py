@@ -90,6 +90,30 @@ def test_two_clocks_still_estimate_the_skew():
     assert all(a.latency >= 0 for a in acks)
 
 
+def test_answers_read_before_their_commands_are_made_causal_as_the_skew_grows():
+    # line B reads ahead, and its ACKs arrive before their commands (line A's
+    # adapter is the late one): 12 ms early, then 16 ms early from the fourth round
+    # (the adapters' delays drift). Every ACK ends up after its command, by the
+    # guard, whatever the skew was when it arrived.
+    reads = []
+    for k in range(6):
+        at = 1.0 + k * 0.2
+        early = 0.012 if k < 3 else 0.016
+        reads += [("B", b"\x06", at - early), ("A", CMD, at)]
+    events, warnings = decode(Timed(reads, clocks=2))
+    assert any("ahead of line A" in w for w in warnings)
+    acks = [e for e in events if e.kind == ACK]
+    assert len(acks) == 6 and all(a.latency is not None for a in acks)
+    # ACK.t is its read time less a byte time, the command ends when it is read:
+    # ACK.t - cmd.t_end = -early - 1 byte time before correction
+    raw = [-(0.012 if k < 3 else 0.016) - BT_9600 for k in range(6)]
+    assert all(a.latency >= 0 for a in acks), [round(a.latency, 6) for a in acks]
+    # the correction is the most negative latency yet (plus the guard, 0.2 ms):
+    # the rounds that taught it answer in exactly the guard
+    assert acks[0].latency == pytest.approx(0.0002) and acks[3].latency == pytest.approx(0.0002)
+    assert acks[4].latency == pytest.approx(raw[4] - raw[3] + 0.0002)
+
+
 def test_one_clock_gets_no_skew_correction():
     reads = []
     for k in range(5):
