@@ -174,10 +174,11 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
         runner.stop()
 
     old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
-    # Said once the ports are open and a signal stops the tap cleanly: from here on
-    # no byte written to the line is missed (what a script waits for, as with tcpdump).
-    print(f"gimbalscope live: listening on {capture.source.description} (until Ctrl-C)", file=sys.stderr,
-          flush=True)
+    if info.command == "live":   # (the demo's ports are its own simulator's, and it ends by itself)
+        # Said once the ports are open and a signal stops the tap cleanly: from here on
+        # no byte written to the line is missed (what a script waits for, as with tcpdump).
+        print(f"gimbalscope live: listening on {capture.source.description} (until Ctrl-C)", file=sys.stderr,
+              flush=True)
     # Reader threads stamp each read with the host clock; the interpreter's default
     # 5 ms thread switch interval would delay them by as much. Switch more often.
     switch = sys.getswitchinterval()
