@@ -6,7 +6,7 @@ Prints:
   2. bytes per event (target <= 50) and MB per hour of recording a saturated
      115200-baud pair of lines
   3. events/s when re-dissecting an MCAP, and its share of raw-dump decode speed
-     (target >= 60%)
+     (target >= 60%); each decode the fastest of three
   4. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
      115200-baud traffic (target < 20% of one core)
 
@@ -44,10 +44,15 @@ def saturated(commands: int, seed: int = 1):
                     think=(0.0, 0.0002), answer_delay=(0.0002, 0.0005))
 
 
-def decode_rate(paths: list[str]) -> tuple[int, float]:
-    t = time.perf_counter()
-    n = sum(1 for _ in analyzer.open(*paths, baud=BAUD))
-    return n, n / (time.perf_counter() - t)
+def decode_rate(paths: list[str], repeat: int = 3) -> tuple[int, float]:
+    """Events, and events/s of the fastest of ``repeat`` decodes (the others met
+    the machine's other work: the fastest is the closest to the code's own cost)."""
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        n = sum(1 for _ in analyzer.open(*paths, baud=BAUD))
+        best = min(best, time.perf_counter() - t)
+    return n, n / best
 
 
 def record(paths: list[str], out: str) -> tuple[int, float]:
@@ -135,7 +140,7 @@ def main() -> None:
           f"{wire_seconds:.0f} s = {per_hour:.0f} MB per hour of this conversation running flat out; "
           f"{per_hour / busy:.0f} MB per hour if both lines were 100% busy")
     dump_rate = decode_rate([ctl, dev])[1]
-    print(f"3. re-dissecting the MCAP: {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
+    print(f"3. re-dissecting the MCAP (each decode the fastest of 3): {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
           f"log: {raw_rate:,.0f} events/s; from raw dumps: {dump_rate:,.0f} events/s")
     print(f"   MCAP re-dissection is {mcap_rate / dump_rate:.0%} of raw-dump decode speed (target >= 60%)")
     share, events = live_cpu(args.live_seconds, os.path.join(tmp, "live.mcap"))
