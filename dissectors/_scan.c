@@ -4,7 +4,9 @@
  * events: whole frames whose checksum holds and that carry no start byte in
  * their payload, and simple response bytes. It stops at the first byte that
  * needs one (noise, a bad or incomplete frame) and returns its index; the
- * Python deframer handles that byte and calls scan() again. Only buffers with
+ * Python deframer handles that byte and calls scan() again. whole() makes the
+ * event of a read that is exactly one such token (Deframer._whole: the usual
+ * read of a recording or a port) without a buffer. Only buffers with
  * no silence inside come here: no frame can be cut. Timed buffers come with
  * their segments (where each chunk starts, its time, its byte time), and each
  * event's times are worked out as Deframer._time_at does, in the same order of
@@ -368,7 +370,6 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
     }
     return PyLong_FromSsize_t(i);
 }
-
 
 /* whole(data, t, bt, base, line, frame_kind, kinds) -> Event or None: the event
  * Deframer._whole makes of a read that is exactly one whole valid frame or one
