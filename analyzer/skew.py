@@ -4,10 +4,18 @@ before its command ended (§1.4.2: the device answers a received command), so an
 apparent negative latency measures how far line B reads ahead of line A.
 
 Pure: fed commands (line A) and ACK/NAK bytes (line B) as the deframers give them,
-in arrival order; it pairs each command with the next ACK/NAK near it in time,
-keeps the most negative apparent latency among the last ``window`` pairs, and
-says how much later line B's times should be to make every one of them causal
-(plus a small guard for the device's own reaction time).
+in arrival order; it pairs each ACK/NAK with a command near it in time, keeps the
+most negative apparent latency among the last ``window`` pairs, and says how much
+later line B's times should be to make every one of them causal (plus a small
+guard for the device's own reaction time).
+
+Which command an ACK/NAK answers: the latest command not yet answered that ended
+before it (an ordinary answer, however late its line's reads arrived: a reader
+that lags delivers several answers after several commands, and pairing each with
+the last command would invent a skew of a whole poll cycle); else the first one
+that ended after it (line B reads ahead); else, none read yet, the next command
+to arrive (line B's adapter delivered the answer before line A's delivered the
+command).
 """
 
 from __future__ import annotations
@@ -26,7 +34,8 @@ class SkewEstimator:
         self.near = near
         self.guard = guard      # a device needs at least this long to answer
         self._samples: deque[float] = deque(maxlen=window)
-        self._cmd_end: float | None = None   # when a command waiting for its ACK/NAK ended
+        # when each command not yet answered ended, in arrival order (the last few)
+        self._unanswered: deque[float] = deque(maxlen=8)
         # when an ACK/NAK that came before its command started, as read: its event
         # is moved later by the correction of the moment (the capture shifts line
         # B), and a sample must measure the skew itself, not what the correction left
@@ -41,14 +50,27 @@ class SkewEstimator:
             if answer is not None and abs(answer - ev.t_end) < self.near:
                 self._answer_t = None
                 return self._sample(answer - ev.t_end)
-            self._cmd_end = ev.t_end
+            self._unanswered.append(ev.t_end)
         elif (kind == ACK or kind == NAK) and ev.t is not None:
-            end = self._cmd_end
-            if end is not None and abs(ev.t - end) < self.near:
-                self._cmd_end = None
+            end = self._answered_by(ev.t)
+            if end is not None:
                 return self._sample(ev.t - end)
             self._answer_t = ev.t
         return False
+
+    def _answered_by(self, t: float) -> float | None:
+        """The end of the command an answer starting at ``t`` answers (module doc),
+        taken with those before it off the unanswered; None: none near."""
+        waiting, near = self._unanswered, self.near
+        before = [k for k, end in enumerate(waiting) if t - near < end <= t]
+        after = [k for k, end in enumerate(waiting) if t < end < t + near]
+        k = before[-1] if before else after[0] if after else None
+        if k is None:
+            return None
+        end = waiting[k]
+        for _ in range(k + 1):
+            waiting.popleft()
+        return end
 
     def _sample(self, latency: float) -> bool:
         """``latency`` as measured, before any correction."""

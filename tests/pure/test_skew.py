@@ -37,3 +37,31 @@ def test_far_apart_events_are_not_paired():
     s.observe(ack(0.0))
     s.observe(cmd(0.2, 0.21))   # an answer to something earlier, not to this command
     assert s.skew == 0.0
+
+
+def test_answers_read_late_in_a_burst_pair_with_the_commands_before_them():
+    # line B's reader lags: three commands (polled every 55 ms, each 9.4 ms long)
+    # are read before the ACKs of the first two, each ACK 5.4 ms after its command.
+    # Paired with the last command read, the second ACK would seem to start 46.7 ms
+    # before it ended and invent a 46.9 ms skew; paired with the command that ended
+    # before it, every latency is 5.4 ms and there is no skew.
+    s = SkewEstimator(guard=0.0002)
+    ends = [1.000, 1.055, 1.110]
+    for end in ends:
+        assert not s.observe(cmd(end - 0.0094, end))
+    for end in ends[:2]:
+        s.observe(ack(end + 0.0054))
+    assert s.skew == 0.0
+    # the third command's ACK, read in time, still pairs with it
+    s.observe(ack(ends[2] + 0.0054))
+    assert s.skew == 0.0
+
+
+def test_an_answer_read_ahead_of_its_command_still_measures_the_skew():
+    # the command is read first, but its ACK's time is 3 ms before the command
+    # ended (line B reads ahead): no earlier command is waiting, so it pairs with
+    # this one and the skew is 3 ms and the guard
+    s = SkewEstimator(guard=0.0002)
+    s.observe(cmd(2.0, 2.0094))
+    s.observe(ack(2.0064))
+    assert s.skew == pytest.approx(0.0032)
