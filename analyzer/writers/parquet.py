@@ -129,12 +129,25 @@ class ParquetDatasetWriter(Listener):
         for day, rows in partitions(batch, column, undated):
             writer = self._writers.get((table, day))
             if writer is None:
-                final = self._file(table, day)
-                os.makedirs(os.path.dirname(final), exist_ok=True)
-                writer = self._writers[(table, day)] = pq.ParquetWriter(final + TMP, S.TABLES[table],
-                                                                        compression="zstd")
+                writer = self._writers[(table, day)] = self._open(table, day)
             writer.write_batch(rows, row_group_size=ROWS_PER_GROUP)
             self.rows[table] += rows.num_rows
+
+    def _open(self, table: str, day: str) -> pq.ParquetWriter:
+        """A new file of ``table`` for ``day``, under its temporary name. Its partition
+        folder may be new and empty until the file is made, and another capture
+        exported alongside (``export -j``) removes partition folders it leaves
+        empty: make the folder again if it went in between."""
+        path = self._file(table, day) + TMP
+        tries = 3
+        while True:
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+            try:
+                return pq.ParquetWriter(path, S.TABLES[table], compression="zstd")
+            except FileNotFoundError:
+                tries -= 1
+                if not tries:
+                    raise
 
     def old_files(self) -> list[str]:
         """The capture's files in the dataset now (and any left by a failed export)."""
@@ -147,18 +160,21 @@ class ParquetDatasetWriter(Listener):
     def commit(self) -> None:
         """The new files take the place of the capture's old ones (after ``on_stop``)."""
         new = {self._file(table, day) for table, day in self._writers}
+        vacated = set()
         for old in self.old_files():
             final = old[:-len(TMP)] if old.endswith(TMP) else old
             if final not in new:   # a day the capture no longer has, or a failed export's leftover
                 _remove(old)
+                vacated.add(os.path.dirname(old))
         for final in new:
             os.replace(final + TMP, final)
-        for table in S.TABLES:   # partitions left empty by a capture that moved
-            for folder in glob.glob(os.path.join(glob.escape(self.root), table, f"{S.PARTITION}=*")):
-                try:
-                    os.rmdir(folder)
-                except OSError:
-                    pass
+        # the partitions this capture left, if that left them empty; only those: an
+        # empty folder elsewhere may be another capture's, about to get its file
+        for folder in vacated:
+            try:
+                os.rmdir(folder)
+            except OSError:
+                pass
         self.committed = True
 
     def abort(self) -> None:

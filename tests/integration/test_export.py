@@ -18,6 +18,8 @@ import pytest
 
 import analyzer
 from analyzer.dataset.query import connect
+from analyzer.info import CaptureInfo
+from analyzer.runner import TapRunner
 from tests.conftest import BUS, CTL, DEV, SOCAT_LOG, frame, run_cli
 
 START = "2026-03-01T23:59:59Z"   # the hand-made capture crosses midnight (UTC) at 9600 baud
@@ -129,6 +131,41 @@ def test_a_capture_that_moved_day_leaves_no_old_partition(tmp_path):
     assert export(f"{a}+{b}", "-o", out, "--start-time", "2026-05-02T10:00:00Z").returncode == 0
     assert sorted(p.name for p in (out / "events").iterdir()) == ["date=2026-05-02"]
     assert len(rows(out, "events")) == 5
+
+
+def test_a_commit_leaves_other_captures_partitions_alone(tmp_path):
+    # export -j: another capture's job has made its partition folder and not yet
+    # its file when this capture commits; the empty folder is not this one's to remove
+    out = tmp_path / "ds"
+    waiting = out / "events" / "date=1999-12-31"
+    waiting.mkdir(parents=True)
+    assert export(SOCAT_LOG, "-o", out).returncode == 0
+    assert waiting.is_dir()
+
+
+def test_a_partition_folder_removed_before_its_file_is_made_again(tmp_path, monkeypatch):
+    # the other side of the same race, in one process: the folder goes between
+    # being made and the file being opened in it (once); the export still succeeds
+    from analyzer.writers import parquet
+
+    real_makedirs = parquet.os.makedirs
+    removed = []
+
+    def makedirs_then_lose(path, exist_ok=False):
+        real_makedirs(path, exist_ok=exist_ok)
+        if not removed and os.path.basename(path).startswith("date="):
+            os.rmdir(path)          # another capture's commit, just now
+            removed.append(path)
+
+    monkeypatch.setattr(parquet.os, "makedirs", makedirs_then_lose)
+    out = tmp_path / "ds"
+    capture = analyzer.open(SOCAT_LOG)
+    info = CaptureInfo.of(capture, command="export")
+    writer = parquet.ParquetDatasetWriter(str(out), info)
+    TapRunner(capture, [writer], info=info).run()   # as an export job runs it
+    writer.commit()
+    assert removed
+    assert len(rows(out, "events")) == sum(1 for _ in analyzer.open(SOCAT_LOG))
 
 
 def test_cut_and_unreadable_inputs_are_skipped(tmp_path):
