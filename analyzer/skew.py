@@ -13,9 +13,10 @@ Which command an ACK/NAK answers: the latest command not yet answered that ended
 before it (an ordinary answer, however late its line's reads arrived: a reader
 that lags delivers several answers after several commands, and pairing each with
 the last command would invent a skew of a whole poll cycle); else the first one
-that ended after it (line B reads ahead); else, none read yet, the next command
-to arrive (line B's adapter delivered the answer before line A's delivered the
-command).
+that ended after it (line B reads ahead); else, when no command is waiting for
+an answer (a late answer to one that is, up to ``LATE``, measures nothing), the
+next command to arrive (line B's adapter delivered the answer before line A's
+delivered the command).
 """
 
 from __future__ import annotations
@@ -23,6 +24,11 @@ from __future__ import annotations
 from collections import deque
 
 from dissectors.event import ACK, COMMAND, NAK, Event
+
+
+# seconds: an answer this long after a command can still be its (slow devices,
+# lost bytes); beyond it, a command left unanswered is not waiting any more
+LATE = 1.0
 
 
 class SkewEstimator:
@@ -55,8 +61,22 @@ class SkewEstimator:
             end = self._answered_by(ev.t)
             if end is not None:
                 return self._sample(ev.t - end)
+            if self._late(ev.t):
+                return False   # a late answer to an earlier command: no measure of skew
             self._answer_t = ev.t
         return False
+
+    def _late(self, t: float) -> bool:
+        """Whether an answer at ``t`` that is near no command can be a late answer
+        to a command still unanswered (one that ended before it, within ``LATE``);
+        those are then taken as answered. Only an answer no command is waiting
+        for can be one read ahead of its command."""
+        waiting = self._unanswered
+        late = any(t - LATE < end <= t for end in waiting)
+        if late:
+            while waiting and waiting[0] <= t:
+                waiting.popleft()
+        return late
 
     def _answered_by(self, t: float) -> float | None:
         """The end of the command an answer starting at ``t`` answers (module doc),

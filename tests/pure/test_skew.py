@@ -65,3 +65,22 @@ def test_an_answer_read_ahead_of_its_command_still_measures_the_skew():
     s.observe(cmd(2.0, 2.0094))
     s.observe(ack(2.0064))
     assert s.skew == pytest.approx(0.0032)
+
+
+def test_a_late_answer_is_not_read_as_one_ahead_of_the_next_command():
+    # a command ends at 1.000; its ACK comes 51.5 ms later, just past the 50 ms in
+    # which answers pair; the next command ends at 1.095. Taken as read ahead of
+    # that command, the ACK would give a -43.5 ms latency and a 43.7 ms skew; a
+    # command was still waiting for an answer, so it is that one's (late) answer
+    s = SkewEstimator(guard=0.0002)
+    s.observe(cmd(0.9906, 1.000))
+    s.observe(ack(1.0515))
+    s.observe(cmd(1.0856, 1.095))
+    assert s.skew == 0.0
+    # once that command is answered (5.4 ms), an answer no command waits for,
+    # read 12 ms before the next command ends, is still read ahead of it
+    s.observe(ack(1.1004))
+    assert s.skew == 0.0
+    s.observe(ack(1.2855))
+    s.observe(cmd(1.2881, 1.2975))
+    assert s.skew == pytest.approx(0.0122)
