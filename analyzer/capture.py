@@ -577,8 +577,11 @@ class _Merge:
         if abs(cap.skew - self.reported) >= 0.001:
             self.reported = cap.skew
             cap.skew_from = horizon + cap.skew
-            cap._warn(f"line B reads about {cap.skew * 1000:.1f} ms ahead of line A (adapter "
-                      f"delays): its times are moved later by that much")
+            if cap.skew >= 0.00005:
+                cap._warn(f"line B reads about {cap.skew * 1000:.1f} ms ahead of line A (adapter "
+                          f"delays): its times are moved later by that much")
+            else:   # the pairs that showed it have left the estimate's window
+                cap._warn("line B no longer reads ahead of line A: its times are no longer moved")
 
     def release(self, mark: float | None) -> list[Event]:
         """The held events before ``mark`` (all of them for None), in time order."""

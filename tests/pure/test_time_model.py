@@ -114,6 +114,24 @@ def test_answers_read_before_their_commands_are_made_causal_as_the_skew_grows():
     assert acks[4].latency == pytest.approx(raw[4] - raw[3] + 0.0002)
 
 
+def test_a_skew_that_ends_is_said_to_end():
+    # line B reads 20 ms ahead for three rounds, then the adapters agree again: once
+    # the early pairs have left the estimate's window (64 pairs), the times are no
+    # longer moved, and the tap says so rather than "about 0.0 ms ahead"
+    reads = []
+    for k in range(70):
+        at = 1.0 + k * 0.2
+        ack_read = at - 0.020 + 0.003 if k < 3 else at + 0.003
+        reads += [("A", CMD, at), ("B", b"\x06", ack_read)]
+    events, warnings = decode(Timed(reads, clocks=2))
+    said = [w for w in warnings if "line B" in w]
+    assert said[0].startswith("line B reads about ") and "ms ahead of line A" in said[0]
+    assert said[-1] == "line B no longer reads ahead of line A: its times are no longer moved"
+    assert not [w for w in said if "about 0.0 ms" in w]
+    last = [e for e in events if e.kind == ACK][-1]
+    assert last.latency == pytest.approx(0.003 - BT_9600)   # as read: no correction left
+
+
 def test_one_clock_gets_no_skew_correction():
     reads = []
     for k in range(5):
