@@ -40,8 +40,9 @@ class SkewEstimator:
         self.near = near
         self.guard = guard      # a device needs at least this long to answer
         self._samples: deque[float] = deque(maxlen=window)
-        # when each command not yet answered ended, in arrival order (the last few)
-        self._unanswered: deque[float] = deque(maxlen=8)
+        # when each command not yet answered ended, in arrival order: enough for a
+        # line B reader that lags by seconds (a busy screen) behind line A's
+        self._unanswered: deque[float] = deque(maxlen=64)
         # when an ACK/NAK that came before its command started, as read: its event
         # is moved later by the correction of the moment (the capture shifts line
         # B), and a sample must measure the skew itself, not what the correction left

@@ -84,3 +84,17 @@ def test_a_late_answer_is_not_read_as_one_ahead_of_the_next_command():
     s.observe(ack(1.2855))
     s.observe(cmd(1.2881, 1.2975))
     assert s.skew == pytest.approx(0.0122)
+
+
+@pytest.mark.parametrize("lag", [4, 8, 9, 12, 30])
+def test_answers_read_many_commands_late_still_pair_with_theirs(lag):
+    # line B's reader lags by ``lag`` commands (polled every 47 ms; a busy screen
+    # held it 0.4 s in the demo): each ACK, 5.4 ms after its command, is read after
+    # the next ``lag`` commands; still no skew
+    s = SkewEstimator(guard=0.0002)
+    ends = [1.0 + 0.047 * k for k in range(80)]
+    for k, end in enumerate(ends):
+        s.observe(cmd(end - 0.0094, end))
+        if k >= lag:
+            s.observe(ack(ends[k - lag] + 0.0054))
+    assert s.skew == 0.0
