@@ -25,7 +25,7 @@ from operator import attrgetter
 from typing import Callable, Iterator
 
 from dissectors import Deframer
-from dissectors.event import ACK, COMMAND, NAK, Event, Origin
+from dissectors.event import ACK, COMMAND, NAK, NOISE, Event, Origin
 from dissectors.wire import byte_time
 
 from .align import align
@@ -521,7 +521,7 @@ class Capture:
 _time = attrgetter("t")
 UNDECODED_EVERY = 10.0   # capture seconds between updates of the undecoded count
 _SWAP = {"A": "B", "B": "A"}
-_SKEW_KINDS = frozenset((COMMAND, ACK, NAK))
+_SKEW_KINDS = frozenset((COMMAND, ACK, NAK, NOISE))
 
 
 class _Merge:
@@ -550,7 +550,8 @@ class _Merge:
         else:
             observe = self.estimator.observe
             for ev in events:
-                # only commands and ACK/NAK bytes inform the estimate; it sees the times as read
+                # only commands, ACK/NAK bytes and noise (a garbled command) inform the
+                # estimate; it sees the times as read
                 if ev.kind in _SKEW_KINDS and observe(ev):
                     self._learnt(ev)
                 if cap.skew and ev.line == "B":

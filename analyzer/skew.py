@@ -16,14 +16,22 @@ the last command would invent a skew of a whole poll cycle); else the first one
 that ended after it (line B reads ahead); else, when no command is waiting for
 an answer (a late answer to one that is, up to ``LATE``, measures nothing), the
 next command to arrive (line B's adapter delivered the answer before line A's
-delivered the command).
+delivered the command). Which of these holds is decided by the times, whichever
+line's reader lagged: an answer that arrives before the commands around it is
+judged when they arrive, by the same rules.
+
+An answer read ahead of a command may instead answer a command the tap saw only
+as noise on line A (bit errors in its start byte: the device read it whole): the
+answer that then comes before the next command is no measure of skew. Line A's
+noise is kept for that, and the nearer explanation wins: a garbled frame that
+ended shortly before the answer, or the command that ended after it.
 """
 
 from __future__ import annotations
 
 from collections import deque
 
-from dissectors.event import ACK, COMMAND, NAK, Event
+from dissectors.event import ACK, COMMAND, NAK, NOISE, Event
 
 
 # seconds: an answer this long after a command can still be its (slow devices,
@@ -47,6 +55,9 @@ class SkewEstimator:
         # is moved later by the correction of the moment (the capture shifts line
         # B), and a sample must measure the skew itself, not what the correction left
         self._answer_t: float | None = None
+        # when line A's latest noise ended: frames garbled on the tap's wire that
+        # the device may have read whole and answered
+        self._garbled: deque[float] = deque(maxlen=16)
         self.skew = 0.0                      # seconds to add to line B's times
 
     def observe(self, ev: Event) -> bool:
@@ -56,7 +67,12 @@ class SkewEstimator:
             answer = self._answer_t
             if answer is not None and abs(answer - ev.t_end) < self.near:
                 self._answer_t = None
-                return self._sample(answer - ev.t_end)
+                # read ahead of this command, the answer may still be a late one to a
+                # command that was waiting when it came (line A's reader lagged, so
+                # that command was read after it), or a garbled frame's
+                if answer >= ev.t_end or not (self._late(answer) or self._garbled_nearer(answer, ev.t_end)):
+                    return self._sample(answer - ev.t_end)
+                # then this command still waits for its own
             self._unanswered.append(ev.t_end)
         elif (kind == ACK or kind == NAK) and ev.t is not None:
             end = self._answered_by(ev.t)
@@ -65,7 +81,16 @@ class SkewEstimator:
             if self._late(ev.t):
                 return False   # a late answer to an earlier command: no measure of skew
             self._answer_t = ev.t
+        elif kind == NOISE and ev.line == "A" and ev.t_end is not None:
+            self._garbled.append(ev.t_end)
         return False
+
+    def _garbled_nearer(self, t: float, end: float) -> bool:
+        """Whether an answer at ``t``, read ahead of a command that ended at ``end``,
+        is better explained as the answer to a frame garbled on line A that ended
+        before it, nearer than the command's end after it (module doc)."""
+        ahead = end - t
+        return ahead > 0 and any(0 <= t - g < ahead for g in self._garbled)
 
     def _late(self, t: float) -> bool:
         """Whether an answer at ``t`` that is near no command can be a late answer
@@ -86,7 +111,7 @@ class SkewEstimator:
         before = [k for k, end in enumerate(waiting) if t - near < end <= t]
         after = [k for k, end in enumerate(waiting) if t < end < t + near]
         k = before[-1] if before else after[0] if after else None
-        if k is None:
+        if k is None or (not before and self._garbled_nearer(t, waiting[k])):
             return None
         end = waiting[k]
         for _ in range(k + 1):

@@ -16,6 +16,7 @@ import tty
 import pytest
 
 import analyzer
+from tests.child import PATIENCE as WAIT, wait_for
 from tests.conftest import ROOT, frame, run_cli
 
 SAMPLES = os.path.join(ROOT, "captures")
@@ -24,7 +25,6 @@ BUS = os.path.join(SAMPLES, "demo-bus.bin")
 EXE = shutil.which("gimbalscope")
 CMD = [EXE] if EXE else [sys.executable, "-m", "analyzer"]
 BT = 10 / 9600
-WAIT = 60.0   # seconds a condition may take on a loaded machine
 
 
 def one_line(out, code, *fragments):
@@ -44,13 +44,6 @@ def run_bytes(*args, timeout=60):
     """Run the command with ``bytes`` arguments (file names as the OS gives them)."""
     argv = [os.fsencode(a) for a in CMD] + [a if isinstance(a, bytes) else os.fsencode(str(a)) for a in args]
     return subprocess.run(argv, capture_output=True, timeout=timeout, cwd=ROOT)
-
-
-def wait_for(condition, what, seconds=WAIT):
-    deadline = time.monotonic() + seconds
-    while not condition():
-        assert time.monotonic() < deadline, f"timed out waiting for {what}"
-        time.sleep(0.05)
 
 
 # ------------------------------------------------------------ a full filesystem

@@ -7,9 +7,7 @@ nothing is mocked: the link, the gimbals and the controller talk through pyseria
 import contextlib
 import select
 import threading
-import time
 
-import pytest
 import serial
 
 from analyzer.simulation.bus import GimbalBus
@@ -18,22 +16,14 @@ from analyzer.simulation.gimbal import Faults, GimbalModel
 from analyzer.simulation.link import VirtualLink
 from dissectors import Deframer
 from dissectors.event import ACK, COMMAND, NIC, RESULT
+from tests.child import PATIENCE, wait_for
 from tests.conftest import frame
 
-PATIENCE = 30.0      # seconds to wait for a condition: generous, the machine may be busy
 ACK_B = (ACK, b"\x06")
 NIC_B = (NIC, b"?")
 # C7 to 1.1.1 from group 0: F8, G P D S L = 01 01 01 00 02, "C7" = 43 37,
 # checksum 01+01+01+00+02+43+37 = 7F
 C7_TO_1_1_1 = bytes.fromhex("f8 01 01 01 00 02 43 37 7f")
-
-
-def wait_for(condition, what: str) -> None:
-    end = time.monotonic() + PATIENCE
-    while not condition():
-        if time.monotonic() > end:
-            pytest.fail(f"gave up waiting for {what}")
-        time.sleep(0.01)
 
 
 class TapReader(threading.Thread):
