@@ -119,6 +119,8 @@ class GimbalscopeApp(App):
         self.last: FeedBatch | None = None
         self.messages: deque[str] = deque(maxlen=100)   # the feed's warnings, newest last (the last shows)
         self.started = time.monotonic()
+        self.ended = self.started          # when the capture ended (model.done)
+        self._status_text: Text | None = None
         self._search_text = ""
         self._history_pos: int | None = None
         self._detail_due = False   # follow mode: the lower panes are refreshed on a timer
@@ -201,8 +203,9 @@ class GimbalscopeApp(App):
         self.messages.extend(b.warnings)
         if b.error:
             self.messages.append(f"capture stopped: {b.error}")
-        if b.done:
+        if b.done and not m.done:
             m.done = True
+            self.ended = time.monotonic()
         self._rows_changed()
         self._refresh_status()
 
@@ -238,7 +241,6 @@ class GimbalscopeApp(App):
     def _refresh_status(self) -> None:
         m = self.model
         b = self.last
-        parts: list[Text | str] = []
         line1 = Text()
         if b is not None and self.mode != "live":
             line1.append(self.source_name + "  ")
@@ -249,7 +251,7 @@ class GimbalscopeApp(App):
                 line1.append(f"{st.line} ", style="bold")
                 line1.append(f"{st.port}")
                 line1.append(state, style=colour)
-                if self.mode == "live":
+                if self.mode == "live" and not m.done:   # nothing is read once it ended
                     line1.append(f" {_size(st.rate)}/s")
                 line1.append("  ")
         line1.append(b.settings if b is not None and b.settings else self.settings, style="dim")
@@ -258,7 +260,7 @@ class GimbalscopeApp(App):
         if b is not None and b.recording:
             line1.append(f"  ● REC {b.recording} {_size(b.recording_bytes)}", style="bold red")
         if self.mode == "live":   # how long the tap has run (a file's duration is in its stats)
-            elapsed = time.monotonic() - self.started
+            elapsed = (self.ended if m.done else time.monotonic()) - self.started
             line1.append(f"  {int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:{int(elapsed % 60):02d}",
                          style="dim")
         line2 = Text()
@@ -291,8 +293,12 @@ class GimbalscopeApp(App):
             line2.append(f"  {self._scan_text}", style="bold cyan")
         elif self.messages:
             line2.append(f"  {self.messages[-1]}", style="italic")
-        parts = [line1, Text("\n"), line2]
-        self.status_bar.update(Text.assemble(*parts))
+        text = Text.assemble(line1, "\n", line2)
+        # refreshed ten times a second: an unchanged line is not redrawn (an ended
+        # capture's screen was repainted forever, a tenth of a core)
+        if text != self._status_text:
+            self._status_text = text
+            self.status_bar.update(text)
 
     # ----------------------------------------------------------- selection
     @on(EventList.Selected)

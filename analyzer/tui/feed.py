@@ -27,7 +27,14 @@ from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
 from ..writers.mcap import McapWriter
 
 
-MAX_BATCH = 20_000
+# events a message at most: a batch waits as event objects (about 100 bytes an
+# event once stored, several times that before), so a big one raises the peak
+MAX_BATCH = 5_000
+# seconds between batches: a live tap's screen stays close to the wire; a file
+# loading flat out needs no more than a few screens a second, and each batch costs
+# the screen's thread a refresh (at every 30 ms, a tenth of a 1M-event load)
+LIVE_INTERVAL = 0.03
+FILE_INTERVAL = 0.25
 RATE_BUCKET = 0.05   # seconds: the line rate is summed over the last second in buckets this long
 
 
@@ -62,11 +69,11 @@ class Feed(Listener):
     (requests to the runner)."""
 
     def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener, *,
-                 interval: float = 0.03, recorder: McapWriter | None = None) -> None:
+                 interval: float | None = None, recorder: McapWriter | None = None) -> None:
         self.runner = runner
         self.deliver = deliver
         self.doctor = doctor
-        self.interval = interval
+        self.interval = (LIVE_INTERVAL if runner.live else FILE_INTERVAL) if interval is None else interval
         names = runner.info.line_names
         self.lines = {line: LineStatus(line, names[line]) for line in runner.lines}
         self._window: dict[str, deque[list]] = {line: deque() for line in runner.lines}   # [start, bytes]

@@ -162,6 +162,34 @@ def test_live_follow_badge_and_record_toggle(tmp_path):
     assert doctor(rec) == []
 
 
+def test_an_ended_live_capture_stops_its_clock_and_rates():
+    """Once a live capture has ended, its status line says so and stays as it was:
+    the elapsed time stops, and no line rate is shown (nothing is read any more);
+    the screen is not redrawn for a clock that runs on."""
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
+    app = make_app(open_live([pa, pb]), mode="live", ports=[pa, pb])
+    redraws = []
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            exchange(ma, mb)
+            await settle(pilot, app, lambda a: a.model.row_count >= 2)
+            assert "B/s" in str(app.status_bar.render())     # a running tap shows each line's rate
+            app.feed.stop()
+            await settle(pilot, app, lambda a: "capture ended" in str(a.status_bar.render()))
+            ended = str(app.status_bar.render())
+            assert "B/s" not in ended
+            update = app.status_bar.update
+            app.status_bar.update = lambda *a, **k: (redraws.append(a), update(*a, **k))[1]
+            await pilot.pause(1.3)                           # the clock would have moved on by a second
+            assert str(app.status_bar.render()) == ended
+        stop_feed(app)
+
+    run(drive())
+    assert redraws == []
+
+
 def test_replay_controls(tmp_path):
     path = tmp_path / "tap.log"
     write_capture(path)
