@@ -18,7 +18,7 @@ import decimal
 import math
 import sys
 
-from ..dataset.query import DatasetError, connect
+from ..dataset.errors import DatasetError
 from ..output import dumps
 
 BATCH = 10_000       # rows fetched at a time
@@ -39,6 +39,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     fmt = args.format or ("table" if sys.stdout.isatty() else "csv")
+    # imported here: pyarrow and DuckDB take a tenth of a second to load, which
+    # every other command would pay for at start (the parser registers them all)
+    from ..dataset.query import connect
+
     con = connect(args.dataset)
     try:
         cur = con.execute(args.sql)

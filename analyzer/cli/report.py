@@ -11,7 +11,6 @@ import argparse
 import os
 import sys
 
-from ..dataset.query import connect
 from ..outfile import AtomicOutput, check_output, show
 from ..output import dumps
 from .common import positive_int
@@ -34,6 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..dataset.query import connect
     from ..dataset.report import build, to_dict
 
     if args.html:
