@@ -51,10 +51,11 @@ class SkewEstimator:
         # when each command not yet answered ended, in arrival order: enough for a
         # line B reader that lags by seconds (a busy screen) behind line A's
         self._unanswered: deque[float] = deque(maxlen=64)
-        # when an ACK/NAK that came before its command started, as read: its event
-        # is moved later by the correction of the moment (the capture shifts line
-        # B), and a sample must measure the skew itself, not what the correction left
-        self._answer_t: float | None = None
+        # when each ACK/NAK that came before its command started, as read (oldest
+        # first: line A's reader may lag by several commands). Its event is moved
+        # later by the correction of the moment (the capture shifts line B), and a
+        # sample must measure the skew itself, not what the correction left
+        self._early: deque[float] = deque(maxlen=64)
         # when line A's latest noise ended: frames garbled on the tap's wire that
         # the device may have read whole and answered
         self._garbled: deque[float] = deque(maxlen=16)
@@ -64,23 +65,28 @@ class SkewEstimator:
         """Take one deframed event, before any correction; True when the estimate changed."""
         kind = ev.kind
         if kind == COMMAND and ev.t_end is not None:
-            answer = self._answer_t
-            if answer is not None and abs(answer - ev.t_end) < self.near:
-                self._answer_t = None
+            end, early = ev.t_end, self._early
+            # answers read before it that started too long before it ended answer
+            # neither it nor a later command (a late answer, or one to a command the
+            # tap never saw)
+            while early and early[0] <= end - self.near:
+                early.popleft()
+            if early and early[0] < end + self.near:
+                answer = early.popleft()
                 # read ahead of this command, the answer may still be a late one to a
                 # command that was waiting when it came (line A's reader lagged, so
                 # that command was read after it), or a garbled frame's
-                if answer >= ev.t_end or not (self._late(answer) or self._garbled_nearer(answer, ev.t_end)):
-                    return self._sample(answer - ev.t_end)
+                if answer >= end or not (self._late(answer) or self._garbled_nearer(answer, end)):
+                    return self._sample(answer - end)
                 # then this command still waits for its own
-            self._unanswered.append(ev.t_end)
+            self._unanswered.append(end)
         elif (kind == ACK or kind == NAK) and ev.t is not None:
             end = self._answered_by(ev.t)
             if end is not None:
                 return self._sample(ev.t - end)
             if self._late(ev.t):
                 return False   # a late answer to an earlier command: no measure of skew
-            self._answer_t = ev.t
+            self._early.append(ev.t)
         elif kind == NOISE and ev.line == "A" and ev.t_end is not None:
             self._garbled.append(ev.t_end)
         return False

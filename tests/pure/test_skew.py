@@ -168,3 +168,21 @@ def test_a_late_answer_read_before_its_command_is_not_read_ahead_of_the_next(lin
     # the last command is still waiting: its ACK, read 3 ms ahead, measures the skew
     s.observe(ack(39.1489))
     assert s.skew == pytest.approx(0.0032)
+
+
+@pytest.mark.parametrize("lag", [1, 3, 8])
+def test_answers_read_ahead_while_line_a_lags_each_measure_the_skew(lag):
+    # line B reads 12 ms ahead and the device answers in 5 ms: each ACK's time is
+    # 7 ms before its command ended (commands every 47 ms). Line A's reader lags by
+    # ``lag`` commands, so that many ACKs are read before their commands: each still
+    # pairs with its own, and the first pair already gives the skew (7 ms and the guard)
+    s = SkewEstimator(guard=0.0002)
+    ends = [1.0 + 0.047 * k for k in range(lag)]
+    for end in ends:
+        s.observe(ack(end - 0.007))
+    assert s.skew == 0.0
+    s.observe(cmd(ends[0] - 0.0094, ends[0]))
+    assert s.skew == pytest.approx(0.0072)
+    for end in ends[1:]:
+        s.observe(cmd(end - 0.0094, end))
+    assert s.skew == pytest.approx(0.0072)
