@@ -65,31 +65,53 @@ class SkewEstimator:
         """Take one deframed event, before any correction; True when the estimate changed."""
         kind = ev.kind
         if kind == COMMAND and ev.t_end is not None:
-            end, early = ev.t_end, self._early
-            # answers read before it that started too long before it ended answer
-            # neither it nor a later command (a late answer, or one to a command the
-            # tap never saw)
-            while early and early[0] <= end - self.near:
-                early.popleft()
-            if early and early[0] < end + self.near:
-                answer = early.popleft()
-                # read ahead of this command, the answer may still be a late one to a
-                # command that was waiting when it came (line A's reader lagged, so
-                # that command was read after it), or a garbled frame's
-                if answer >= end or not (self._late(answer) or self._garbled_nearer(answer, end)):
-                    return self._sample(answer - end)
-                # then this command still waits for its own
-            self._unanswered.append(end)
-        elif (kind == ACK or kind == NAK) and ev.t is not None:
-            end = self._answered_by(ev.t)
-            if end is not None:
-                return self._sample(ev.t - end)
-            if self._late(ev.t):
-                return False   # a late answer to an earlier command: no measure of skew
-            self._early.append(ev.t)
-        elif kind == NOISE and ev.line == "A" and ev.t_end is not None:
+            return self._command(ev.t_end)
+        if (kind == ACK or kind == NAK) and ev.t is not None:
+            return self._answer(ev.t)
+        if kind == NOISE and ev.line == "A" and ev.t_end is not None:
             self._garbled.append(ev.t_end)
         return False
+
+    def _command(self, end: float) -> bool:
+        """A command that ended at ``end``: paired with an answer read before it, or
+        left waiting for one."""
+        early = self._early
+        # answers read before it that started too long before it ended answer
+        # neither it nor a later command (a late answer, or one to a command the
+        # tap never saw)
+        while early and early[0] <= end - self.near:
+            early.popleft()
+        if early and early[0] < end + self.near:
+            answer = early.popleft()
+            if answer >= end or self._read_ahead(answer, end):
+                return self._sample(answer - end)
+            # the answer was another's: this command still waits for its own
+        self._unanswered.append(end)
+        return False
+
+    def _answer(self, t: float) -> bool:
+        """An ACK/NAK starting at ``t``: paired with a command read before it (module
+        doc), or kept for the command it may be read ahead of."""
+        waiting, near = self._unanswered, self.near
+        before = [k for k, end in enumerate(waiting) if t - near < end <= t]
+        if before:
+            return self._sample(t - self._take(before[-1]))
+        after = next((k for k, end in enumerate(waiting) if t < end < t + near), None)
+        if after is not None:
+            # (_read_ahead takes no command off the waiting when it says yes)
+            if self._read_ahead(t, waiting[after]):
+                return self._sample(t - self._take(after))
+            return False   # the answer was another's: that command still waits for its own
+        if not self._late(t):
+            self._early.append(t)
+        return False
+
+    def _read_ahead(self, t: float, end: float) -> bool:
+        """Whether an answer starting at ``t``, before a command that ended at ``end``,
+        is that command's answer read ahead of it (a measure of skew), whichever was
+        read first; not when it can be a late answer to a command that was waiting
+        (taken off the waiting then), or a garbled frame's."""
+        return not (self._late(t) or self._garbled_nearer(t, end))
 
     def _garbled_nearer(self, t: float, end: float) -> bool:
         """Whether an answer at ``t``, read ahead of a command that ended at ``end``,
@@ -110,19 +132,12 @@ class SkewEstimator:
                 waiting.popleft()
         return late
 
-    def _answered_by(self, t: float) -> float | None:
-        """The end of the command an answer starting at ``t`` answers (module doc),
-        taken with those before it off the unanswered; None: none near."""
-        waiting, near = self._unanswered, self.near
-        before = [k for k, end in enumerate(waiting) if t - near < end <= t]
-        after = [k for k, end in enumerate(waiting) if t < end < t + near]
-        k = before[-1] if before else after[0] if after else None
-        if k is None or (not before and self._garbled_nearer(t, waiting[k])):
-            return None
-        end = waiting[k]
-        for _ in range(k + 1):
+    def _take(self, k: int) -> float:
+        """The end of waiting command ``k``, taken with those before it off the waiting."""
+        waiting = self._unanswered
+        for _ in range(k):
             waiting.popleft()
-        return end
+        return waiting.popleft()
 
     def _sample(self, latency: float) -> bool:
         """``latency`` as measured, before any correction."""

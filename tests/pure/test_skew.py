@@ -104,8 +104,21 @@ def noise_a(t, t_end):
     return Event("A", 0, "noise", b"\x7f\x01", t, t_end)
 
 
-@pytest.mark.parametrize("line_a_lags", [True, False])
-def test_the_answer_to_a_command_garbled_into_noise_is_not_read_ahead_of_the_next(line_a_lags):
+ORDERS = ("line A lags", "line B lags", "time order")
+
+
+def as_read(order, line_a, line_b):
+    """Both lines' events as a tap reads them: all of one line's before the other's
+    (the other line's reader lagged), or in time order."""
+    if order == "line A lags":
+        return line_b + line_a
+    if order == "line B lags":
+        return line_a + line_b
+    return sorted(line_a + line_b, key=lambda ev: ev.t_end)
+
+
+@pytest.mark.parametrize("order", ORDERS)
+def test_the_answer_to_a_command_garbled_into_noise_is_not_read_ahead_of_the_next(order):
     # the demo's noisy line A: a command ending at 42.9620 is ACKed 5.4 ms later;
     # the next command's start byte is garbled, so the tap sees it as noise (ending
     # 43.0095), but the device read it whole and ACKs it 5.4 ms later (43.0149);
@@ -113,14 +126,9 @@ def test_the_answer_to_a_command_garbled_into_noise_is_not_read_ahead_of_the_nex
     # command, the ACK would give a -48.3 ms latency and a 48.5 ms skew; the garbled
     # frame that ended 5.4 ms before it explains it better
     s = SkewEstimator(guard=0.0002)
-    cmd1, ack1 = cmd(42.9526, 42.9620), ack(42.9620 + 0.0054)
-    garbled, ack2 = noise_a(43.0001, 43.0095), ack(43.0095 + 0.0054)
-    cmd3 = cmd(43.0538, 43.0632)
-    if line_a_lags:   # line A's reader lags: both ACKs are read before the three
-        order = [ack1, ack2, cmd1, garbled, cmd3]
-    else:
-        order = [cmd1, ack1, garbled, ack2, cmd3]
-    for ev in order:
+    line_a = [cmd(42.9526, 42.9620), noise_a(43.0001, 43.0095), cmd(43.0538, 43.0632)]
+    line_b = [ack(42.9620 + 0.0054), ack(43.0095 + 0.0054)]
+    for ev in as_read(order, line_a, line_b):
         s.observe(ev)
     assert s.skew == 0.0
     # the next command's ACK, read ahead by 3 ms, still measures the skew
@@ -128,41 +136,28 @@ def test_the_answer_to_a_command_garbled_into_noise_is_not_read_ahead_of_the_nex
     assert s.skew == pytest.approx(0.0032)
 
 
-def test_noise_long_before_an_answer_read_ahead_does_not_hide_the_skew():
+@pytest.mark.parametrize("order", ORDERS)
+def test_noise_long_before_an_answer_read_ahead_does_not_hide_the_skew(order):
     # line A's noise ended 20 ms before an ACK that is read 7 ms before its
     # command ended: the command is the nearer explanation, so it is skew
     s = SkewEstimator(guard=0.0002)
-    s.observe(noise_a(1.975, 1.980))
-    s.observe(ack(2.000))
-    s.observe(cmd(1.9976, 2.007))
-    assert s.skew == pytest.approx(0.0072)
-    # the same when the command is read before its answer
-    s = SkewEstimator(guard=0.0002)
-    s.observe(noise_a(1.975, 1.980))
-    s.observe(cmd(1.9976, 2.007))
-    s.observe(ack(2.000))
+    for ev in as_read(order, [noise_a(1.975, 1.980), cmd(1.9976, 2.007)], [ack(2.000)]):
+        s.observe(ev)
     assert s.skew == pytest.approx(0.0072)
 
 
-@pytest.mark.parametrize("line_a_lags", [True, False])
-def test_a_late_answer_read_before_its_command_is_not_read_ahead_of_the_next(line_a_lags):
+@pytest.mark.parametrize("order", ORDERS)
+def test_a_late_answer_is_not_read_ahead_of_the_next_command_whichever_line_lags(order):
     # from a demo recording: commands end at 38.8978, 38.9451, 38.9876, 39.0372 and
     # 39.1519; the answers come at 38.9242 (NAK), 38.9504, 38.9933 and 39.1076, the
     # last one 70.4 ms after the command ending at 39.0372: a late answer (past the
-    # 50 ms in which answers pair). When line A's reader lags, all four answers are
-    # read before the five commands; taken as read ahead of the command ending at
-    # 39.1519, the last would give -44.3 ms and a 44.5 ms skew. Judged by the times,
-    # as when the commands come first, it is the late answer to the waiting command.
+    # 50 ms in which answers pair). Taken as read ahead of the command ending at
+    # 39.1519, it would give -44.3 ms and a 44.5 ms skew. Judged by the times,
+    # whichever line's reader lagged, it is the late answer to the waiting command.
     s = SkewEstimator(guard=0.0002)
     ends = [38.8978, 38.9451, 38.9876, 39.0372, 39.1519]
     answers = [38.9242, 38.9504, 38.9933, 39.1076]
-    commands = [cmd(end - 0.0094, end) for end in ends]
-    acks = [ack(t) for t in answers]
-    if line_a_lags:
-        order = acks + commands
-    else:   # in time order
-        order = sorted(acks + commands, key=lambda ev: ev.t_end)
-    for ev in order:
+    for ev in as_read(order, [cmd(end - 0.0094, end) for end in ends], [ack(t) for t in answers]):
         s.observe(ev)
     assert s.skew == 0.0
     # the last command is still waiting: its ACK, read 3 ms ahead, measures the skew
