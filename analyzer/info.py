@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 
 from . import __version__
 
-# what each line carries (README, "Inputs")
+# what each line carries (docs/inputs.md)
 LINE_ROLES = {"A": "controller→device", "B": "device→controller", "AB": "single-line tap (both directions)"}
 
 

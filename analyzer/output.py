@@ -122,7 +122,7 @@ class _Sink:
 
 
 class JsonLinesSink(_Sink):
-    """One JSON object per event (README, "Event contract"). Lines are written
+    """One JSON object per event (docs/json-lines.md). Lines are written
     in blocks; ``flush_each`` (live taps) writes and flushes every event.
     ``name`` names ``out`` in errors (default: standard output)."""
 

@@ -8,7 +8,7 @@ uses it so), and ``ProgressListener`` the same as a tap runner's listener
 are opened (``analyzer.sources.base.READS``), never per read, so the bar costs
 the work nothing but a thread waking a few times a second.
 
-When it shows (README, "Progress and warnings"):
+When it shows (docs/cli.md, "Progress and warnings"):
 
 - only when standard error is a terminal, and only after ``DELAY`` seconds
   (``GIMBALSCOPE_PROGRESS_DELAY`` sets another delay, 0 for tests): short runs

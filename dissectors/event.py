@@ -1,7 +1,7 @@
 """The one event type every layer shares: deframer output, pairing input and output,
 JSON Lines objects, filter subjects.
 
-Field names here are the JSON Lines contract (README, "Event contract"); the filter
+Field names here are the JSON Lines contract (docs/json-lines.md); the filter
 language, the statistics, MCAP recordings and the TUI use the same names.
 """
 
@@ -248,7 +248,7 @@ class Event:
         return any(p == what or p.startswith(what + ":") for p in self.problems)
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON Lines object (README, "Event contract")."""
+        """The JSON Lines object (docs/json-lines.md)."""
         # Written out flat (no property, no helper per key): it runs once per event
         # of every JSON Lines output, recording and filter.
         payload = self.payload

@@ -1,6 +1,6 @@
 """``gimbalscope decode``: one line per event, like tshark, or JSON Lines.
 
-Follows the event contract of the README (frames per Table 1, fields per
+Follows the event contract of docs/json-lines.md (frames per Table 1, fields per
 Tables 4-18 via the command table in dissectors/commands.py).
 """
 

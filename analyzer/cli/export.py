@@ -1,6 +1,6 @@
 """``gimbalscope export``: captures into a Parquet dataset folder, for fleet
-analytics (docs/dataset.md): tables ``events`` (the event contract of the
-README with one column per field of the command table, Tables 4-18),
+analytics (docs/dataset.md): tables ``events`` (the event contract of
+docs/json-lines.md with one column per field of the command table, Tables 4-18),
 ``transactions`` (a command and its answers, spec §1.4.2-1.4.3) and ``findings``
 (the wiring doctor's), partitioned by date, Hive style. ``query`` and
 ``report`` read it; so do DuckDB, Polars and Spark as it is.

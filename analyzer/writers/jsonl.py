@@ -1,5 +1,5 @@
 """JSON Lines output: one event object per line, the lines ``decode --format
-jsonl`` prints (the README's event contract). Times are the events' ``t`` and
+jsonl`` prints (the event contract, docs/json-lines.md). Times are the events' ``t`` and
 ``t_end``, seconds from the capture's start (docs/time.md, "Message times")."""
 
 from __future__ import annotations

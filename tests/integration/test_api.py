@@ -1,4 +1,4 @@
-"""The Python API as the README shows it, and two-file raw dumps without time,
+"""The Python API as the README and docs/python-api.md show it, and two-file raw dumps without time,
 where answers are placed by address and result layout (docs/decoding.md, "Pairing where the document says nothing")."""
 
 import analyzer

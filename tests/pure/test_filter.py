@@ -60,7 +60,7 @@ def test_errors_point_at_the_token(expr, column, fragment):
     assert fragment in str(info.value)
 
 
-# --- != and absent values (README: comparisons between different types are false)
+# --- != and absent values (docs/filters.md: comparisons between different types are false)
 
 ACKED = ev(command="P?", status="ok", dst=(1, 1, 2), txn=6)
 ITS_ACK = ev(kind="ack", line="B", txn=6, request=1)
