@@ -8,14 +8,13 @@
             print(ev.number, ev.command, ev.status, ev.problems)
 """
 
-__version__ = "0.1.0"   # before the imports: analyzer.info reads it while they load
-
 from dissectors.event import Event
 
+from .analysis.filter import FilterError
+from .analysis.pairing import Pairer, Timeouts, Transaction
 from .capture import Capture, Options, open
-from .filter import FilterError
-from .pairing import Pairer, Timeouts, Transaction
 from .sources import CaptureError
+from .version import __version__
 
 __all__ = ["Capture", "CaptureError", "Event", "FilterError", "Options", "Pairer", "Timeouts", "Transaction", "open",
            "__version__"]

@@ -28,15 +28,15 @@ from dissectors import Deframer
 from dissectors.event import ACK, COMMAND, NAK, NOISE, Event, Origin
 from dissectors.wire import byte_time
 
-from .align import align
-from .echo import EchoStripper
+from .analysis.align import align
+from .analysis.echo import EchoStripper
+from .analysis.pairing import Pairer, Timeouts
+from .analysis.rate import RATE_MARK, RateChange, RateFollower
+from .analysis.skew import SkewEstimator
+from .analysis.transactions import OpenTransaction, TransactionRows
 from .info import recorded_options
-from .pairing import Pairer, Timeouts
-from .rate import RATE_MARK, RateChange, RateFollower
-from .skew import SkewEstimator
 from .sources import LINE_AB, Chunk, ReadSettings, Source, detect
 from .sources.files import display_name
-from .transactions import OpenTransaction, TransactionRows
 
 
 @dataclass
@@ -49,7 +49,7 @@ class Options:
     frame_gap: float | None = None        # seconds; default max(50 ms, 20 characters)
     timeouts: Timeouts = field(default_factory=Timeouts)
     tune_gc: bool = True                  # raise the GC's young threshold while iterating
-    strip_echo: bool = True               # drop line B's copies of line A's frames (analyzer.echo)
+    strip_echo: bool = True               # drop line B's copies of line A's frames (analyzer.analysis.echo)
     swap_lines: bool = False              # the tap's ports were given the other way round
     follow_rate: bool = True              # follow ACKed rate-set commands (docs/time.md, "Rate changes")
     tz: str | None = None                 # the zone of a socat log's stamps (None: this machine's)
@@ -96,7 +96,7 @@ class Capture:
         self._now: float | None = None   # after an idle tick: the time pairing may run on to
         self._tick = False               # an idle tick arrived: time passed with no bytes
         self._latest: float | None = None  # the latest time any chunk or tick showed
-        self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.skew)
+        self.skew: float = 0.0             # seconds line B's times are moved later (analyzer.analysis.skew)
         # line B events from this (corrected) time on carry the current correction;
         # earlier ones an older one: latencies are comparable only on one side of it
         self.skew_from: float | None = None
@@ -115,7 +115,7 @@ class Capture:
         self._tails: dict[str, bytes] = {}   # each line's last bytes (a mark split between reads)
         self._watch_all = bool(getattr(source, "live", False))
         self._deframers: list[Deframer] = []
-        # two lines: copies of line A's frames on line B are dropped (analyzer.echo)
+        # two lines: copies of line A's frames on line B are dropped (analyzer.analysis.echo)
         # (timed input only: a copy is told from a real frame by overlapping its original)
         self.echo = (EchoStripper() if tuple(source.lines) == ("A", "B") and source.timed and self.options.strip_echo
                      else None)
@@ -249,7 +249,7 @@ class Capture:
                         yield ev
 
     def transactions(self) -> Iterator[dict]:
-        """One dict per transaction (a command and its answers, analyzer/transactions.py),
+        """One dict per transaction (a command and its answers, analyzer/analysis/transactions.py),
         in the order of the commands: ``txn``, ``number`` (the command's event),
         ``command``, ``device``, ``status``, ``retransmission``, ``ack_latency``,
         ``result_latency``, ``answers``, ``fields`` (the command's, then its
@@ -269,7 +269,7 @@ class Capture:
     def to_arrow(self):
         """The capture's events (those the filter keeps) as a pyarrow Table, the
         columns of the dataset's ``events`` table (docs/dataset.md)."""
-        from .dataset.rows import events_table
+        from .formats.parquet_rows import events_table
         return events_table(self, keep=self.keep)
 
     def to_pandas(self):
@@ -673,13 +673,13 @@ def open(*paths: str, options: Options | None = None, on_warning: Callable[[str]
     Keyword arguments set ``Options`` fields (``baud=19200``); those given, like
     the ``explicit`` fields of ``options``, win over what a recording says of its
     own settings, and each that differs from it is said once (a warning).
-    ``filter`` (the language of ``decode --filter``, analyzer/filter.py) keeps
+    ``filter`` (the language of ``decode --filter``, analyzer/analysis/filter.py) keeps
     only the events it matches when iterating, in ``to_arrow()`` and in
     ``transactions()`` (by their command); a bad one raises ``FilterError``.
     Raises ``CaptureError`` with a one-line message for anything unreadable."""
     keep = None
     if filter is not None:
-        from .filter import compile_filter
+        from .analysis.filter import compile_filter
         keep = compile_filter(filter)   # first: a typo costs no file opened
     if options is None:
         timeouts = kw.pop("timeouts", None)

@@ -12,7 +12,8 @@ import dataclasses
 import datetime
 from dataclasses import dataclass, field
 
-from . import __version__
+from .errors import BadMetadata
+from .version import __version__
 
 # what each line carries (docs/inputs.md)
 LINE_ROLES = {"A": "controller→device", "B": "device→controller", "AB": "single-line tap (both directions)"}
@@ -109,7 +110,7 @@ class CaptureInfo:
 
 
 def _hostname() -> str:
-    import socket   # here: reading a capture (``analyzer.open``) needs neither module
+    import socket  # here: reading a capture (``analyzer.open``) needs neither module
     return socket.gethostname()
 
 
@@ -134,10 +135,6 @@ def _iso(epoch: float | None) -> str:
 FLAGS = {"baud": "--baud", "data_bits": "--data-bits", "parity": "--parity", "stop_bits": "--stop-bits",
          "ack_timeout": "--ack-timeout", "result_timeout": "--result-timeout", "timeouts": "--timeout",
          "frame_gap": "--frame-gap", "follow_rate": "--no-follow-rate"}
-
-
-class BadMetadata(ValueError):
-    """A value of the metadata record that cannot be what it says."""
 
 
 def _number(meta: dict[str, str], key: str, kind: type, ok) -> float:

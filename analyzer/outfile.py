@@ -16,7 +16,7 @@ half-written, and every failure one line saying what and where.
 A refusal (``OutputRefused``, from ``check_output``) is a usage mistake: exit 2.
 A failure while writing (``OutputError``) is exit 1.
 
-Live recordings are the exception (analyzer/recording): they are written in
+Live recordings are the exception (analyzer/writers/mcap_recorder.py): they are written in
 place and flushed every second, because a killed tap must leave its capture
 under the name the user gave.
 """
@@ -28,19 +28,7 @@ import os
 import tempfile
 from typing import BinaryIO, Iterable
 
-
-class OutputError(Exception):
-    """An output that cannot be written; the message is one line naming it.
-    ``exit_code``: 1, the run failed writing its output."""
-
-    exit_code = 1
-
-
-class OutputRefused(OutputError):
-    """An output refused before any work was done (``check_output``): a mistake
-    on the command line, so exit 2 like every other usage error."""
-
-    exit_code = 2
+from .errors import OutputError, OutputRefused
 
 
 def show(path: str | bytes | os.PathLike) -> str:

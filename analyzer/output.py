@@ -13,13 +13,13 @@ import sys
 from functools import partial
 from typing import IO, Callable
 
-from .outfile import OutputError, reason, write_error
-
 from dissectors import summarize
-from dissectors.wire import payload_text
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RATE, RESULT, Event
 from dissectors.problems import MALFORMED
+from dissectors.wire import payload_text
 
+from .errors import StdoutError
+from .outfile import OutputError, reason, write_error
 from .styles import ROW_STYLE, row_class
 
 try:
@@ -48,10 +48,6 @@ except ImportError:  # pragma: no cover - orjson is a dependency; keep working w
 
 
 STDOUT = "standard output"
-
-
-class StdoutError(OutputError):
-    """Standard output cannot be written (not a closed pipe: that is quiet)."""
 
 
 def stdout_error(e: OSError) -> StdoutError:
@@ -285,7 +281,9 @@ class SgrCodes(dict):
 
     def __init__(self, console) -> None:
         super().__init__()
-        from rich.console import COLOR_SYSTEMS   # Rich's names ("256") to its ColorSystem
+        from rich.console import (
+            COLOR_SYSTEMS,  # Rich's names ("256") to its ColorSystem
+        )
         system = console.color_system
         self._system = COLOR_SYSTEMS[system] if system else None
         self._no_color = console.no_color

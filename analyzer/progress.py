@@ -30,7 +30,7 @@ import sys
 import threading
 
 from .runner import Listener
-from .sources.base import READS, ReadMeter
+from .sources.meter import READS, ReadMeter
 
 DELAY = 3.0                                # seconds of work before a bar appears
 DELAY_ENV = "GIMBALSCOPE_PROGRESS_DELAY"   # another delay in seconds (tests: 0)
@@ -116,8 +116,14 @@ class ReadProgress:
         if not total:
             return                         # a pipe, or nothing to read: no share to show
         from rich.console import Console
-        from rich.progress import (BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn,
-                                   TransferSpeedColumn)
+        from rich.progress import (
+            BarColumn,
+            DownloadColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+            TransferSpeedColumn,
+        )
         progress = Progress(TextColumn("{task.description}"), BarColumn(), DownloadColumn(),
                             TransferSpeedColumn(), TimeRemainingColumn(),
                             console=Console(file=sys.stderr), transient=True, auto_refresh=False,

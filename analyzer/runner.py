@@ -56,7 +56,7 @@ class Note:
     text: str
     level: str = WARNING
     t: float | None = None
-    finding: Any = None       # an analyzer.doctor.Finding for the doctor's notes
+    finding: Any = None       # an analyzer.analysis.doctor.Finding for the doctor's notes
     origin: str = CAPTURE     # who says it: CAPTURE, DOCTOR, RECORDING, RUNNER
 
 
@@ -117,7 +117,7 @@ class TapRunner:
 
     @property
     def skew(self) -> float:
-        """Seconds line B's times are moved later (analyzer/skew.py)."""
+        """Seconds line B's times are moved later (analyzer/analysis/skew.py)."""
         return self._capture.skew
 
     @property

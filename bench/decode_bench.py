@@ -31,7 +31,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from analyzer.traffic import generate  # noqa: E402
+from analyzer.simulation.traffic import generate  # noqa: E402
 from bench.measure import run_measured  # noqa: E402
 from dissectors.deframer import COMPILED  # noqa: E402
 

@@ -2,7 +2,7 @@
 """The wiring doctor on large untimed captures (issue: floods, doctor scale).
 
 Builds two raw dumps (no time) of about 100k, 400k and 1.6M events with
-``analyzer.traffic`` (a controller polling three gimbals, with bit errors, dropped
+``analyzer.simulation.traffic`` (a controller polling three gimbals, with bit errors, dropped
 ACKs and noise), and a dump of random bytes; runs ``gimbalscope doctor`` and, for
 comparison, ``gimbalscope stats`` on each, and prints seconds and peak RSS. The
 doctor must grow linearly in time and stay flat in memory.
@@ -20,7 +20,7 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from analyzer.traffic import generate  # noqa: E402
+from analyzer.simulation.traffic import generate  # noqa: E402
 from bench.measure import run_measured  # noqa: E402
 
 EVENTS_PER_COMMAND = 2.55   # the generator's mix: command, ACK, often a result

@@ -32,7 +32,7 @@ import analyzer  # noqa: E402
 from analyzer.info import CaptureInfo  # noqa: E402
 from analyzer.runner import TapRunner  # noqa: E402
 from analyzer.writers.mcap import McapWriter  # noqa: E402
-from analyzer.traffic import generate  # noqa: E402
+from analyzer.simulation.traffic import generate  # noqa: E402
 
 BAUD = 115200
 EVENTS_PER_COMMAND = 2.55

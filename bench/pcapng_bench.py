@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Wireshark export figures (issue: Wireshark interop). Prints:
 
-  1. the pcapng writer alone (analyzer/wireshark/pcapng.py) against the Python
+  1. the pcapng writer alone (analyzer/formats/pcapng.py) against the Python
      pcapng package's writer, when it is installed: packets/s for the same
      packets (the reason this one is written by hand)
   2. `gimbalscope export LOG -o F.pcapng` of a socat log of saturated
@@ -33,7 +33,7 @@ from measure import run_measured  # noqa: E402
 
 
 def writer_rate(packets: int) -> None:
-    from analyzer.wireshark.pcapng import PcapngStream
+    from analyzer.formats.pcapng import PcapngStream
     data = bytes(60)
     stream = PcapngStream(io.BytesIO(), "bench")
     iface = stream.add_interface(252, "A")

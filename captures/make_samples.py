@@ -3,7 +3,7 @@
 
     python captures/make_samples.py            # raw dumps + a socat log recorded live
 
-The raw dumps come from the synthetic conversation in analyzer/traffic.py; the
+The raw dumps come from the synthetic conversation in analyzer/simulation/traffic.py; the
 socat log is that conversation played in real time through real socat between
 two pseudo-terminals, each side written with pyserial.
 """
@@ -20,7 +20,7 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.dirname(HERE))
 
-from analyzer.traffic import generate  # noqa: E402
+from analyzer.simulation.traffic import generate  # noqa: E402
 
 
 def raw_dumps() -> None:

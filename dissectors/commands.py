@@ -11,8 +11,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from .problems import OUT_OF_RANGE, RESERVED, Problem
 from .fields import Field, Layout, choice, decimal, hexnum, text
+from .problems import OUT_OF_RANGE, RESERVED, Problem
 
 NONE = "none"          # ACK only
 DUE = "due"            # ACK + result

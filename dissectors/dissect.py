@@ -11,10 +11,10 @@ from __future__ import annotations
 import re
 from typing import Any, NamedTuple
 
-from .commands import COMMANDS, Command, NONE
+from .commands import COMMANDS, NONE, Command
 from .event import COMMAND
-from .problems import MALFORMED, RESERVED, UNKNOWN_COMMAND, Problem
 from .fields import Layout
+from .problems import MALFORMED, RESERVED, UNKNOWN_COMMAND, Problem
 from .wire import payload_text
 
 

@@ -135,7 +135,7 @@ class Event:
     carries no address: it is its transaction's. Orphan handshakes and noise
     have none. ``dst`` stays the literal header.
 
-    ``transaction`` is the pairing record (``analyzer.pairing.Transaction``) of
+    ``transaction`` is the pairing record (``analyzer.analysis.pairing.Transaction``) of
     a command and of each answer pairing linked to it; None otherwise.
     """
 

@@ -10,7 +10,8 @@ one used in JSON Lines, filters, statistics, MCAP recordings and the TUI.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field as dc_field
+from dataclasses import dataclass
+from dataclasses import field as dc_field
 from typing import Any, Callable
 
 from .problems import LOWERCASE_HEX, OUT_OF_RANGE, Problem
@@ -31,7 +32,7 @@ class Field:
     valid: tuple[float, float] | None = None  # warn when the decoded value is outside
     lead: bytes = rb"[\s\S]"  # what the field's first character can be
     # the decoded value's JSON type ("integer", "number", "string", "boolean"):
-    # MCAP schemas type every field with it (analyzer/recording/schemas.py)
+    # MCAP schemas type every field with it (analyzer/formats/mcap_schemas.py)
     type: str = "string"
     # how ``decode`` reads the characters, said as data for decoders written in
     # other languages (the Wireshark dissector, analyzer/wireshark/lua.py):

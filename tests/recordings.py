@@ -15,7 +15,7 @@ from pathlib import Path
 import jsonschema
 from mcap.reader import make_reader
 
-from analyzer.recording import schemas as S
+from analyzer.formats import mcap_schemas as S
 
 OUR_SCHEMAS = {schema["title"] for schema in S.SCHEMAS.values()}
 

@@ -12,7 +12,7 @@ answers), not from the code.
 
 from __future__ import annotations
 
-from analyzer.traffic import Traffic, Write
+from analyzer.simulation.traffic import Traffic, Write
 from tests.conftest import frame
 
 BT = 10 / 9600

@@ -7,18 +7,16 @@ import argparse
 import math
 import sys
 
-from ..capture import Capture, Options, open as open_capture
-from ..filter import FilterError, Predicate, compile_filter
+from ..analysis.filter import FilterError, Predicate, compile_filter
+from ..analysis.pairing import Timeouts
+from ..capture import Capture, Options
+from ..capture import open as open_capture
+from ..errors import UsageError
 from ..info import CaptureInfo
 from ..listeners import NotePrinter
-from ..pairing import Timeouts
 from ..runner import Listener, TapRunner
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
-
-
-class UsageError(Exception):
-    """Bad command-line input; the message is shown as one line, exit 2."""
 
 
 # Numeric option types for argparse (``type=``): a bad value is refused while the

@@ -1,7 +1,7 @@
 """``gimbalscope convert``: captures to an MCAP recording or to JSON Lines, the
 format chosen by the output's suffix (the writer registry, analyzer/writers).
 
-MCAP holds what a live recording holds (the MCAP topics of analyzer/recording):
+MCAP holds what a live recording holds (the MCAP topics of analyzer/writers/mcap_recorder.py):
 raw bytes per line, decoded events (Tables 4-18 via the command table),
 transactions and foxglove.Log anomalies, with a metadata record. JSON Lines are
 the lines ``decode --format jsonl`` prints.

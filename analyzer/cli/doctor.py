@@ -1,5 +1,5 @@
 """``gimbalscope doctor INPUT…|PORT…``: what is wrong with the link, in plain words
-with the fix to try (analyzer.doctor: swapped lines, wrong baud rate, echo, silent
+with the fix to try (analyzer.analysis.doctor: swapped lines, wrong baud rate, echo, silent
 devices, noise, controller timing, slow answers, the device map). From any capture,
 or live from one or two ports (``--seconds``, findings printed as they appear).
 
@@ -18,12 +18,22 @@ import sys
 import threading
 from dataclasses import replace
 
-from ..capture import Capture, open as open_capture, open_live
-from ..doctor import INFO, Finding, WiringDoctor
-from ..listeners import DoctorListener
-from ..runner import DOCTOR, Listener, Note
+from ..analysis.doctor import INFO, Finding, WiringDoctor
+from ..capture import Capture, open_live
+from ..capture import open as open_capture
+from ..listeners import DoctorListener, FindingTeller
+from ..runner import Listener
 from ..styles import SEVERITY_STYLE
-from .common import STANDARD_BAUDS, UsageError, add_quiet_arg, add_serial_args, non_negative_float, options_from, positive_float, run_tap
+from .common import (
+    STANDARD_BAUDS,
+    UsageError,
+    add_quiet_arg,
+    add_serial_args,
+    non_negative_float,
+    options_from,
+    positive_float,
+    run_tap,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -70,15 +80,6 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{len(ports)} ports given: a tap reads one port or two (line A, line B)")
         return diagnose(open_live(ports, options), args, live=True)
     return diagnose(open_capture(*args.inputs, options=options), args, live=False)
-
-
-class FindingTeller(Listener):
-    """Live: each finding on standard output the first time it shows."""
-
-    def on_note(self, note: Note) -> None:
-        if note.origin == DOCTOR:
-            f = note.finding
-            print(f"{f.severity.upper():8} {f.title}", flush=True)
 
 
 def examine(capture: Capture, *listeners: Listener, notes: bool = True,

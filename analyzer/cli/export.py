@@ -26,12 +26,18 @@ import os
 import sys
 
 from ..dataset.export import Job, Outcome, export
+from ..listeners.printer import NotePrinter
 from ..outfile import OutputRefused, show
 from ..runner import ERROR, WARNING, Note
-from ..listeners.printer import NotePrinter
 from ..writers import WRITERS, file_output, folder_output, holds_many_captures
-from .common import UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
 from . import common
+from .common import (
+    UsageError,
+    add_quiet_arg,
+    add_serial_args,
+    options_from,
+    positive_int,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -2,13 +2,13 @@
 MCAP recordings and connects to its live servers (docs/foxglove.md).
 
 ``gimbalscope foxglove layout [CAPTURE...]`` writes a layout (JSON, imported in
-the app's layout menu) for the topics of analyzer/recording/schemas.py, built
+the app's layout menu) for the topics of analyzer/formats/mcap_schemas.py, built
 with ``foxglove.layouts`` from the Foxglove SDK:
 
 - a Log panel on ``/log`` (the anomalies and the tap's notes);
 - a position plot per gimbal, titled with its address: the commanded target and
   the reported position, azimuth and elevation, from
-  ``/gimbal/<group.port.device>/position`` (analyzer/positions.py);
+  ``/gimbal/<group.port.device>/position`` (analyzer/analysis/positions.py);
 - Table panels on ``/events`` and ``/transactions``, and a Raw Messages panel per
   line (``/serial/A/raw`` and ``/serial/B/raw``, or ``/serial/AB/raw``).
 
@@ -32,13 +32,13 @@ import os
 import re
 from typing import TYPE_CHECKING, Iterable, Sequence
 
+from ..analysis.positions import AZ, EL
 from ..capture import Capture
+from ..formats import mcap_schemas as S
 from ..info import CaptureInfo
+from ..listeners import PositionFinder
 from ..outfile import AtomicOutput, check_output
 from ..output import print_out
-from ..positions import AZ, EL, PositionTracker
-from ..recording import schemas as S
-from ..runner import Listener
 from .common import add_serial_args, open_inputs, run_tap, warn
 
 if TYPE_CHECKING:
@@ -134,22 +134,6 @@ def capture_contents(capture: Capture) -> tuple[list[str], tuple[str, ...]]:
     return sorted(devices, key=address_key), lines
 
 
-class PositionFinder(Listener):
-    """The gimbals the events make a position message for (as recordings and live
-    servers publish them: analyzer/recording/messages.py)."""
-
-    def __init__(self) -> None:
-        self.tracker = PositionTracker()
-        self.devices: set[str] = set()
-
-    def on_events(self, events) -> None:
-        see, devices = self.tracker.see, self.devices
-        for ev in events:
-            found = see(ev)
-            if found is not None:
-                devices.add(found[0])
-
-
 def address_key(device: str) -> tuple:
     """group.port.device in numeric order (1.1.2 before 1.1.10)."""
     try:
@@ -187,8 +171,16 @@ def channel_records(path: str) -> tuple[set[str], set[str]]:
     """(schema names, channel topics) of an MCAP file: from its summary, or
     without one by a walk over its records and chunks (each length checked:
     analyzer/sources/mcapscan.py). Damage ends the walk through what it hit."""
-    from ..sources.mcapscan import OP_CHANNEL, OP_CHUNK, OP_SCHEMA, Damaged, Walk, read_chunk, read_cut_chunk, \
-        summary_records
+    from ..sources.mcapscan import (
+        OP_CHANNEL,
+        OP_CHUNK,
+        OP_SCHEMA,
+        Damaged,
+        Walk,
+        read_chunk,
+        read_cut_chunk,
+        summary_records,
+    )
 
     wanted = (OP_SCHEMA, OP_CHANNEL)
     schemas: set[str] = set()

@@ -29,7 +29,14 @@ from ..outfile import check_output
 from ..output import JsonLinesSink, TextSink
 from ..runner import Listener, TapRunner
 from ..writers.mcap import McapWriter
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float
+from .common import (
+    UsageError,
+    add_filter_arg,
+    add_serial_args,
+    build_filter,
+    options_from,
+    positive_float,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

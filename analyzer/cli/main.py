@@ -10,14 +10,29 @@ import os
 import signal
 import sys
 
-from .. import __version__
+from ..errors import DatasetError
 from ..outfile import OutputError, show
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
-from ..dataset.errors import DatasetError
-from . import (convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, report, sim,
-               stats, view, wireshark)
-from ..sources.base import READS
+from ..sources.meter import READS
+from ..version import __version__
+from . import (
+    convert,
+    decode,
+    demo,
+    doctor,
+    export,
+    foxglove,
+    live,
+    query,
+    recover,
+    replay,
+    report,
+    sim,
+    stats,
+    view,
+    wireshark,
+)
 from .common import UsageError, set_quiet
 
 EXIT_INPUT = 2

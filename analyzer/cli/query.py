@@ -18,7 +18,7 @@ import decimal
 import math
 import sys
 
-from ..dataset.errors import DatasetError
+from ..errors import DatasetError
 from ..output import dumps
 
 BATCH = 10_000       # rows fetched at a time

@@ -8,9 +8,8 @@ import sys
 
 from dissectors.event import P_CHECKSUM, P_NOISE, P_TRUNCATED, STATUSES
 
+from ..listeners import StatsListener
 from ..output import dumps, fmt_seconds
-from ..runner import Listener
-from ..stats import Stats
 from .common import add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
 
 
@@ -34,20 +33,6 @@ def run(args: argparse.Namespace) -> int:
     else:
         render(data)
     return 0
-
-
-class StatsListener(Listener):
-    """Counts every event ``keep`` accepts (all without a filter)."""
-
-    def __init__(self, keep=None) -> None:
-        self.stats = Stats()
-        self.keep = keep
-
-    def on_events(self, events) -> None:
-        add, keep = self.stats.add, self.keep
-        for ev in events:
-            if keep is None or keep(ev):
-                add(ev)
 
 
 # what a noise event is, by its problem category (the deframer's: docs/decoding.md)

@@ -21,7 +21,7 @@ from ..info import CaptureInfo
 from ..outfile import show
 from ..runner import Listener, TapRunner
 from ..sources import CaptureError
-from ..sources.base import READS
+from ..sources.meter import READS
 
 REPORT_EVERY = 0.25   # seconds between a job's reports of the bytes it has read
 MCAP_MAGIC = b"\x89MCAP0\r\n"

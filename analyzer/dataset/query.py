@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import os
 
-from .errors import DatasetError
-from .schema import PARTITION, TABLES
+from ..errors import DatasetError
+from ..formats.parquet_schema import PARTITION, TABLES
 
 
 def table_glob(root: str, table: str) -> str:

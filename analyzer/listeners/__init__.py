@@ -1,11 +1,16 @@
 """Listeners of the tap runner (analyzer/runner.py) that are not file writers
-(those are in analyzer/writers): printing events and notes, the wiring doctor,
-the live Foxglove server."""
+(those are in analyzer/writers): printing events and notes, the wiring doctor
+and its live findings, statistics, the gimbals with positions, the live Foxglove
+server. A command module builds its listeners from here and hands them to the
+runner; none of them touches the capture."""
 
-from .doctor import DoctorListener
+from .doctor import DoctorListener, FindingTeller
+from .positions import PositionFinder
 from .printer import EventPrinter, NotePrinter
+from .stats import StatsListener
 
-__all__ = ["DoctorListener", "EventPrinter", "FoxgloveServer", "NotePrinter"]
+__all__ = ["DoctorListener", "EventPrinter", "FindingTeller", "FoxgloveServer", "NotePrinter", "PositionFinder",
+           "StatsListener"]
 
 
 def __getattr__(name: str):

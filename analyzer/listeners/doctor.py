@@ -1,4 +1,4 @@
-"""The wiring doctor alongside a run (analyzer/doctor.py): fed every event, it
+"""The wiring doctor alongside a run (analyzer/analysis/doctor.py): fed every event, it
 checks about once a second of capture time (every ``UNTIMED_CHECK_EVERY`` events
 when the capture has no time) and posts each new finding (not the device map)
 once, as a note the printer prints and a recording keeps on ``/log``.
@@ -10,8 +10,15 @@ from __future__ import annotations
 
 from dissectors.event import Event
 
-from ..doctor import INFO, UNTIMED_CHECK_EVERY, Finding, Invocation, WiringDoctor, one_line
-from ..runner import DOCTOR, Listener
+from ..analysis.doctor import (
+    INFO,
+    UNTIMED_CHECK_EVERY,
+    Finding,
+    Invocation,
+    WiringDoctor,
+    one_line,
+)
+from ..runner import DOCTOR, Listener, Note
 
 
 class DoctorListener(Listener):
@@ -84,3 +91,12 @@ class DoctorListener(Listener):
         if self.doctor is not None:
             self.findings = self.doctor.findings()   # the last word
             self.checked = True
+
+
+class FindingTeller(Listener):
+    """Live: each finding on standard output the first time it shows."""
+
+    def on_note(self, note: Note) -> None:
+        if note.origin == DOCTOR:
+            f = note.finding
+            print(f"{f.severity.upper():8} {f.title}", flush=True)

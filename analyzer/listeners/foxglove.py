@@ -3,7 +3,7 @@ of ``live``, ``demo`` and ``replay``).
 
 The app connects (Open connection → Foxglove WebSocket, ``ws://HOST:PORT``) and
 sees the topics a recording has, with the same messages and log times: both are
-built by ``Messages`` (analyzer/recording/messages.py) from the runner's callbacks,
+built by ``Messages`` (analyzer/formats/mcap_messages.py) from the runner's callbacks,
 mapped as the MCAP recording maps them (``message_clock``, ``log_level`` in
 analyzer/writers/mcap.py).
 
@@ -42,10 +42,11 @@ import foxglove
 
 from dissectors.event import Event
 
+from ..errors import ServeError
+from ..formats import mcap_schemas as S
+from ..formats.mcap_messages import Messages
 from ..info import CaptureInfo
 from ..output import dumps
-from ..recording import schemas as S
-from ..recording.messages import Messages
 from ..runner import INFO, RECORDING, WARNING, Listener, Note, TapRunner
 from ..sources import Chunk
 from ..writers.mcap import log_level, message_clock
@@ -64,10 +65,6 @@ FLUSH_SECONDS = 0.03   # a burst's span: well under what a person sees as lag
 # The SDK logs through Python's logging; with no handler configured its lines
 # would land raw on standard error, over the TUI. They are told as notes instead.
 SDK_LOGGER = "foxglove"
-
-
-class ServeError(Exception):
-    """The address cannot be served (busy, or not this machine's); one line."""
 
 
 def show_address(host: str, port: int) -> str:

@@ -1,7 +1,7 @@
 """What the simulated gimbal does for each command: one table keyed by command id
 (the ids of ``dissectors.commands``), each entry a small handler.
 
-A handler takes the gimbal (``GimbalModel``) and the command's decoded fields,
+A handler takes the gimbal (``GimbalState``: ``GimbalModel``'s state) and the command's decoded fields,
 changes the gimbal's state and returns its answer: None when the ACK says it all,
 the result payload (sent at once) or ``(extra delay, result payload)``. Teaching
 the simulator a command is one entry here; a command without an entry is
@@ -12,13 +12,35 @@ says so with its ACK and the bus switches the port (docs/time.md, "Rate changes"
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable, Union
+from typing import Callable, Protocol, Union
 
-if TYPE_CHECKING:
-    from .gimbal import GimbalModel
+
+class GimbalState(Protocol):
+    """What a handler reads and changes of the gimbal: ``GimbalModel``
+    (analyzer/simulation/gimbal.py) has it. Declared here so that the table does
+    not import the model that uses it."""
+
+    address: tuple[int, int, int]
+    name: str
+    serial: str
+    init_seconds: float
+    az: float
+    el: float
+    target: tuple[float, float] | None
+    sweep: tuple[float, float]
+    gain: list[float]
+    vector: bool
+    presets: dict[int, tuple[float, float]]
+    limits: list[int]
+    zoom: int
+    focus: int
+    relays: int
+    motors_on: bool
+    initialized: list[bool]
+
 
 Answer = Union[str, tuple[float, str], None]
-Handler = Callable[["GimbalModel", dict], Answer]
+Handler = Callable[[GimbalState, dict], Answer]
 
 PAN, TILT = 0, 1
 
@@ -29,24 +51,24 @@ def h4(value: float) -> str:
 
 
 # ------------------------------------------------------------------ motion
-def _go_to(g: GimbalModel, v: dict) -> None:
+def _go_to(g: GimbalState, v: dict) -> None:
     g.target = (v["azimuth_deg"], v["elevation_deg"])
 
 
-def _position(g: GimbalModel, v: dict) -> str:
+def _position(g: GimbalState, v: dict) -> str:
     return h4(g.az) + h4(g.el)
 
 
-def _go_to_preset(g: GimbalModel, v: dict) -> None:
+def _go_to_preset(g: GimbalState, v: dict) -> None:
     g.target = g.presets.get(v["preset"], (0.0, 0.0))
 
 
-def _preset_position(g: GimbalModel, v: dict) -> str:
+def _preset_position(g: GimbalState, v: dict) -> str:
     a, e = g.presets.get(v["preset"], (0.0, 0.0))
     return h4(a) + h4(e)
 
 
-def _store_preset(g: GimbalModel, v: dict) -> None:
+def _store_preset(g: GimbalState, v: dict) -> None:
     g.presets[v["preset"]] = (g.az, g.el)
 
 
@@ -56,37 +78,37 @@ def _with_axis(sweep: tuple[float, float], axis: int, direction: float) -> tuple
 
 def _sweep(axis: int, direction: float) -> Handler:
     """Continuous motion of one axis (PL/PR, TD/TU: -1 or +1); it ends a go-to."""
-    def run(g: GimbalModel, v: dict) -> None:
+    def run(g: GimbalState, v: dict) -> None:
         g.target, g.sweep = None, _with_axis(g.sweep, axis, direction)
     return run
 
 
 def _axis_stop(axis: int) -> Handler:
     """PS/TS: stops one axis's continuous motion (a go-to target stays)."""
-    def run(g: GimbalModel, v: dict) -> None:
+    def run(g: GimbalState, v: dict) -> None:
         g.sweep = _with_axis(g.sweep, axis, 0.0)
     return run
 
 
-def _stop(g: GimbalModel, v: dict) -> None:
+def _stop(g: GimbalState, v: dict) -> None:
     g.target, g.sweep = None, (0.0, 0.0)
 
 
-def _home(g: GimbalModel, v: dict) -> None:
+def _home(g: GimbalState, v: dict) -> None:
     g.target = (0.0, 0.0)
 
 
-def _halt(g: GimbalModel, v: dict) -> None:
+def _halt(g: GimbalState, v: dict) -> None:
     g.presets[0xFF] = (g.az, g.el)   # halt stores the position (Table 11)
     g.target, g.sweep, g.motors_on = None, (0.0, 0.0), False
 
 
-def _verify_home(g: GimbalModel, v: dict) -> str:
+def _verify_home(g: GimbalState, v: dict) -> str:
     ok = 3 if all(g.initialized) else 0
     return f"{ok:X}{ok:X}{ok:X}"
 
 
-def _initialize(g: GimbalModel, v: dict) -> tuple[float, str]:
+def _initialize(g: GimbalState, v: dict) -> tuple[float, str]:
     # the result comes when the sweep to both limits is over (Table 9)
     g.initialized = [True, True]
     g.motors_on = True
@@ -97,50 +119,50 @@ def _initialize(g: GimbalModel, v: dict) -> tuple[float, str]:
 # ------------------------------------------------------------ settings per axis
 def _set(setting: str, axis: int, field: str) -> Handler:
     """A per-axis setting (``rate``, ``accel``, ``gain``, ``speed``) from a field."""
-    def run(g: GimbalModel, v: dict) -> None:
+    def run(g: GimbalState, v: dict) -> None:
         getattr(g, setting)[axis] = v[field]
     return run
 
 
 def _get(setting: str, *axes: int) -> Handler:
     """A per-axis setting's hundredths, one axis or both in order."""
-    def run(g: GimbalModel, v: dict) -> str:
+    def run(g: GimbalState, v: dict) -> str:
         values = getattr(g, setting)
         return "".join(h4(values[axis]) for axis in axes)
     return run
 
 
-def _gains(g: GimbalModel, v: dict) -> str:
+def _gains(g: GimbalState, v: dict) -> str:
     return f"G?{round(g.gain[PAN] * 10):02X}{round(g.gain[TILT] * 10):02X}0000"   # Table 8
 
 
-def _vector(g: GimbalModel, v: dict) -> None:
+def _vector(g: GimbalState, v: dict) -> None:
     g.vector = bool(v["vector"])
 
 
 # ------------------------------------------------------------------ status
-def _awake(g: GimbalModel, v: dict) -> str:
+def _awake(g: GimbalState, v: dict) -> str:
     status = (0 if g.initialized[PAN] else 1) | (0 if g.initialized[TILT] else 2) | (0 if g.motors_on else 4)
     return f"{status:X}"
 
 
-def _identity(g: GimbalModel, v: dict) -> str:
+def _identity(g: GimbalState, v: dict) -> str:
     return f"{g.address[2]:02X} 9{g.name:<20.20}{g.serial:<20.20}"   # Table 6
 
 
-def _status_bits(g: GimbalModel, v: dict) -> str:
+def _status_bits(g: GimbalState, v: dict) -> str:
     az = 0 if g.initialized[PAN] else 1
     el = 0 if g.initialized[TILT] else 1
     return f"{az:02X}{el:02X}"
 
 
 def _constant(payload: str) -> Handler:
-    def run(g: GimbalModel, v: dict) -> str:
+    def run(g: GimbalState, v: dict) -> str:
         return payload
     return run
 
 
-def _set_address(g: GimbalModel, v: dict) -> None:
+def _set_address(g: GimbalState, v: dict) -> None:
     g.address = (g.address[0], g.address[1], v["new_address"])
 
 
@@ -148,32 +170,32 @@ def _set_address(g: GimbalModel, v: dict) -> None:
 def _relay(relay: int, on: bool) -> Handler:
     bit = 1 << relay
 
-    def run(g: GimbalModel, v: dict) -> None:
+    def run(g: GimbalState, v: dict) -> None:
         g.relays = g.relays | bit if on else g.relays & ~bit
     return run
 
 
-def _relays(g: GimbalModel, v: dict) -> str:
+def _relays(g: GimbalState, v: dict) -> str:
     return f"L{g.relays & 0xF:X}"
 
 
-def _clear_limits(g: GimbalModel, v: dict) -> None:
+def _clear_limits(g: GimbalState, v: dict) -> None:
     g.limits = [0x000, 0xFFF, 0x000, 0xFFF]
 
 
-def _set_limits(g: GimbalModel, v: dict) -> None:
+def _set_limits(g: GimbalState, v: dict) -> None:
     g.limits = [v["pan_ccw"], v["pan_cw"], v["tilt_ccw"], v["tilt_cw"]]
 
 
-def _limits(g: GimbalModel, v: dict) -> str:
+def _limits(g: GimbalState, v: dict) -> str:
     return "".join(f"{x:03X}" for x in g.limits)
 
 
-def _lens_go_to(g: GimbalModel, v: dict) -> None:
+def _lens_go_to(g: GimbalState, v: dict) -> None:
     g.zoom, g.focus = v["zoom"], v["focus"]
 
 
-def _lens(g: GimbalModel, v: dict) -> str:
+def _lens(g: GimbalState, v: dict) -> str:
     return f"{g.zoom:03X}{g.focus:03X}"
 
 

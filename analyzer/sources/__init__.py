@@ -3,8 +3,10 @@
 
 from __future__ import annotations
 
+from ..errors import CaptureError
+from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from . import registry
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
+from .base import Reader, ReadSettings, Source
 from .files import STDIN, Input, open_input
 from .rawdump import RawDumpSource
 from .registry import formats

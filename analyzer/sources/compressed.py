@@ -20,7 +20,7 @@ import lzma
 import zlib
 from typing import BinaryIO
 
-from .base import CaptureError
+from ..errors import CaptureError
 
 IN_BLOCK = 1 << 16       # compressed bytes read at a time
 OUT_BLOCK = 1 << 18      # at most this many decompressed bytes per step

@@ -19,9 +19,10 @@ import sys
 import tempfile
 from typing import BinaryIO
 
+from ..errors import CaptureError
 from ..outfile import reason, show
-from .base import READS, CaptureError
 from .compressed import Decompressed, sniff
+from .meter import READS
 
 STDIN = "-"
 HEAD = 1 << 16      # bytes read for detection

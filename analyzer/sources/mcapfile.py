@@ -49,12 +49,33 @@ try:
 except ImportError:  # pragma: no cover
     json_loads = json.loads
 
+from ..errors import CaptureError
+from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from ..outfile import show
-from .base import LINE_A, LINE_AB, LINE_B, READS, CaptureError, Chunk, ReadSettings, Source
+from .base import ReadSettings, Source
 from .files import Input, open_input
-from .mcapscan import (MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_SCHEMA, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA,
-                       RECORD, RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk,
-                       summary_records)
+from .mcapscan import (
+    MAGIC,
+    MESSAGE_HEAD,
+    OP_CHANNEL,
+    OP_CHUNK,
+    OP_DATA_END,
+    OP_FOOTER,
+    OP_MESSAGE,
+    OP_METADATA,
+    OP_SCHEMA,
+    RECORD,
+    RECORD_HEAD,
+    Damaged,
+    Walk,
+    intact_prefix,
+    op_name,
+    parse,
+    read_chunk,
+    read_cut_chunk,
+    summary_records,
+)
+from .meter import READS
 
 RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}
 
@@ -303,7 +324,7 @@ def _remove(path: str) -> None:
 
 
 # ----------------------------------------------------- metadata and time span
-METADATA_NAME = "gimbalscope"      # analyzer/recording/schemas.py (not imported: it loads the recorder's writer)
+METADATA_NAME = "gimbalscope"      # analyzer/formats/mcap_schemas.py (not imported: it loads the recorder's writer)
 _MAX_METADATA = 1 << 20            # bytes: a record of key=value strings; larger is damage
 _OP_STATISTICS, _OP_METADATA_INDEX = 0x0B, 0x0D
 _U32, _U64 = struct.Struct("<I"), struct.Struct("<Q")

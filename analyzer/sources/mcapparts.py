@@ -27,7 +27,9 @@ import os
 from itertools import chain
 from typing import Callable, Iterable, Iterator
 
-from .base import CaptureError, Chunk, ReadSettings, Source
+from ..errors import CaptureError
+from ..lines import Chunk
+from .base import ReadSettings, Source
 from .files import Input
 from .mcapfile import EPOCH, McapSource, last_log_time, open_mcap
 

@@ -4,7 +4,7 @@ capture.
 
 Every byte on the wire is in exactly one packet (a frame, an ACK, NAK or NIC,
 a run of noise), after the exported-PDU tags and gimbalscope's header
-(analyzer/wireshark/pdu.py). Each packet is a chunk of its line at its time,
+(analyzer/formats/pdu.py). Each packet is a chunk of its line at its time,
 so decoding the file decodes the conversation afresh, with this version's
 command table and pairing, rather than trusting the header. What the header
 decided is not read back.
@@ -29,8 +29,10 @@ import io
 import struct
 from typing import BinaryIO, Iterator
 
-from ..wireshark import pdu
-from .base import LINE_A, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
+from ..errors import CaptureError
+from ..formats import pdu
+from ..lines import LINE_A, LINE_B, Chunk
+from .base import Reader, ReadSettings, Source
 from .files import Input
 
 MAGIC = b"\x0a\x0d\x0d\x0a"
@@ -131,7 +133,7 @@ class PcapngSource(Source):
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         """One line's chunks, by a stream of its own: untimed lines are read side
-        by side, each at its own pace (analyzer/align.py)."""
+        by side, each at its own pace (analyzer/analysis/align.py)."""
         if self.timed or len(self.lines) == 1:
             yield from super().line_chunks(line)
             return

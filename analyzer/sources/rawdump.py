@@ -19,7 +19,9 @@ import os
 import time
 from typing import Iterator
 
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
+from ..errors import CaptureError
+from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
+from .base import Reader, ReadSettings, Source
 from .files import BLOCK, Input
 
 

@@ -13,8 +13,9 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 
 from __future__ import annotations
 
+from ..errors import CaptureError
 from . import pcapngfile, rawdump, socatlog
-from .base import CaptureError, Reader, ReadSettings, Source
+from .base import Reader, ReadSettings, Source
 from .files import Input
 
 
@@ -45,7 +46,9 @@ def _open_mcap(inputs: list[Input], settings: ReadSettings) -> Source:
     if len(inputs) == 1:
         from .mcapfile import open_mcap
         return open_mcap(inputs, settings)
-    from .mcapparts import open_mcap_parts   # the parts of one tap's recording (docs/time.md, "Parts")
+    from .mcapparts import (
+        open_mcap_parts,  # the parts of one tap's recording (docs/time.md, "Parts")
+    )
     return open_mcap_parts(inputs, settings)
 
 

@@ -37,7 +37,9 @@ from typing import Callable, Iterator
 
 import serial
 
-from .base import LINE_A, LINE_AB, LINE_B, CaptureError, Chunk, Source
+from ..errors import CaptureError
+from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
+from .base import Source
 
 PARITIES = {"N": serial.PARITY_NONE, "E": serial.PARITY_EVEN, "O": serial.PARITY_ODD,
             "M": serial.PARITY_MARK, "S": serial.PARITY_SPACE}

@@ -58,7 +58,9 @@ import time
 from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Callable, Iterator
 
-from .base import LINE_A, LINE_B, CaptureError, Chunk, Reader, ReadSettings, Source
+from ..errors import CaptureError
+from ..lines import LINE_A, LINE_B, Chunk
+from .base import Reader, ReadSettings, Source
 from .files import HEAD, Input
 
 HEADER = re.compile(
@@ -122,7 +124,9 @@ def time_zone(name: str | None) -> tzinfo | None:
     if name is None:
         return None
     try:
-        from zoneinfo import ZoneInfo   # here: only a zone given by name needs the package
+        from zoneinfo import (
+            ZoneInfo,  # here: only a zone given by name needs the package
+        )
         return ZoneInfo(name)
     except (LookupError, ValueError, OSError):   # ZoneInfoNotFoundError is a KeyError
         raise ValueError(f"unknown time zone {name!r} "

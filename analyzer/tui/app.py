@@ -20,10 +20,10 @@ from textual.containers import Horizontal, Vertical
 from textual.message import Message
 from textual.widgets import Footer, Input, Static
 
-from ..filter import FilterError, compile_filter
+from ..analysis.filter import FilterError, compile_filter
 from ..styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
 from .feed import Feed, FeedBatch
-from .model import CaptureModel, Cancelled
+from .model import Cancelled, CaptureModel
 from .widgets import DetailTree, EventList, HexView, TimelineView
 
 

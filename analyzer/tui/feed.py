@@ -22,10 +22,9 @@ from dissectors.event import Event
 
 from ..listeners import DoctorListener
 from ..outfile import show
-from ..recording import RecordingError
 from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
 from ..writers.mcap import McapWriter
-
+from ..writers.mcap_recorder import RecordingError
 
 # events a message at most: a batch waits as event objects (about 100 bytes an
 # event once stored, several times that before), so a big one raises the peak
@@ -56,7 +55,7 @@ class FeedBatch:
     recording: str | None = None
     recording_bytes: int = 0
     warnings: list[str] = field(default_factory=list)
-    findings: list | None = None     # the wiring doctor's findings when re-checked (analyzer.doctor)
+    findings: list | None = None     # the wiring doctor's findings when re-checked (analyzer.analysis.doctor)
     done: bool = False
     error: str | None = None
     settings: str = ""               # the link's serial settings now (the rate follows rate changes)

@@ -4,7 +4,7 @@ plots, and replay playback. The widgets only read it.
 
 The events themselves are in an ``EventStore`` (columns, ``store.py``); the
 parts here read it: ``Follow`` and ``Marks`` (follow.py), the filter's view
-(an array of indices), ``Stats`` (analyzer/stats.py), ``DeviceMap``
+(an array of indices), ``Stats`` (analyzer/analysis/stats.py), ``DeviceMap``
 (devices.py). Rows are rebuilt events, made when a row is drawn.
 
 Events arrive in batches from the feed thread (``extend``), already paired and
@@ -26,14 +26,15 @@ from typing import Callable
 
 from dissectors.event import COMMAND, Event
 
-from ..filter import compile_filter
+from ..analysis.filter import compile_filter
+from ..analysis.stats import Stats
 from ..output import device_address, fmt_seconds, summary
-from ..stats import Stats
-from .detail import DetailNode, detail as detail_tree, hex_lines
+from .detail import DetailNode, hex_lines
+from .detail import detail as detail_tree
 from .devices import DeviceInfo, DeviceMap
 from .follow import Follow, Marks
 from .scan import Cancelled, scan_first, scan_matching
-from .store import KINDS, EventsView, EventStore, is_error
+from .store import KINDS, EventStore, EventsView, is_error
 
 __all__ = ["CaptureModel", "Cancelled", "DetailNode", "DeviceInfo", "Playback", "hex_lines", "is_error"]
 

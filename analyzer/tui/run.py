@@ -15,6 +15,7 @@ from textual.binding import Binding
 from textual.dom import DOMNode
 
 from ..capture import Capture
+from ..errors import KeymapError, UsageError
 from ..info import CaptureInfo
 from ..listeners import DoctorListener
 from ..runner import Listener, TapRunner
@@ -23,16 +24,11 @@ from .app import GimbalscopeApp
 from .feed import Feed, LiveFeed
 from .model import CaptureModel
 
-
 # The capture thread decodes flat out while a file loads; with the interpreter's
 # default 5 ms switch interval the screen's thread waits that long for every turn
 # and the first screen took over a second. Switch more often (live reader threads
 # also stamp reads more promptly: see cli/live.py).
 SWITCH = 0.0002
-
-
-class KeymapError(ValueError):
-    pass
 
 
 def load_keymap(path: str | None) -> dict[str, str]:
@@ -159,8 +155,6 @@ def run_app(capture: Capture, **kw) -> int:
 
 def keymap_from(args) -> dict[str, str]:
     """--keymap, read and checked; a bad one is a UsageError (one line, exit 2)."""
-    from ..cli.common import UsageError
-
     try:
         return load_keymap(getattr(args, "keymap", None))
     except KeymapError as e:

@@ -213,7 +213,7 @@ class HelpScreen(Screen):
 
 class FindingsScreen(Screen):
     """The wiring doctor's findings, updated live; Enter on an evidence line goes
-    to that event (analyzer.doctor)."""
+    to that event (analyzer.analysis.doctor)."""
 
     BINDINGS = [Binding("escape,q,w", "dismiss_none", "Back", id="findings.back")]
 

@@ -29,8 +29,23 @@ from collections.abc import Iterator, Sequence
 
 from dissectors.dissect import dissect_command, dissect_result
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, NO_ACK, NO_FIELDS, NO_PROBLEMS, NO_RESULT, NOISE, OK, PENDING, RATE, RESULT,
-    ST_NAK, ST_NIC, Event,
+    ACK,
+    COMMAND,
+    FRAME,
+    NAK,
+    NIC,
+    NO_ACK,
+    NO_FIELDS,
+    NO_PROBLEMS,
+    NO_RESULT,
+    NOISE,
+    OK,
+    PENDING,
+    RATE,
+    RESULT,
+    ST_NAK,
+    ST_NIC,
+    Event,
 )
 
 KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE, RATE, FRAME)
@@ -81,7 +96,7 @@ def _extend_wide(column: array, values: list[int]) -> array:
 
 
 class Link:
-    """A rebuilt event's pairing record: the part of ``analyzer.pairing.Transaction``
+    """A rebuilt event's pairing record: the part of ``analyzer.analysis.pairing.Transaction``
     that readers of events use (the statistics, ``Event.device``)."""
 
     __slots__ = ("command", "device")

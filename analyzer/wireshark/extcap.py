@@ -25,16 +25,13 @@ import sys
 
 from dissectors.commands import BAUD_CODES
 
-from . import pdu
+from ..errors import ExtcapError
+from ..formats import pdu
 
 INTERFACE = "gimbalscope"
 DISPLAY = "Gimbal serial bus, one or two serial ports"
 FRAMINGS = ("8N1", "8E1", "8O1", "8N2", "7E1", "7O1", "7E2", "7N2")
 _FRAMING = re.compile(r"([5-8])([NEOMS])(1|1\.5|2)")
-
-
-class ExtcapError(Exception):
-    """A configuration Wireshark gets back as one line."""
 
 
 def parser() -> argparse.ArgumentParser:
@@ -56,7 +53,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 def interfaces() -> list[str]:
-    from .. import __version__
+    from ..version import __version__
     return [f"extcap {{version={__version__}}}",
             f"interface {{value={INTERFACE}}}{{display={DISPLAY}}}"]
 
@@ -115,11 +112,6 @@ def framing(text: str) -> tuple[int, str, float]:
 
 def capture(args: argparse.Namespace) -> int:
     """Tap the ports into the FIFO until stopped."""
-    from ..capture import Options, open_live
-    from ..info import CaptureInfo
-    from ..runner import Listener, TapRunner
-    from ..sources import CaptureError
-    from ..writers.pcapng import PcapngWriter
 
     if not args.fifo:
         raise ExtcapError("--capture needs --fifo (Wireshark gives it)")

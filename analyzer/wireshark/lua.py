@@ -4,7 +4,7 @@ of Tables 4-18) and the problem table (``dissectors.problems``: one expert
 info each). docs/wireshark.md says what it shows and why.
 
 What the generated dissector does itself, and what it reads from the packet
-(``analyzer.wireshark.pdu``):
+(``analyzer.formats.pdu``):
 
 - **decodes every field from the wire bytes**: each layout becomes a Lua
   pattern with a capture per field, and each field's codec (hex with its
@@ -26,11 +26,18 @@ from __future__ import annotations
 import re
 
 from dissectors import problems as P
-from dissectors.commands import BAUD_CODES, COMMANDS, DERIVED, ERROR_BITS, STATUS_BITS, field_types
+from dissectors.commands import (
+    BAUD_CODES,
+    COMMANDS,
+    DERIVED,
+    ERROR_BITS,
+    STATUS_BITS,
+    field_types,
+)
 from dissectors.fields import Field, Layout
 
-from .. import __version__
-from . import pdu
+from ..formats import pdu
+from ..version import __version__
 
 # Names of the dissector's own fields; a decoded field with one of these names is
 # ``field_<name>`` (the AW result's ``status``), as in the fleet dataset.

@@ -1,4 +1,4 @@
-"""MCAP output: the recording of a run (analyzer/recording): raw bytes per line,
+"""MCAP output: the recording of a run (analyzer/writers/mcap_recorder.py): raw bytes per line,
 events, transactions and the run's notes on ``/log``, with the run's
 ``CaptureInfo`` as the ``gimbalscope`` metadata record.
 
@@ -28,17 +28,17 @@ from typing import BinaryIO
 from dissectors.event import RATE, Event
 from dissectors.wire import byte_time
 
+from ..formats import mcap_schemas as S
 from ..info import CaptureInfo
-from ..recording import McapRecorder, RotatingRecorder
-from ..recording import schemas as S
 from ..runner import ERROR, INFO, RECORDING, WARNING, Listener, Note
 from ..sources import Chunk
+from .mcap_recorder import McapRecorder, RotatingRecorder
 
 # note level -> foxglove.Log level
 LOG_LEVELS = {ERROR: S.ERROR, WARNING: S.WARNING, INFO: S.INFO}
 
 
-# How a run maps onto topic messages (recording/messages.py), shared with the live
+# How a run maps onto topic messages (analyzer/formats/mcap_messages.py), shared with the live
 # Foxglove server (analyzer/listeners/foxglove.py) so both carry the same messages.
 
 def message_clock(info: CaptureInfo) -> dict:

@@ -1,6 +1,6 @@
 """One capture into a Parquet dataset folder (docs/dataset.md): its events,
-transactions (analyzer/transactions.py) and the wiring doctor's findings
-(analyzer/doctor.py) as the tables of ``analyzer.dataset.schema``, partitioned
+transactions (analyzer/analysis/transactions.py) and the wiring doctor's findings
+(analyzer/analysis/doctor.py) as the tables of ``analyzer.formats.parquet_schema``, partitioned
 by the UTC date of each row.
 
 A capture's files are named by its key (``capture_key``: its files' real
@@ -22,12 +22,18 @@ import pyarrow.parquet as pq
 
 from dissectors.event import Event
 
-from ..doctor import Invocation, WiringDoctor
+from ..analysis.doctor import Invocation, WiringDoctor
+from ..analysis.transactions import TransactionRows
+from ..formats import parquet_schema as S
+from ..formats.parquet_rows import (
+    EventBatches,
+    TransactionBatches,
+    day_of,
+    findings_batch,
+    partitions,
+)
 from ..info import CaptureInfo
 from ..runner import Listener
-from ..transactions import TransactionRows
-from ..dataset import schema as S
-from ..dataset.rows import EventBatches, TransactionBatches, day_of, findings_batch, partitions
 
 ROWS_PER_GROUP = 32 * 1024   # rows per row group: a few MB of Python rows per table at a time (memory stays flat)
 TMP = ".tmp"

@@ -1,7 +1,7 @@
 """pcapng output, for Wireshark and tshark (docs/wireshark.md): one interface per
 line of the capture (A and B, or AB), one packet per event on the wire (a
 frame, an ACK, NAK or NIC, a run of noise) at its wire time, its problems as
-the packet's comment. The packets' data is ``analyzer.wireshark.pdu``: the
+the packet's comment. The packets' data is ``analyzer.formats.pdu``: the
 exported-PDU link type naming the ``gimbal`` dissector that
 ``gimbalscope wireshark install`` puts in place.
 
@@ -22,12 +22,12 @@ from typing import BinaryIO
 
 from dissectors.event import Event
 
+from ..formats import pdu
+from ..formats.mcap_messages import WireClock
+from ..formats.pcapng import PcapngStream
 from ..info import LINE_ROLES, CaptureInfo
 from ..outfile import write_error
-from ..recording.messages import WireClock
 from ..runner import Listener
-from ..wireshark import pdu
-from ..wireshark.pcapng import PcapngStream
 from .mcap import message_clock
 
 APPLICATION = "gimbalscope"
@@ -35,7 +35,7 @@ APPLICATION = "gimbalscope"
 
 def open_stream(file: BinaryIO, info: CaptureInfo) -> PcapngStream:
     """A new section for the capture ``info`` describes; an untimed one says so."""
-    from .. import __version__
+    from ..version import __version__
     return PcapngStream(file, f"{APPLICATION} {__version__}", comment=None if info.timed else pdu.UNTIMED)
 
 

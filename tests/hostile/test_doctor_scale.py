@@ -10,7 +10,7 @@ import json
 import tracemalloc
 
 import analyzer
-from analyzer.doctor import RETRY_WINDOW, WiringDoctor
+from analyzer.analysis.doctor import RETRY_WINDOW, WiringDoctor
 from tests.conftest import frame, run_cli
 
 

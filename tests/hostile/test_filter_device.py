@@ -17,8 +17,8 @@ import pytest
 from hypothesis import given, strategies as st
 
 import analyzer
-from analyzer.filter import FilterError, compile_filter
-from analyzer.traffic import Traffic, Write
+from analyzer.analysis.filter import FilterError, compile_filter
+from analyzer.simulation.traffic import Traffic, Write
 from dissectors.event import Event
 from tests.conftest import ROOT, frame, run_cli
 

@@ -23,7 +23,7 @@ from mcap.stream_reader import breakup_chunk
 from mcap.writer import Writer
 
 from analyzer.capture import Capture
-from analyzer.recording import McapRecorder
+from analyzer.writers.mcap_recorder import McapRecorder
 from analyzer.sources.base import Chunk as RawChunk
 from tests.conftest import frame, run_cli
 from tests.integration.test_mcap import doctor, go_read

@@ -17,7 +17,7 @@ import foxglove.layouts as fl
 import pytest
 from mcap.writer import Writer
 
-from analyzer.recording import schemas as S
+from analyzer.formats import mcap_schemas as S
 from analyzer.simulation.scenario import DEVICES as DEMO_DEVICES
 from dissectors.event import format_address
 from tests.conftest import BUS, CTL, DEV, SOCAT_LOG, frame, run_cli

@@ -28,7 +28,7 @@ from websockets.sync.client import connect
 import analyzer
 from analyzer.info import CaptureInfo
 from analyzer.listeners.foxglove import FoxgloveServer
-from analyzer.traffic import generate
+from analyzer.simulation.traffic import generate
 from analyzer.tui.run import make_app, stop_feed
 from tests.child import PATIENCE, Child, wait_for
 from tests.conftest import SOCAT_LOG, frame, run_cli
@@ -36,7 +36,7 @@ from tests.conftest import SOCAT_LOG, frame, run_cli
 SUBPROTOCOL = "foxglove.sdk.v1"   # what the SDK's server accepts (it refuses foxglove.websocket.v1)
 REFUSED = re.compile(r"Unknown channel ID: (\d+)")
 PARAMETERS = "does not support parameters"   # the answer to a request for parameters
-DEVICES = ("1.1.1", "1.1.2", "1.2.1")   # analyzer.traffic's gimbals
+DEVICES = ("1.1.1", "1.1.2", "1.2.1")   # analyzer.simulation.traffic's gimbals
 SERVING = "gimbalscope: serving Foxglove on ws://127.0.0.1:{port} (open it in Foxglove: Open connection → " \
           "Foxglove WebSocket)"
 

@@ -12,7 +12,7 @@ import subprocess
 import pytest
 
 import analyzer
-from analyzer.recording import McapRecorder
+from analyzer.writers.mcap_recorder import McapRecorder
 from analyzer.sources.base import Chunk
 from tests.conftest import ROOT, frame, run_cli
 
@@ -318,8 +318,8 @@ def test_a_recording_read_by_the_reader_process_reports_its_progress(tmp_path, m
     # progress bar's meter as it goes (after every 4096 raw chunks), up to the
     # whole file at the end
     from analyzer.sources import mcapfile
-    from analyzer.sources.base import READS
-    from analyzer.traffic import generate
+    from analyzer.sources.meter import READS
+    from analyzer.simulation.traffic import generate
 
     log = tmp_path / "tap.log"
     log.write_text(generate(4000, baud=115200, seed=2).socat_log())

@@ -12,7 +12,7 @@ import pytest
 from mcap.reader import make_reader
 from mcap.writer import Writer
 
-from analyzer.traffic import generate
+from analyzer.simulation.traffic import generate
 from tests.conftest import CTL, DEV, run_cli
 
 

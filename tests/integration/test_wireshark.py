@@ -457,7 +457,7 @@ def test_a_pcapng_decodes_as_the_capture_it_came_from(tmp_path, sample):
 
 
 def test_a_pcapng_not_of_gimbalscope_is_one_line(tmp_path):
-    from analyzer.wireshark.pcapng import PcapngStream
+    from analyzer.formats.pcapng import PcapngStream
     other = tmp_path / "eth.pcapng"
     with open(other, "wb") as f:
         s = PcapngStream(f, "another program")

@@ -16,7 +16,7 @@ import json
 import pytest
 from mcap.reader import make_reader
 
-from analyzer.recording import schemas as S
+from analyzer.formats import mcap_schemas as S
 from tests.conftest import run_cli
 from tests.interop.foxglove_schema import parse_json_schema
 

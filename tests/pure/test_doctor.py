@@ -8,9 +8,9 @@ import sys
 import time
 
 import analyzer
-from analyzer.doctor import Invocation, WiringDoctor
-from analyzer.echo import EchoStripper
-from analyzer.traffic import Traffic, Write
+from analyzer.analysis.doctor import Invocation, WiringDoctor
+from analyzer.analysis.echo import EchoStripper
+from analyzer.simulation.traffic import Traffic, Write
 from dissectors.event import ACK, COMMAND, RESULT, Event
 from tests.conftest import ROOT, frame, run_cli
 from tests.integration.test_live import pty_pair

@@ -3,7 +3,7 @@ at the bad token. It never evaluates Python."""
 
 import pytest
 
-from analyzer.filter import FilterError, compile_filter
+from analyzer.analysis.filter import FilterError, compile_filter
 from dissectors.event import Event
 
 

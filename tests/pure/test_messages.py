@@ -1,5 +1,5 @@
-"""Topic messages (analyzer/recording/messages.py), their schemas, and the
-per-device position topic (analyzer/positions.py).
+"""Topic messages (analyzer/formats/mcap_messages.py), their schemas, and the
+per-device position topic (analyzer/analysis/positions.py).
 
 Frames are built by hand (Table 1) and decoded through the real pipeline from
 two raw dumps; expected values follow from the payloads: positions are signed
@@ -16,10 +16,10 @@ import jsonschema
 import pytest
 
 import analyzer
-from analyzer.positions import PositionTracker
-from analyzer.recording import schemas as S
+from analyzer.analysis.positions import PositionTracker
+from analyzer.formats import mcap_schemas as S
 from analyzer.output import dumps
-from analyzer.recording.messages import Messages, event_message
+from analyzer.formats.mcap_messages import Messages, event_message
 from dissectors.commands import field_types
 from dissectors.dissect import dissect_command
 from tests.conftest import frame

@@ -2,7 +2,7 @@
 timeouts, retransmissions, addresses. Events are built by hand with times chosen
 so that latencies are easy to check."""
 
-from analyzer.pairing import Pairer, Timeouts
+from analyzer.analysis.pairing import Pairer, Timeouts
 from dissectors.event import Event
 
 BT = 0.001  # one byte per millisecond keeps the arithmetic readable

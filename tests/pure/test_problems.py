@@ -11,7 +11,7 @@ import re
 import orjson
 import pytest
 
-from analyzer.pairing import Pairer, Timeouts
+from analyzer.analysis.pairing import Pairer, Timeouts
 from dissectors import Deframer, problems
 from dissectors.event import P_CHECKSUM, P_UNANSWERED, Event
 from dissectors.problems import Problem

@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from analyzer.sources.base import ReadMeter, READS
+from analyzer.sources.meter import ReadMeter, READS
 from analyzer.sources.files import Input, open_input
 
 

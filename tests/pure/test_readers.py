@@ -45,7 +45,7 @@ def write_mcap(path) -> str:
 
 def write_pcapng(path) -> str:
     """A single-line pcapng of a command and its ACK as gimbalscope packets:
-    exported-PDU tags naming "gimbal", the header (analyzer/wireshark/pdu.py)
+    exported-PDU tags naming "gimbal", the header (analyzer/formats/pdu.py)
     with no problems, then the wire bytes; written block by block here."""
     import struct
 

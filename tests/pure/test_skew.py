@@ -2,7 +2,7 @@
 
 import pytest
 
-from analyzer.skew import SkewEstimator
+from analyzer.analysis.skew import SkewEstimator
 from dissectors.event import Event
 
 

@@ -5,7 +5,7 @@ import os
 import pytest
 
 import analyzer
-from analyzer.stats import Latency, Stats
+from analyzer.analysis.stats import Latency, Stats
 from tests.conftest import ROOT, run_cli
 from tests.pure.test_pairing import cmd, res, run, simple
 

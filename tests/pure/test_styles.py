@@ -3,7 +3,7 @@ share, and a style for every severity findings and problems have."""
 
 import pytest
 
-from analyzer import doctor
+from analyzer.analysis import doctor
 from analyzer.output import style_of
 from analyzer.styles import (
     LEGEND, ROW_CHECKSUM, ROW_COMMAND, ROW_NAK, ROW_NIC, ROW_NOISE, ROW_PLAIN, ROW_PROBLEM,

@@ -10,7 +10,7 @@ from typing import Iterator
 import pytest
 
 from analyzer.capture import Capture, Options
-from analyzer.rate import RateFollower
+from analyzer.analysis.rate import RateFollower
 from analyzer.sources import Chunk, Source
 from dissectors import Deframer
 from dissectors.event import ACK, COMMAND, RATE, RESULT
@@ -237,7 +237,7 @@ def test_single_line_and_untimed_inputs_follow_too():
 
 
 def test_the_doctor_names_a_device_silent_since_a_rate_change():
-    from analyzer.doctor import WiringDoctor
+    from analyzer.analysis.doctor import WiringDoctor
 
     reads = [("A", CMD, 0.5), ("B", b"\x06" + RES, 0.52), ("A", C7, 1.0), ("B", b"\x06", 1.0030)]
     reads += [("A", CMD, 2.0 + k) for k in range(4)]     # at 115200 now: never answered

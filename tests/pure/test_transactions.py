@@ -1,4 +1,4 @@
-"""The pairing record (``analyzer.pairing.Transaction``): one per command, what
+"""The pairing record (``analyzer.analysis.pairing.Transaction``): one per command, what
 its answers are, referenced by the command and every answer linked to it.
 Events are built by hand at 9600 baud, so latencies follow from byte times:
 10 bits a byte (8N1), a frame's payload plus 7 bytes of header and checksum."""
@@ -8,8 +8,8 @@ import json
 import pytest
 from mcap.reader import make_reader
 
-from analyzer.pairing import Pairer, Timeouts, Transaction
-from analyzer.recording import McapRecorder
+from analyzer.analysis.pairing import Pairer, Timeouts, Transaction
+from analyzer.writers.mcap_recorder import McapRecorder
 from dissectors.event import ACK, COMMAND, NAK, NIC, RESULT, Event
 
 BAUD = 9600

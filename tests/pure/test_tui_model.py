@@ -4,7 +4,7 @@ statistics, replay playback, timeline layout."""
 import pytest
 
 import analyzer
-from analyzer.filter import FilterError
+from analyzer.analysis.filter import FilterError
 from analyzer.tui.model import CaptureModel, hex_lines
 from analyzer.tui.timeline import layout
 from tests.tui_fixtures import write_capture

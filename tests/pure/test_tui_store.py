@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 import analyzer
-from analyzer.traffic import generate
+from analyzer.simulation.traffic import generate
 from analyzer.tui.devices import Series
 from analyzer.tui.store import EventStore
 from dissectors.event import ACK, COMMAND, NOISE, RATE, Event

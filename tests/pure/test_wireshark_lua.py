@@ -1,5 +1,5 @@
 """The Lua dissector's generator (analyzer/wireshark/lua.py) and the packet
-header (analyzer/wireshark/pdu.py), without Wireshark (tests/integration/
+header (analyzer/formats/pdu.py), without Wireshark (tests/integration/
 test_wireshark.py runs the result in tshark)."""
 
 import re
@@ -7,7 +7,8 @@ import struct
 
 import pytest
 
-from analyzer.wireshark import lua, pdu
+from analyzer.wireshark import lua
+from analyzer.formats import pdu
 from dissectors import problems as P
 from dissectors.commands import field_types
 from dissectors.event import Event

@@ -11,7 +11,7 @@ import threading
 import pytest
 
 import analyzer
-from analyzer.traffic import generate
+from analyzer.simulation.traffic import generate
 from analyzer.tui import app as app_module
 from analyzer.tui import scan
 from analyzer.tui.run import make_app, stop_feed

@@ -3,7 +3,7 @@ consumer: the MCAP and Foxglove ``/transactions`` topic, the dataset's
 ``transactions`` table and ``Capture.transactions()``.
 
 A command opens a transaction; the next command, or the end of the input,
-closes it, from the command's pairing record (``analyzer.pairing.Transaction``,
+closes it, from the command's pairing record (``analyzer.analysis.pairing.Transaction``,
 like Wireshark's ``mdb_transaction_t``). Its answers are those the stream brought
 before that next command: an answer can come much later (an optional result),
 and a live tap and a re-decode of its recording must give the same row,
@@ -40,7 +40,7 @@ class OpenTransaction:
     def to_dict(self) -> dict[str, Any]:
         """The record's facts, as far as the answers seen so far go; fields and
         problems are the command's, then its answers' (a key without a value is
-        left out: the /transactions schema, analyzer/recording/schemas.py)."""
+        left out: the /transactions schema, analyzer/formats/mcap_schemas.py)."""
         cmd, record, answers = self.command, self.record, self.answers
         numbers = [a.number for a in answers]
         fields = dict(without_nulls(cmd.fields))

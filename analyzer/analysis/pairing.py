@@ -24,12 +24,33 @@ from dataclasses import dataclass, field
 from dissectors import apply_command, dissect_command, dissect_result, result_fits
 from dissectors.commands import DUE, OPTIONAL
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, RATE, RESULT, Event, format_address,
-    NO_ACK, NO_RESULT, OK, PENDING, ST_NAK, ST_NIC,
+    ACK,
+    COMMAND,
+    FRAME,
+    NAK,
+    NIC,
+    NO_ACK,
+    NO_RESULT,
+    OK,
+    PENDING,
+    RATE,
+    RESULT,
+    ST_NAK,
+    ST_NIC,
+    Event,
+    format_address,
 )
 from dissectors.problems import (
-    LATE, NO_RESULT_OVERFLOW, NO_RESULT_SENT_AGAIN, NO_RESULT_TIMEOUT, ORPHAN, RETRANSMISSION,
-    UNANSWERED_NO_ACK, UNANSWERED_SUPERSEDED, UNANSWERED_TIMEOUT, ProblemInfo,
+    LATE,
+    NO_RESULT_OVERFLOW,
+    NO_RESULT_SENT_AGAIN,
+    NO_RESULT_TIMEOUT,
+    ORPHAN,
+    RETRANSMISSION,
+    UNANSWERED_NO_ACK,
+    UNANSWERED_SUPERSEDED,
+    UNANSWERED_TIMEOUT,
+    ProblemInfo,
 )
 from dissectors.wire import WILDCARD
 
@@ -180,7 +201,7 @@ class Pairer:
             number += 1
             ev.number = number
             kind = ev.kind
-            # a rate event (analyzer.rate) must not settle an ACK whose NIC may follow it
+            # a rate event (analyzer.analysis.rate) must not settle an ACK whose NIC may follow it
             if self._provisional is not None and kind != NIC and kind != RATE:
                 self._settle()
             t = ev.t

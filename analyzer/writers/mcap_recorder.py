@@ -36,12 +36,12 @@ from mcap.writer import MCAP0_MAGIC, CompressionType, IndexType, Writer
 
 from dissectors.event import Event
 
-from ..outfile import OutputError, reason, show
+from ..errors import RecordingError
+from ..formats import mcap_schemas as S
+from ..formats.mcap_messages import Messages
+from ..lines import Chunk
+from ..outfile import reason, show
 from ..output import dumps
-from ..sources.base import Chunk
-from . import schemas as S
-from .messages import Messages
-
 
 # The recording's layout (docs/foxglove.md, "Size"): chunks of 1 MiB compressed
 # with zstd at level 9, with every index. Level 9 makes the chunks a fifth
@@ -93,15 +93,6 @@ class _Writer(Writer):
             return super()._Writer__finalize_chunk()
         finally:
             self._Writer__compression = CompressionType.ZSTD
-
-
-class RecordingError(OutputError):
-    """The recording file cannot be written; the message names it, ``reason``
-    says why in a few words."""
-
-    def __init__(self, message: str, reason: str = "") -> None:
-        super().__init__(message)
-        self.reason = reason
 
 
 def _tail() -> bytes:

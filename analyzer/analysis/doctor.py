@@ -30,12 +30,25 @@ from dataclasses import dataclass, field
 from statistics import median
 
 from dissectors import dissect_command
-from dissectors.event import (ACK, COMMAND, NAK, NIC, NOISE, NO_ACK, NO_RESULT, OK, RATE, RESULT, ST_NAK, ST_NIC,
-                              Event)
+from dissectors.event import (
+    ACK,
+    COMMAND,
+    NAK,
+    NIC,
+    NO_ACK,
+    NO_RESULT,
+    NOISE,
+    OK,
+    RATE,
+    RESULT,
+    ST_NAK,
+    ST_NIC,
+    Event,
+)
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
+from ..styles import ERROR, INFO, WARNING  # the severities every view colours
 from .stats import Latency
-from .styles import ERROR, INFO, WARNING   # the severities every view colours
 
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
 _ANSWER_BYTES = {0x06, 0x15, 0x3F}

@@ -50,6 +50,8 @@ from typing import Any, Callable
 from dissectors.commands import COMMANDS, DERIVED_FIELDS
 from dissectors.event import KINDS, STATUSES, Event
 
+from ..errors import FilterError
+
 Predicate = Callable[[Event], bool]
 
 MAX_NESTING = 64     # parentheses, 'not' and list brackets, counted together
@@ -74,26 +76,6 @@ def _field_names() -> set[str]:
 
 
 FIELD_NAMES = _field_names()
-
-
-class FilterError(ValueError):
-    def __init__(self, message: str, column: int, source: str) -> None:
-        self.column = column
-        self.source = source
-        super().__init__(f"column {column}: {message}")
-
-    def pointer(self, context: int = 60) -> str:
-        """The expression with the bad spot marked, for one-line error messages:
-        control characters (a newline typed into the filter) are shown escaped so
-        the message stays one line, and a long expression is cut to ``context``
-        characters either side of the spot."""
-        c = self.column - 1
-        before, after = self.source[:c], self.source[c:]
-        if len(before) > context:
-            before = "…" + before[-context:]
-        if len(after) > context:
-            after = after[:context] + "…"
-        return f"{_one_line(before)}>>>{_one_line(after)}"
 
 
 def _one_line(text: str) -> str:
@@ -565,7 +547,7 @@ class _Parser:
         if name in FIELD_NAMES:
             return lambda ev, n=name: ev.fields.get(n)
         raise FilterError(f"unknown name {name!r}: use an event key ({', '.join(TOP_LEVEL)}) "
-                          f"or a field name (README, 'Event contract')", col, self.src)
+                          f"or a field name (docs/json-lines.md)", col, self.src)
 
 
 def compile_filter(src: str) -> Predicate:

@@ -2,7 +2,7 @@
 ``transactions`` and ``findings``, written as Hive-partitioned Parquet by
 ``gimbalscope export`` and read by ``query``, ``report``, DuckDB, Polars or Spark.
 
-The event columns are the JSON Lines contract (README, "Event contract")
+The event columns are the JSON Lines contract (docs/json-lines.md)
 flattened: ``fields`` becomes one typed column per field name of the command
 table (``dissectors.commands.field_types``, the same names as JSON Lines,
 filters, the TUI and MCAP), null where the event has no such value. A field

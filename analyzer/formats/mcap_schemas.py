@@ -2,7 +2,7 @@
 
 Every message is JSON with a JSON Schema, so Foxglove shows and plots the
 fields. The raw byte topics are the ground truth: a newer dissector re-decodes an
-old capture from them. Key names are the JSON Lines contract of the README.
+old capture from them. Key names are the JSON Lines contract (docs/json-lines.md).
 
 The schemas are written for the way the Foxglove app reads a JSON Schema (it
 turns each into message definitions, docs/foxglove.md, "What the app reads"):
@@ -30,7 +30,7 @@ RAW_TOPIC = "/serial/{line}/raw"     # line A, B, or AB (single-line tap)
 EVENTS_TOPIC = "/events"
 TRANSACTIONS_TOPIC = "/transactions"
 LOG_TOPIC = "/log"                   # foxglove.Log: human-readable anomalies
-POSITION_TOPIC = "/gimbal/{device}/position"   # per device: analyzer/positions.py
+POSITION_TOPIC = "/gimbal/{device}/position"   # per device: analyzer/analysis/positions.py
 METADATA_NAME = "gimbalscope"
 PROFILE = "gimbalscope"
 
@@ -76,7 +76,7 @@ def _fields_schema() -> dict:
 
 FIELDS = _fields_schema()
 _PROBLEMS = {"type": "array", "items": {"type": "string"},
-             "description": "each 'category: detail' (README, 'Event contract'); empty when clean"}
+             "description": "each 'category: detail' (docs/json-lines.md); empty when clean"}
 
 RAW = _object(
     "gimbalscope.RawChunk", "Bytes read from one serial line, as read",
@@ -90,7 +90,7 @@ RAW = _object(
     ("line", "offset", "data"))
 
 EVENT = _object(
-    "gimbalscope.Event", "One decoded event (README, 'Event contract'); keys without a value are left out, and so "
+    "gimbalscope.Event", "One decoded event (docs/json-lines.md); keys without a value are left out, and so "
     "are t (the message's log time) and raw (on the line's raw topic at offset)",
     {
         "number": {"type": "integer", "minimum": 1, "description": "event number, 1-based, in wire order"},
@@ -141,7 +141,7 @@ _ANGLES = {"type": "object", "properties": {
 
 POSITION = _object(
     "gimbalscope.Position",
-    "One gimbal's commanded target and reported position (analyzer/positions.py): plot "
+    "One gimbal's commanded target and reported position (analyzer/analysis/positions.py): plot "
     "target.azimuth_deg against reported.azimuth_deg",
     {
         "device": {"type": "string", "description": "group.port.device"},
@@ -175,7 +175,7 @@ LOG = _object(
 
 INFO, WARNING, ERROR = 2, 3, 4
 
-# every schema, by the key messages name it with (analyzer/recording/messages.py)
+# every schema, by the key messages name it with (analyzer/formats/mcap_messages.py)
 SCHEMAS = {"raw": RAW, "event": EVENT, "txn": TRANSACTION, "log": LOG, "position": POSITION}
 
 

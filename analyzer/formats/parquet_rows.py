@@ -21,7 +21,7 @@ import pyarrow.compute as pc
 from dissectors.event import Event
 from dissectors.wire import payload_text
 
-from . import schema as S
+from . import parquet_schema as S
 
 _EPOCH = dt.date(1970, 1, 1)
 
@@ -190,7 +190,7 @@ class EventBatches:
 
 
 class TransactionBatches:
-    """Rows of the ``transactions`` table, from ``analyzer.transactions.OpenTransaction``."""
+    """Rows of the ``transactions`` table, from ``analyzer.analysis.transactions.OpenTransaction``."""
 
     _NAMES = [name for name, _ in S.TRANSACTION_COLUMNS if name not in ("capture", "site", "ts")]
 
@@ -242,7 +242,7 @@ class TransactionBatches:
 
 def findings_batch(findings: list, capture: str, site: str | None, start_time: float | None,
                    first_t: float | None, last_t: float | None) -> pa.RecordBatch:
-    """The ``findings`` rows of one capture (``analyzer.doctor.Finding``), each
+    """The ``findings`` rows of one capture (``analyzer.analysis.doctor.Finding``), each
     with the capture's span."""
     n = len(findings)
 

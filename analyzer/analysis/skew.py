@@ -33,7 +33,6 @@ from collections import deque
 
 from dissectors.event import ACK, COMMAND, NAK, NOISE, Event
 
-
 # seconds: an answer this long after a command can still be its (slow devices,
 # lost bytes); beyond it, a command left unanswered is not waiting any more
 LATE = 1.0

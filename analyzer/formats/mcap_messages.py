@@ -28,15 +28,15 @@ from typing import Any, Callable
 from dissectors.event import NO_ACK, NOISE, ST_NAK, Event
 from dissectors.wire import payload_text
 
+from ..analysis.positions import POSITION_COMMANDS, PositionTracker
+from ..analysis.transactions import TransactionRows, without_nulls
+from ..lines import Chunk
 from ..outfile import show
-from ..positions import POSITION_COMMANDS, PositionTracker
-from ..sources.base import Chunk
-from ..transactions import TransactionRows, without_nulls
-from . import schemas as S
+from . import mcap_schemas as S
 
 Emit = Callable[[str, str, int, dict], None]
 
-# the optional keys of an event message, in the JSON Lines order (README, "Event contract")
+# the optional keys of an event message, in the JSON Lines order (docs/json-lines.md)
 _OPTIONAL_BEFORE_FIELDS = ("command", "dst", "src")
 _OPTIONAL_AFTER_FIELDS = ("txn", "status", "latency")
 
@@ -174,7 +174,7 @@ class Messages(WireClock):
                            "gimbalscope", f"line {ev.line}", ev.offset)
 
     def _transaction(self, ev: Event, ts: int) -> None:
-        """A transaction message when a command closes one (analyzer/transactions.py)."""
+        """A transaction message when a command closes one (analyzer/analysis/transactions.py)."""
         txn = self._transactions.add(ev, ts)
         if txn is not None:
             self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.to_dict())

@@ -1,0 +1,28 @@
+"""The lines of a tap and what is read on them: the names of the lines (line A
+from the controller, line B from the devices, or one line carrying both) and
+``Chunk``, the bytes one read took from one line with the wire time of the first.
+
+Every layer speaks of these: readers make chunks, the capture deframes them,
+recorders write them as the raw topics, so they live at the bottom.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+LINE_A = "A"    # controller → device
+LINE_B = "B"    # device → controller
+LINE_AB = "AB"  # single-line tap: both directions on one wire
+
+
+class Chunk(NamedTuple):
+    """Bytes read from one line (a NamedTuple: one is made per read, so it is cheap)."""
+    line: str
+    data: bytes
+    t: float | None = None   # seconds since capture start of the first byte's start bit
+
+    # Not a field: why the bytes are for the recording only and not to be decoded
+    # ("behind", "stopped": a live tap's subclasses in analyzer/sources/serialport.py);
+    # None for every ordinary chunk, read as a class attribute (no per-chunk cost).
+    undecoded = None
+
