@@ -63,8 +63,8 @@ def binding_ids() -> set[str]:
     """Every id a keymap can rebind, read from the Binding(id=...) of each widget,
     screen and app class of this package (so a new binding is known at once)."""
     package = __name__.rpartition(".")[0]
-    for mod in pkgutil.iter_modules(sys.modules[package].__path__):
-        importlib.import_module(f"{package}.{mod.name}")   # screens are imported lazily by the app
+    for mod in pkgutil.walk_packages(sys.modules[package].__path__, prefix=package + "."):
+        importlib.import_module(mod.name)   # screens are imported lazily by the app
     ids: set[str] = set()
     todo = [DOMNode]
     while todo:
@@ -102,7 +102,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
     if filter_text:
         model.set_filter(filter_text)   # already checked by the CLI
     if mode == "replay":
-        model.start_playback(speed)
+        model.replay.start(speed)
     info = info or CaptureInfo.of(capture, command=mode)
 
     def make_feed(deliver) -> Feed:

@@ -31,10 +31,10 @@ def test_rows_are_the_events_in_wire_order(loaded):
 
 def test_pairing_index_and_detail_links(loaded):
     model, expected = loaded
-    assert model.answers == expected["answers"]
+    assert model.nav.answers == expected["answers"]
     for number, status in expected["status"].items():
         assert model.event(number).status == status
-    assert model.partner(1) == 2 and model.partner(3) == 1 and model.partner(11) is None
+    assert model.nav.partner(1) == 2 and model.nav.partner(3) == 1 and model.nav.partner(11) is None
     labels = [n.label for node in model.detail(model.event(1)) for n in [node, *node.children]]
     assert any(label.startswith("ACK in #2 after") for label in labels)
     assert any(label.startswith("result in #3 after") for label in labels)
@@ -60,7 +60,7 @@ def test_filter_view_and_bad_filter(loaded):
     assert model.filter_text == 'kind == "command"'   # a bad filter leaves the view alone
     model.set_filter("")
     assert model.row_count == 13
-    assert model.filter_history == ['kind == "command"']
+    assert model.filter.history == ['kind == "command"']
 
 
 def test_filter_applies_to_events_arriving_later(tmp_path):
@@ -79,39 +79,39 @@ def test_error_navigation_both_ways_and_under_a_filter(loaded):
     model, expected = loaded
     errs = expected["errors"]
     seen, at = [], 0
-    while (at := model.next_error(at)) is not None:
+    while (at := model.nav.next_error(at)) is not None:
         seen.append(at)
     assert seen == errs
-    assert model.next_error(13, forward=False) == errs[-1]
-    assert model.next_error(4, forward=False) is None
+    assert model.nav.next_error(13, forward=False) == errs[-1]
+    assert model.nav.next_error(4, forward=False) is None
     model.set_filter('line == "B"')
-    assert model.next_error(0) == 5
+    assert model.nav.next_error(0) == 5
 
 
 def test_same_device_marks_and_search(loaded):
     model, _ = loaded
     # 1.1.1: P? (#1) and its answers #2 #3, then FA (#8) and its answers #9 #10
-    assert model.same_device(1) == 2 and model.same_device(3) == 8 and model.same_device(10) is None
-    assert model.same_device(8, forward=False) == 3
-    model.toggle_mark(6)
-    model.toggle_mark(12)
-    assert model.next_mark(0) == 6 and model.next_mark(6) == 12 and model.next_mark(12) == 6
-    assert model.toggle_mark(6) is False and model.next_mark(0) == 12
-    assert model.search("NIC", 0) == 8 and model.search("NIC", 8) == 10   # its status, then the NIC row
-    assert model.search("go to az", 5) == 6 and model.search("go to az", 6) == 4   # wraps round
+    assert model.nav.same_device(1) == 2 and model.nav.same_device(3) == 8 and model.nav.same_device(10) is None
+    assert model.nav.same_device(8, forward=False) == 3
+    model.marks.toggle(6)
+    model.marks.toggle(12)
+    assert model.nav.next_mark(0) == 6 and model.nav.next_mark(6) == 12 and model.nav.next_mark(12) == 6
+    assert model.marks.toggle(6) is False and model.nav.next_mark(0) == 12
+    assert model.nav.search("NIC", 0) == 8 and model.nav.search("NIC", 8) == 10   # its status, then the NIC row
+    assert model.nav.search("go to az", 5) == 6 and model.nav.search("go to az", 6) == 4   # wraps round
 
 
 def test_time_modes(loaded):
     model, _ = loaded
     e1, e2 = model.event(1), model.event(2)
-    assert model.time_text(e2, 1) == f"{e2.t:.6f}"
-    model.cycle_time_mode()
-    assert model.time_mode == "relative" and model.time_text(e2, 1) == f"+{e2.t - e1.t:.6f}"
-    model.cycle_time_mode()
-    assert model.time_mode == "delta" and model.time_text(e2, 1) == f"+{e2.t - e1.t:.6f}"
-    assert model.time_text(model.event(3), 2) == f"+{model.event(3).t - e2.t:.6f}"
-    model.cycle_time_mode()
-    assert model.time_mode == "absolute"
+    assert model.text.time_text(e2, 1) == f"{e2.t:.6f}"
+    model.text.cycle_time_mode()
+    assert model.text.time_mode == "relative" and model.text.time_text(e2, 1) == f"+{e2.t - e1.t:.6f}"
+    model.text.cycle_time_mode()
+    assert model.text.time_mode == "delta" and model.text.time_text(e2, 1) == f"+{e2.t - e1.t:.6f}"
+    assert model.text.time_text(model.event(3), 2) == f"+{model.event(3).t - e2.t:.6f}"
+    model.text.cycle_time_mode()
+    assert model.text.time_mode == "absolute"
 
 
 def test_statistics_and_device_map(loaded):
@@ -131,17 +131,17 @@ def test_statistics_and_device_map(loaded):
 def test_follow_and_new_badge(loaded):
     model, _ = loaded
     model.follow = True
-    model.stop_following()
+    model.following.stop()
     assert not model.follow and model.new_while_away == 0
     model.extend([])
     events = list(model.events)
     extra = CaptureModel()
     extra.follow = True
     extra.extend(events[:3])
-    extra.stop_following()
+    extra.following.stop()
     extra.extend(events[3:6])
     assert extra.new_while_away == 3
-    extra.resume_following()
+    extra.following.resume()
     assert extra.follow and extra.new_while_away == 0
 
 
@@ -160,28 +160,28 @@ def test_replay_playback_shows_events_up_to_the_position(loaded):
     done, _ = loaded
     t = [e.t for e in done.events]
     model = CaptureModel()
-    model.start_playback(speed=1.0)
+    model.replay.start(speed=1.0)
     model.add(done.events[:7], [])         # the file loads ahead of the playback
     model.add(done.events[7:], [])
     assert model.row_count == 0
-    model.advance_playback(100.0)         # starts at the first event
+    model.replay.advance(100.0)         # starts at the first event
     assert model.row_count == 1
-    model.advance_playback(100.0 + (t[2] - t[0]) + 1e-6)   # one wall second = one capture second
+    model.replay.advance(100.0 + (t[2] - t[0]) + 1e-6)   # one wall second = one capture second
     assert model.row_count == 3
     assert model.stats.to_dict()["commands"] == 1          # statistics follow the position
-    model.playback.playing = False
-    model.advance_playback(200.0)
+    model.replay.playback.playing = False
+    model.replay.advance(200.0)
     assert model.row_count == 3
-    model.seek(10.0)                      # past the end: clamps to the last event
+    model.replay.seek(10.0)                      # past the end: clamps to the last event
     assert model.row_count == 13 and model.stats.to_dict()["status"]["nak"] == 1
-    model.seek(-(t[-1] - t[3]))           # back: to event 4 (the NAK'd go-to)
-    assert model.row_count == 4 and model.answers == {1: [2, 3]}
+    model.replay.seek(-(t[-1] - t[3]))           # back: to event 4 (the NAK'd go-to)
+    assert model.row_count == 4 and model.nav.answers == {1: [2, 3]}
     # #4 shows its final status (nak) before its NAK is played: a replay shows
     # events as decoded from the whole file
-    assert model.stats.to_dict()["commands"] == 2 and model.next_error(0) == 4 and model.next_error(4) is None
-    model.playback.speed = 0              # max: everything
-    model.advance_playback(201.0)
-    assert model.row_count == 13 and model.next_error(4) == 5
+    assert model.stats.to_dict()["commands"] == 2 and model.nav.next_error(0) == 4 and model.nav.next_error(4) is None
+    model.replay.playback.speed = 0              # max: everything
+    model.replay.advance(201.0)
+    assert model.row_count == 13 and model.nav.next_error(4) == 5
 
 
 def test_timeline_links_command_to_answers():
@@ -215,8 +215,8 @@ def test_device_filter_detail_and_navigation_use_the_answers_device(loaded):
     # 1.1.2: the go-to (#4) and its NAK (#5), sent again (#6) and ACKed (#7)
     model.set_filter('device == "1.1.2"')
     assert [model.row(i).number for i in range(model.row_count)] == [4, 5, 6, 7]
-    assert model.same_device(5) == 6 and model.same_device(7) is None
-    assert model.cells(model.event(5), 1)[3] == "1.1.2"     # the device column of a NAK
+    assert model.nav.same_device(5) == 6 and model.nav.same_device(7) is None
+    assert model.text.cells(model.event(5), 1)[3] == "1.1.2"     # the device column of a NAK
     model.set_filter("")
     head = model.detail(model.event(13))[0]
     device = [n for n in head.children if n.label.startswith("device ")]

@@ -7,7 +7,7 @@ import pytest
 
 import analyzer
 from analyzer.simulation.traffic import generate
-from analyzer.tui.devices import Series
+from analyzer.tui.model.plots import Series
 from analyzer.tui.store import EventStore
 from dissectors.event import ACK, COMMAND, NOISE, RATE, Event
 from tests.conftest import frame

@@ -12,9 +12,9 @@ import pytest
 
 import analyzer
 from analyzer.simulation.traffic import generate
-from analyzer.tui import app as app_module
 from analyzer.tui import scan
 from analyzer.tui.run import make_app, stop_feed
+from analyzer.tui.screens import capture as capture_screen
 from analyzer.tui.widgets import EventList
 from tests.ui.test_pilot import SIZE, settle
 
@@ -56,7 +56,7 @@ def test_end_while_loading_follows_to_the_last_event(big_capture):
 def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkeypatch):
     # every filter goes to the background, one event a step; the scan is held at
     # event 500 until Esc has been pressed, so the test does not race it
-    monkeypatch.setattr(app_module, "BACKGROUND_ROWS", 1)
+    monkeypatch.setattr(capture_screen, "BACKGROUND_ROWS", 1)
     monkeypatch.setattr(scan, "STEP", 1)
     escaped = threading.Event()
     reached = threading.Event()
@@ -120,8 +120,8 @@ def test_go_to_an_event_number(big_capture):
 
 
 def test_plot_reads_position_columns():
-    from analyzer.tui.devices import Series
-    from analyzer.tui.screens import plot
+    from analyzer.tui.model.plots import Series
+    from analyzer.tui.screens.plots import plot
 
     s = Series()
     for t, deg in ((0.0, -10.0), (5.0, 0.0), (10.0, 10.0)):

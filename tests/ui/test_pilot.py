@@ -8,6 +8,7 @@ import time
 import tty
 
 import analyzer
+from analyzer.analysis.findings import LINES_SWAPPED
 from analyzer.capture import open_live
 from analyzer.tui.run import make_app, stop_feed
 from analyzer.tui.widgets import EventList
@@ -203,13 +204,13 @@ def test_replay_controls(tmp_path):
             await pilot.press("space")                 # pause
             shown = app.model.row_count
             await pilot.pause(0.4)
-            assert app.model.row_count == shown and not app.model.playback.playing
+            assert app.model.row_count == shown and not app.model.replay.playback.playing
             await pilot.press("greater_than_sign")     # +10 s: to the end
             assert app.model.row_count == 13
             await pilot.press("less_than_sign")        # -10 s: back to the start
-            assert app.model.row_count == 1 and app.model.position == t[0]
+            assert app.model.row_count == 1 and app.model.replay.position == t[0]
             await pilot.press("plus")
-            assert app.model.playback.speed == 2.0
+            assert app.model.replay.playback.speed == 2.0
             await pilot.press("space")                 # play on, twice as fast
             await settle(pilot, app, lambda a: a.model.row_count == 13)
         stop_feed(app)
@@ -258,7 +259,7 @@ def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
     finding shows in the status bar and the panel (w); Enter on its evidence goes to
     that event; x swaps the lines and commands decode as commands again."""
     from analyzer.simulation import scenario
-    from analyzer.tui.screens import FindingsScreen
+    from analyzer.tui.screens.findings import FindingsScreen
 
     site = scenario.build({"swapped"}, clean=True)
     ports = list(site.link.tap_ports)
@@ -267,7 +268,7 @@ def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
             site.start()
-            await settle(pilot, app, lambda a: any(f.code == "lines_swapped" for f in a.model.findings))
+            await settle(pilot, app, lambda a: any(f.code == LINES_SWAPPED for f in a.model.findings))
             await settle(pilot, app, lambda a: "lines swapped" in str(a.status_bar.render()))
             await pilot.press("w")
             assert isinstance(app.screen, FindingsScreen)

@@ -1,4 +1,4 @@
-"""Follow mode and marks, without Textual.
+"""Follow mode and marks: the selection's part of the model, without Textual.
 
 Following, the list stays on the newest event; any navigation stops it and
 counts what arrives meanwhile ("+N new"); End resumes it. In ``view``, End

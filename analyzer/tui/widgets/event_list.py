@@ -1,12 +1,11 @@
-"""The TUI's panes. Each reads the ``CaptureModel``; none holds events of its own.
+"""The event list: number, time, lane, address, kind, command, summary,
+status and latency of each row the model shows, coloured by rule.
 
-The event list is a Line API widget (``ScrollView.render_line``): it renders only
-the rows on screen, so a million events cost no more than a hundred.
+A Line API widget (``ScrollView.render_line``): it renders only the rows on
+screen, so a million events cost no more than a hundred.
 """
 
 from __future__ import annotations
-
-from itertools import groupby
 
 from rich.segment import Segment
 from rich.style import Style
@@ -16,11 +15,9 @@ from textual.geometry import Size
 from textual.message import Message
 from textual.scroll_view import ScrollView
 from textual.strip import Strip
-from textual.widgets import Static, Tree
 
-from ..styles import ROW_STYLE, TIMELINE_STYLE, row_class
-from .model import CaptureModel, DetailNode, hex_lines
-from .timeline import SCALES, layout
+from ...styles import ROW_STYLE, row_class
+from ..model import CaptureModel
 
 # the rows' styles (analyzer.styles), parsed once: rows are drawn on every scroll
 ROW_STYLES = {name: Style.parse(style) for name, style in ROW_STYLE.items()}
@@ -89,7 +86,7 @@ class EventList(ScrollView, can_focus=True):
         ev = self.model.row(row)
         if ev is None:
             return Strip.blank(width)
-        cells = self.model.cells(ev, row)
+        cells = self.model.text.cells(ev, row)
         text = " ".join(_fit(c, w, right=k in (0, 8)) for k, (c, w) in enumerate(zip(cells, self._widths())))
         style = ROW_STYLES[row_class(ev, self.model.slow)]
         if ev.number in self.model.marks:
@@ -166,118 +163,3 @@ class EventList(ScrollView, can_focus=True):
 
     def on_resize(self) -> None:
         self.virtual_size = Size(self.size.width, self.model.row_count + 1)
-
-
-class DetailTree(Tree):
-    """Every field of the selected event, its problems, and its pairing; Enter on
-    a pairing line jumps to that event."""
-
-    class Jump(Message):
-        def __init__(self, number: int) -> None:
-            super().__init__()
-            self.number = number
-
-    class FieldBytes(Message):
-        def __init__(self, span: tuple[int, int] | None) -> None:
-            super().__init__()
-            self.span = span
-
-    def __init__(self, **kw) -> None:
-        super().__init__("no event selected", **kw)
-        self.show_root = False
-        self.guide_depth = 2
-
-    def show(self, nodes: list[DetailNode], title: str) -> None:
-        self.clear()
-        self.root.set_label(title)
-
-        def add(parent, node: DetailNode) -> None:
-            label = Text(node.label, style="underline cyan" if node.jump is not None else "")
-            if node.children:
-                child = parent.add(label, data=node, expand=node.expanded)
-                for c in node.children:
-                    add(child, c)
-            else:
-                parent.add_leaf(label, data=node)
-
-        for n in nodes:
-            add(self.root, n)
-        self.root.expand()
-
-    def on_tree_node_selected(self, event: Tree.NodeSelected) -> None:
-        node = event.node.data
-        if isinstance(node, DetailNode) and node.jump is not None:
-            self.post_message(self.Jump(node.jump))
-
-    def on_tree_node_highlighted(self, event: Tree.NodeHighlighted) -> None:
-        node = event.node.data
-        if isinstance(node, DetailNode):
-            self.post_message(self.FieldBytes(node.span))
-
-
-class HexView(Static):
-    """Hex and ASCII of the selected event; the selected field's bytes highlighted."""
-
-    def show(self, raw: bytes | None, span: tuple[int, int] | None = None) -> None:
-        self._shown = (raw, span)
-        if raw is None:
-            self.update("")
-            return
-        # 16 bytes a line when there is room (4 columns a byte: hex, space, ASCII)
-        per = 16 if self.size.width - 2 >= 72 else 8 if self.size.width - 2 >= 40 else 4
-        lines = []
-        for off, hx, asc, marks in hex_lines(raw, span, per):
-            line = Text(f"{off}  ", style="dim")
-            h = Text(hx.ljust(per * 3 - 1))
-            for a, b in marks:
-                h.stylize("reverse bold yellow", a, b)
-            line.append_text(h)
-            line.append("  " + asc, style="green")
-            lines.append(line)
-        self.update(Text("\n").join(lines))
-
-    def on_resize(self) -> None:
-        shown = getattr(self, "_shown", None)
-        if shown is not None:
-            self.show(*shown)
-
-
-class TimelineView(Static):
-    """Lanes A and B on a time axis around the selected event; z / Z zoom."""
-
-    def __init__(self, model: CaptureModel, **kw) -> None:
-        super().__init__(**kw)
-        self.model = model
-        self.scale_index = SCALES.index(0.002)
-        self.center: float | None = None
-        self.selected: int | None = None
-
-    @property
-    def scale(self) -> float:
-        return SCALES[self.scale_index]
-
-    def zoom(self, step: int) -> None:
-        self.scale_index = max(0, min(len(SCALES) - 1, self.scale_index + step))
-        self.redraw()
-
-    def redraw(self) -> None:
-        width = max(20, self.size.width - 8)
-        if self.center is None:
-            self.update(Text("timeline: no timed event selected", style="dim"))
-            return
-        start = self.center - width * self.scale / 2
-        events = self.model.window(start, start + width * self.scale)
-        slow = self.model.slow
-        rows = layout(events, start, self.scale, width, self.selected, lambda e: row_class(e, slow))
-        labels = [f"{self.scale * 1000:g} ms/c"[:7].ljust(7), "A →".ljust(7), "".ljust(7), "B ←".ljust(7)]
-        out = Text()
-        for label, lane in zip(labels, rows):
-            out.append(label + " ", style="bold")
-            # runs of one style as one span: the same picture whatever Rich's caches hold
-            for style, run in groupby(zip(lane.chars, lane.styles), key=lambda cs: cs[1]):
-                out.append("".join(ch for ch, _ in run), style=TIMELINE_STYLE.get(style, ""))
-            out.append("\n")
-        self.update(out)
-
-    def on_resize(self) -> None:
-        self.redraw()

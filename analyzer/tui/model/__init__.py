@@ -1,0 +1,22 @@
+"""What the TUI shows, without Textual: ``CaptureModel`` (capture.py) and the
+parts it is made of, each a class of its own module:
+
+- ``FilterView`` (filter.py): the filter's text, history and matching rows
+- ``Follow`` and ``Marks`` (follow.py): follow mode, "+N new", the marked rows
+- ``Navigation`` (navigation.py): next error, pair, same device, marks, search
+- ``RowText`` (row_text.py): a row's cells and the time mode
+- ``Replay`` and ``Playback`` (replay.py): a replay's pace and position
+- ``DeviceMap`` (devices.py) and ``PositionPlots`` (plots.py), with ``Stats``
+  (analyzer/analysis/stats.py): what the shown events say
+
+The widgets only read them; tests/pure checks them without a screen.
+"""
+
+from ..detail import DetailNode, hex_lines
+from ..scan import Cancelled
+from ..store import is_error
+from .capture import CaptureModel
+from .devices import DeviceInfo
+from .replay import Playback
+
+__all__ = ["CaptureModel", "Cancelled", "DetailNode", "DeviceInfo", "Playback", "hex_lines", "is_error"]

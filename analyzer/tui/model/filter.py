@@ -1,0 +1,78 @@
+"""The filter's part of the model: its text and history, and which events it
+lets through, as the store indices of the matching shown events (an
+``array('i')``, four bytes a row) and the matching unsettled events.
+
+Filtering a large capture is split in two: ``prepare`` scans the events shown
+so far (safe in a worker thread: the store only grows), ``apply`` catches up
+with what was shown meanwhile, on the thread that extends the model.
+"""
+
+from __future__ import annotations
+
+from array import array
+from bisect import bisect_left
+from typing import Callable
+
+from dissectors.event import Event
+
+from ...analysis.filter import compile_filter
+from ..scan import scan_matching
+
+
+class FilterView:
+    def __init__(self) -> None:
+        self.text = ""
+        self.history: list[str] = []
+        self.pred: Callable[[Event], object] | None = None
+        self.view: array | None = None           # indices of matching shown events; None: every one
+        self.unsettled: list[Event] = []         # the unsettled events that match
+
+    def settled(self, shown: int) -> int:
+        """How many settled rows there are, of ``shown`` settled events."""
+        return shown if self.view is None else len(self.view)
+
+    def learn(self, events: list[Event], start: int) -> None:
+        """``events``, stored from index ``start`` on, are shown now."""
+        pred = self.pred
+        if pred is not None:
+            self.view.extend([i for i, ev in enumerate(events, start) if pred(ev)])
+
+    def hold(self, unsettled: list[Event]) -> None:
+        """What pairing still holds now."""
+        pred = self.pred
+        self.unsettled = unsettled if pred is None else [e for e in unsettled if pred(e)]
+
+    def forget(self) -> None:
+        """The shown events are shown again from the start (a replay went back)."""
+        if self.view is not None:
+            self.view = array("i")
+
+    @staticmethod
+    def prepare(text: str, get, shown: int, *, progress=None, cancelled=None) -> tuple:
+        """(predicate, events scanned, matching indices) of ``text`` over the
+        first ``shown`` events (``get(i)`` the event at index i). Raises
+        FilterError for a bad expression, Cancelled when ``cancelled()``."""
+        text = text.strip()
+        pred = compile_filter(text) if text else None
+        if pred is None:
+            return None, shown, None
+        return pred, shown, scan_matching(get, 0, shown, pred, progress=progress, cancelled=cancelled)
+
+    def apply(self, text: str, pred, upto: int, view, get, shown: int, unsettled: list[Event]) -> None:
+        """Show what ``prepare`` found, caught up with the ``shown`` events now."""
+        text = text.strip()
+        self.pred = pred
+        self.text = text
+        if pred is None:
+            self.view = None
+            self.unsettled = unsettled
+            return
+        if upto > shown:   # a replay went back meanwhile
+            view = array("i", view[:bisect_left(view, shown)])
+            upto = shown
+        view.extend(scan_matching(get, upto, shown, pred))
+        self.view = view
+        self.unsettled = [e for e in unsettled if pred(e)]
+        if text in self.history:
+            self.history.remove(text)
+        self.history.append(text)

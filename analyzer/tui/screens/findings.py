@@ -1,0 +1,71 @@
+"""The doctor's screen (``w``): the wiring doctor's findings, updated live;
+Enter on an evidence line goes to that event (analyzer.analysis.doctor)."""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.app import ComposeResult
+from textual.binding import Binding
+from textual.screen import Screen
+from textual.widgets import Footer
+
+from ...styles import INFO, SEVERITY_STYLE
+from ..model import CaptureModel
+
+
+class FindingsScreen(Screen):
+    """The wiring doctor's findings, updated live; Enter on an evidence line goes
+    to that event (analyzer.analysis.doctor)."""
+
+    BINDINGS = [Binding("escape,q,w", "dismiss_none", "Back", id="findings.back")]
+
+    def __init__(self, model: CaptureModel) -> None:
+        super().__init__()
+        self.model = model
+        self._shown: list | None = None
+
+    def compose(self) -> ComposeResult:
+        from textual.widgets import Tree
+
+        yield Tree("findings", id="findings")
+        yield Footer()
+
+    def on_mount(self) -> None:
+        self.redraw()
+        self.set_interval(1.0, self.redraw)
+        self.query_one("#findings").focus()
+
+    def redraw(self) -> None:
+        from textual.widgets import Tree
+
+        findings = self.model.findings
+        if findings is self._shown:
+            return
+        self._shown = findings
+        tree = self.query_one("#findings", Tree)
+        tree.clear()
+        tree.show_root = False
+        if not findings:
+            tree.root.add_leaf(Text("no findings yet: the doctor checks the traffic once a second", style="dim"))
+        for f in findings:
+            label = Text(f"{f.severity.upper():8}", style=SEVERITY_STYLE.get(f.severity, ""))
+            label.append(f" {f.title}", style="bold")
+            if f.first_seen is not None and f.severity != INFO:
+                label.append(f"  (at {f.first_seen:.1f} s)", style="dim")
+            node = tree.root.add(label, expand=f.severity != INFO)
+            for part in f.detail.splitlines():
+                node.add_leaf(part)
+            if f.fix:
+                node.add_leaf(Text("try: " + f.fix, style="green"))
+            if f.evidence:
+                ev = node.add(Text(f"evidence ({len(f.evidence)} events)", style="dim"), expand=True)
+                for n in f.evidence:
+                    ev.add_leaf(Text(f"#{n}", style="underline cyan"), data=n)
+        tree.root.expand()
+
+    def on_tree_node_selected(self, event) -> None:
+        if isinstance(event.node.data, int):
+            self.dismiss(event.node.data)
+
+    def action_dismiss_none(self) -> None:
+        self.dismiss(None)

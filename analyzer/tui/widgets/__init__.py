@@ -1,0 +1,19 @@
+"""The TUI's widgets, one a module, each with its own messages: the panes
+(event list, detail tree, hex, timeline), the status bar, the filter bar, the
+search and go-to prompts, and two that draw nothing (the record control, the
+background scan). Each reads the ``CaptureModel`` or what it is handed; none
+holds events of its own or reaches into the app."""
+
+from .background_scan import BackgroundScan
+from .detail_tree import DetailTree
+from .event_list import EventList
+from .filter_bar import FilterBar
+from .goto import GotoBar
+from .hex_view import HexView
+from .record import RecordControl
+from .search import SearchBar
+from .status_bar import StatusBar
+from .timeline_view import TimelineView
+
+__all__ = ["BackgroundScan", "DetailTree", "EventList", "FilterBar", "GotoBar", "HexView", "RecordControl",
+           "SearchBar", "StatusBar", "TimelineView"]

@@ -1,0 +1,36 @@
+"""The hex pane: hex and ASCII of the selected event's bytes, the selected
+field's bytes highlighted."""
+
+from __future__ import annotations
+
+from rich.text import Text
+from textual.widgets import Static
+
+from ..detail import hex_lines
+
+
+class HexView(Static):
+    """Hex and ASCII of the selected event; the selected field's bytes highlighted."""
+
+    def show(self, raw: bytes | None, span: tuple[int, int] | None = None) -> None:
+        self._shown = (raw, span)
+        if raw is None:
+            self.update("")
+            return
+        # 16 bytes a line when there is room (4 columns a byte: hex, space, ASCII)
+        per = 16 if self.size.width - 2 >= 72 else 8 if self.size.width - 2 >= 40 else 4
+        lines = []
+        for off, hx, asc, marks in hex_lines(raw, span, per):
+            line = Text(f"{off}  ", style="dim")
+            h = Text(hx.ljust(per * 3 - 1))
+            for a, b in marks:
+                h.stylize("reverse bold yellow", a, b)
+            line.append_text(h)
+            line.append("  " + asc, style="green")
+            lines.append(line)
+        self.update(Text("\n").join(lines))
+
+    def on_resize(self) -> None:
+        shown = getattr(self, "_shown", None)
+        if shown is not None:
+            self.show(*shown)
