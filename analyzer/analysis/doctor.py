@@ -6,6 +6,10 @@ the traffic shows so far, each finding with a severity, its evidence (event
 numbers) and the fix to try. Thresholds ask for several pieces of evidence, so a
 clean link gives no warning (tested on clean demo runs).
 
+The rules measure; the words are in the findings table (analyzer/analysis/findings.py):
+each rule names its entry and fills its templates with what it measured, and the
+table says which finding explains which (a root cause hides its consequences).
+
 What each finding rests on (spec §1.4.2: a device answers a command on its own
 line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 - lines swapped: answer bytes (ACK/NAK/NIC) on line A, command frames on line B;
@@ -26,7 +30,7 @@ line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 from __future__ import annotations
 
 from collections import Counter, deque
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from statistics import median
 
 from dissectors import dissect_command
@@ -48,6 +52,25 @@ from dissectors.event import (
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
 from ..styles import ERROR, INFO, WARNING  # the severities every view colours
+from .findings import (
+    CONTROLLER_FAST_RETRY,
+    CONTROLLER_IX_TIMEOUT,
+    CONTROLLER_NO_RETRY,
+    CONTROLLER_NO_WAIT,
+    DEAD_LINK,
+    DEVICE_MAP,
+    ECHO,
+    FINDINGS,
+    LINES_SWAPPED,
+    NAK_BURST,
+    NOISY_LINK,
+    SILENT_AFTER_RATE,
+    SILENT_DEVICE,
+    SLOW_ANSWERS,
+    WRONG_BAUD,
+    Finding,
+    unexplained,
+)
 from .stats import Latency
 
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
@@ -107,28 +130,6 @@ class Invocation:
                     f"(the rates of §1.5.1: 1200 to 115200); check the data bits, parity and stop bits too")
         return ("find the rate: gimbalscope doctor --scan-baud PORT listens at each standard rate; "
                 "check the data bits, parity and stop bits too")
-
-
-@dataclass
-class Finding:
-    code: str                  # lines_swapped, wrong_baud, echo, silent_device, dead_link, noisy_link, ...
-    severity: str
-    title: str                 # one line, plain words
-    detail: str                # what the traffic shows
-    fix: str                   # what to try
-    evidence: list[int] = field(default_factory=list)   # event numbers
-    subject: str = ""          # the line or device it is about
-    first_seen: float | None = None   # capture time it was first found (None without time)
-    first_seen_event: int | None = None   # events seen when it was first found
-
-    @property
-    def key(self) -> tuple[str, str]:
-        return self.code, self.subject
-
-    def to_dict(self) -> dict:
-        return {"code": self.code, "severity": self.severity, "subject": self.subject, "title": self.title,
-                "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen,
-                "first_seen_event": self.first_seen_event}
 
 
 class _Tally:
@@ -208,6 +209,19 @@ def _error(line: _Line, t: float | None, number: int) -> None:
         buckets.append([sec, 1])
     while buckets and buckets[0][0] < sec - 61:
         buckets.popleft()
+
+
+def _length_note(line: _Line) -> tuple[str, str]:
+    """Do long frames fail more often than short ones (a clock or baud mismatch)?
+    The note on it, and the fix to try first."""
+    noisy = FINDINGS[NOISY_LINK]
+    bl = line.by_length
+    long_n, short_n = bl[(True, False)] + bl[(True, True)], bl[(False, False)] + bl[(False, True)]
+    if long_n >= 10 and short_n >= 10:
+        long_rate, short_rate = bl[(True, True)] / long_n, bl[(False, True)] / short_n
+        if bl[(True, True)] >= 3 and long_rate > 2 * max(short_rate, 0.005):
+            return noisy.phrase("length", long=long_rate, short=short_rate), noisy.phrase("check_clock")
+    return "", noisy.phrase("check_cable")
 
 
 class _Device:
@@ -440,26 +454,10 @@ class WiringDoctor:
     # --------------------------------------------------------------- findings
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
-        out: list[Finding] = []
-        for rule in (self._swapped, self._garbled, self._echo, self._silent_after_rate, self._silent, self._noisy,
-                     self._controller, self._slow, self._device_map):
-            found = rule()
-            # a root cause explains its consequences: swapped or garbled lines leave
-            # every command unanswered and look like a controller in trouble
-            if out and any(f.code in ("lines_swapped", "wrong_baud") for f in out):
-                found = [f for f in found if f.code not in ("dead_link", "silent_device", "nak_burst", "noisy_link")
-                         and not f.code.startswith("controller_")]
-            after_rate = {f.subject for f in out if f.code == "silent_after_rate"}
-            if after_rate:   # the rate change explains the silence, and what the controller does about it
-                found = [f for f in found if not (f.code in ("silent_device", "dead_link")
-                                                  or f.code.startswith("controller_") or f.subject in after_rate)]
-            if any(f.code == "dead_link" for f in out):
-                found = [f for f in found if not f.code.startswith("controller_")]
-            if any(f.code == "controller_no_wait" for f in out):
-                # answers cannot be matched to commands sent on top of each other:
-                # their latencies say nothing about the devices
-                found = [f for f in found if f.code != "slow_answers"]
-            out.extend(found)
+        rules = (self._swapped, self._garbled, self._echo, self._silent_after_rate, self._silent, self._noisy,
+                 self._controller, self._slow, self._device_map)
+        # root causes first: what they explain is not raised with them (the table's ``hides``)
+        out = unexplained(rule() for rule in rules)
         for f in out:
             key = f.key
             if key not in self._first_seen:
@@ -487,12 +485,9 @@ class WiringDoctor:
         a, b = len(self.answer_bytes_on_a), len(self.commands_on_b)
         if a + b < 6 or a + b <= 2 * self.ok_transactions:
             return []
-        return [Finding(
-            "lines_swapped", ERROR, "lines swapped: the tap's line A carries the device's answers",
-            f"{a} ACK/NAK/NIC bytes arrived on line A and {b} command frames on line B; "
-            f"{self.ok_transactions} commands were answered as wired",
-            self.invocation.swap_fix(),
-            self.answer_bytes_on_a.evidence()[:10] + self.commands_on_b.evidence()[:10], "A,B")]
+        evidence = self.answer_bytes_on_a.evidence()[:10] + self.commands_on_b.evidence()[:10]
+        return [FINDINGS[LINES_SWAPPED].found("A,B", evidence, answer_bytes=a, command_frames=b,
+                                              answered=self.ok_transactions, swap_fix=self.invocation.swap_fix())]
 
     def _garbled(self) -> list[Finding]:
         out = []
@@ -502,51 +497,40 @@ class WiringDoctor:
             share = line.good_bytes / line.bytes
             if share >= 0.3:
                 continue
-            out.append(Finding(
-                "wrong_baud", ERROR, f"line {name}: bytes arrive but almost nothing decodes (wrong baud rate?)",
-                f"{line.bytes} bytes, {share:.0%} in valid frames or answers, {line.noise_bytes} bytes of noise, "
-                f"{line.bad_frames} frames with bad checksums",
-                self.invocation.baud_fix(), line.errors.evidence(), name))
+            out.append(FINDINGS[WRONG_BAUD].found(
+                name, line.errors.evidence(), line=name, bytes=line.bytes, share=share, noise_bytes=line.noise_bytes,
+                bad_frames=line.bad_frames, baud_fix=self.invocation.baud_fix()))
         return out
 
     def _echo(self) -> list[Finding]:
         if len(self.echoes) < 3:
             return []
-        return [Finding(
-            "echo", WARNING, "line B repeats line A (echo): stripped from decoding",
-            f"{len(self.echoes)} commands came back on line B byte for byte while they were being sent",
-            "a half-duplex adapter or RS-485 converter echoes what it sends: disable its echo (or local "
-            "loopback) if the controller is confused by it; decoding already ignores the copies",
-            self.echoes.evidence(), "B")]
+        return [FINDINGS[ECHO].found("B", self.echoes.evidence(), echoes=len(self.echoes))]
 
     def _silent(self) -> list[Finding]:
-        out = []
+        if self.commands >= 5 and self.answers == 0:
+            return [self._dead_link()]
         answering = [a for a, d in self.devices.items() if d.answers >= 3]
-        total_commands = self.commands
-        if total_commands >= 5 and self.answers == 0:
-            b = self.lines.get("B") if self.two_lines else self.lines.get("AB")
-            if b is None or b.bytes == 0:
-                where = "line B is silent: no byte came back" if self.two_lines else "no device answered"
-                fix = ("check the device→controller wire and the tap on it (RX/TX swapped, a loose pin, "
-                       "the adapter), then the devices' power")
-            else:
-                where = (f"{'line B' if self.two_lines else 'the line'} carries {b.bytes} bytes "
-                         f"but none answers a command")
-                fix = "check the baud rate and the devices' addresses"
-            cmds = sorted(n for d in self.devices.values() for n in d.unanswered)[:_MAX_EVIDENCE]
-            out.append(Finding("dead_link", ERROR, "no device answers at all",
-                               f"{total_commands} commands, no ACK or NAK; {where}", fix, cmds, "B"))
-            return out
         if not answering:
-            return out
-        for addr, d in sorted(self.devices.items()):
-            if d.commands >= 3 and d.answers == 0 and "255" not in addr.split("."):
-                out.append(Finding(
-                    "silent_device", WARNING, f"device {addr} never answers",
-                    f"{d.commands} commands to {addr}, no ACK or NAK, while {', '.join(answering)} answer",
-                    f"check {addr}'s power and address setting, and its drop on the bus",
-                    d.unanswered.evidence(), addr))
-        return out
+            return []
+        silent = FINDINGS[SILENT_DEVICE]
+        return [silent.found(addr, d.unanswered.evidence(), addr=addr, commands=d.commands,
+                             answering=", ".join(answering))
+                for addr, d in sorted(self.devices.items())
+                if d.commands >= 3 and d.answers == 0 and "255" not in addr.split(".")]
+
+    def _dead_link(self) -> Finding:
+        """Commands and no answer at all: is the device side silent, or garbled?"""
+        dead = FINDINGS[DEAD_LINK]
+        b = self.lines.get("B") if self.two_lines else self.lines.get("AB")
+        if b is None or b.bytes == 0:
+            where = dead.phrase("b_silent" if self.two_lines else "none_answered")
+            check = dead.phrase("check_wire")
+        else:
+            where = dead.phrase("b_garbled" if self.two_lines else "line_garbled", bytes=b.bytes)
+            check = dead.phrase("check_baud")
+        cmds = sorted(n for d in self.devices.values() for n in d.unanswered)[:_MAX_EVIDENCE]
+        return dead.found("B", cmds, commands=self.commands, where=where, check=check)
 
     def _silent_after_rate(self) -> list[Finding]:
         """Devices that answered before the link's rate changed and not since."""
@@ -555,72 +539,64 @@ class WiringDoctor:
         rate, number, target = self.rate_change
         baud, before = rate.fields.get("baud"), rate.fields.get("previous_baud")
         at = f"#{number}" if number is not None else f"#{rate.number}"
+        kind = FINDINGS[SILENT_AFTER_RATE]
         out = []
         for addr, d in sorted(self.devices.items()):
             if d.commands_since_rate < 3 or d.answers_since_rate or d.answers == 0:
                 continue
-            if addr == target:
-                title = f"{addr} was set to {baud} bps at {at} and has not answered since"
-            else:
-                title = f"{addr} has not answered since the link was set to {baud} bps at {at}"
-            out.append(Finding(
-                "silent_after_rate", ERROR, title,
-                f"{d.commands_since_rate} commands to {addr} since the rate change, no ACK or NAK; it answered "
-                f"{d.answers - d.answers_since_rate} times at {before} bps before",
-                f"the device ACKed the change but does not talk at {baud} bps: ask it for its highest rate (B?) "
-                f"at {before} bps, set the controller back to {before} bps, or power-cycle the device (it "
-                f"starts at its default rate)", d.unanswered_since_rate.evidence(), addr))
+            # the device the rate-set command went to, or another on the link
+            silence = kind.phrase("set_to" if addr == target else "link_set_to", addr=addr, baud=baud, at=at)
+            out.append(kind.found(addr, d.unanswered_since_rate.evidence(), silence=silence, addr=addr,
+                                  commands=d.commands_since_rate, answered=d.answers - d.answers_since_rate,
+                                  baud=baud, before=before))
         return out
 
     def _noisy(self) -> list[Finding]:
-        out = []
+        out = [f for name, line in self.lines.items() if (f := self._noisy_line(name, line)) is not None]
+        burst = self._nak_burst()
+        return out + ([burst] if burst is not None else [])
+
+    def _noisy_line(self, name: str, line: _Line) -> Finding | None:
+        errors = line.error_count
+        if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
+            return None   # too little to say; garbled lines are wrong_baud
+        if line.bad_frames / max(line.frames, 1) < 0.01 and line.noise_runs < 3:
+            return None
+        noisy = FINDINGS[NOISY_LINK]
         span = max(self.span, 1e-9)
-        for name, line in self.lines.items():
-            errors = line.error_count
-            if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
-                continue   # too little to say; garbled lines are wrong_baud
-            per_min = errors / span * 60 if self.timed else 0.0
-            frames = max(line.frames, 1)
-            if line.bad_frames / frames < 0.01 and line.noise_runs < 3:
-                continue
-            # the trend: the last minute against the whole capture
-            last_t = self.last_t or 0.0
-            recent = line.recent_errors(last_t - 60)
-            recent_span = min(60.0, span)
-            trend = ""
-            if self.timed and span > 90 and recent_span:
-                recent_rate = recent / recent_span * 60
-                if recent_rate > 2 * per_min:
-                    trend = f"; rising: {recent_rate:.0f}/min in the last minute"
-                elif recent_rate < per_min / 2:
-                    trend = f"; falling: {recent_rate:.0f}/min in the last minute"
-            bl = line.by_length
-            long_n, short_n = bl[(True, False)] + bl[(True, True)], bl[(False, False)] + bl[(False, True)]
-            length_note, fix = "", "check the cable (shielding, length, grounding) and the connectors"
-            if long_n >= 10 and short_n >= 10:
-                long_rate, short_rate = bl[(True, True)] / long_n, bl[(False, True)] / short_n
-                if bl[(True, True)] >= 3 and long_rate > 2 * max(short_rate, 0.005):
-                    length_note = (f"; long frames fail {long_rate:.0%}, short ones {short_rate:.0%}: errors grow "
-                                   f"with length, like a clock (baud) mismatch or timing problem")
-                    fix = "check both ends run the same baud rate (a slightly off clock), then the cable"
-            rate = f"in {self.span:.0f} s ({per_min:.1f}/min)" if self.timed else f"in {_n(self.events, 'event')}"
-            out.append(Finding(
-                "noisy_link", WARNING, f"line {name} is noisy",
-                f"{_n(line.bad_frames, 'checksum error')} and {_n(line.noise_runs, 'noise run')} {rate}"
-                f"{trend}{length_note}", fix, list(line.errors.last), name))
+        per_min = errors / span * 60 if self.timed else 0.0
+        # the trend: the last minute against the whole capture
+        recent = line.recent_errors((self.last_t or 0.0) - 60)
+        recent_span = min(60.0, span)
+        trend = ""
+        if self.timed and span > 90 and recent_span:
+            recent_rate = recent / recent_span * 60
+            if recent_rate > 2 * per_min:
+                trend = noisy.phrase("rising", per_min=recent_rate)
+            elif recent_rate < per_min / 2:
+                trend = noisy.phrase("falling", per_min=recent_rate)
+        length, check = _length_note(line)
+        if self.timed:
+            span_words = noisy.phrase("timed", seconds=self.span, per_min=per_min)
+        else:
+            span_words = noisy.phrase("untimed", events=_n(self.events, "event"))
+        return noisy.found(name, list(line.errors.last), line=name,
+                           checksum_errors=_n(line.bad_frames, "checksum error"),
+                           noise_runs=_n(line.noise_runs, "noise run"), span=span_words, trend=trend,
+                           length=length, check=check)
+
+    def _nak_burst(self) -> Finding | None:
         naks = list(self.naks)    # timed NAKs only: a burst is a matter of time
-        if len(naks) >= 5:
-            # a burst: five NAKs within ten seconds
-            burst = _densest([t for t, _n in naks], 10.0)
-            # a burst stands out from the capture's usual rate (busy links NAK more often)
-            usual = self.nak_count / max(self.span, 10.0) * 10
-            if burst >= max(5, 3 * usual):
-                out.append(Finding(
-                    "nak_burst", WARNING, "NAK bursts: devices reject commands in runs",
-                    f"{self.nak_count} NAKs, up to {burst} within 10 s",
-                    "devices NAK what they receive corrupted: check the controller→device wire (line A)",
-                    [n for _t, n in naks[-_MAX_EVIDENCE:]], "A"))
-        return out
+        if len(naks) < 5:
+            return None
+        # a burst: five NAKs within ten seconds
+        burst = _densest([t for t, _n in naks], 10.0)
+        # a burst stands out from the capture's usual rate (busy links NAK more often)
+        usual = self.nak_count / max(self.span, 10.0) * 10
+        if burst < max(5, 3 * usual):
+            return None
+        return FINDINGS[NAK_BURST].found("A", [n for _t, n in naks[-_MAX_EVIDENCE:]], naks=self.nak_count,
+                                         burst=burst)
 
     def _controller(self) -> list[Finding]:
         out = []
@@ -628,48 +604,31 @@ class WiringDoctor:
         # the next command came sooner than devices answer: the controller did not wait
         hasty = [(n, g) for n, g in self.next_gaps if p95 and g < p95]
         if len(hasty) >= 3:
-            out.append(Finding(
-                "controller_no_wait", WARNING, "the controller sends before the previous ACK",
-                f"{len(hasty)} commands were followed by the next one after {median(g for _n, g in hasty) * 1000:.1f} ms "
-                f"(median), before any ACK/NAK; devices take up to {p95 * 1000:.0f} ms to answer",
-                "the controller must wait for ACK/NAK (or its timeout) before the next command (§1.4.2)",
-                [n for n, _g in hasty], "controller"))
-        fast = self._fast_retries()
+            out.append(FINDINGS[CONTROLLER_NO_WAIT].found(
+                "controller", [n for n, _g in hasty], commands=len(hasty),
+                gap_ms=median(g for _n, g in hasty) * 1000, p95_ms=p95 * 1000))
+        # retransmissions sooner than devices answer
+        fast = [(n, g) for n, g in self.retry_gaps if g < p95] if p95 else []
         if len(fast) >= 3:
-            out.append(Finding(
-                "controller_fast_retry", WARNING, "the controller retries sooner than devices answer",
-                f"{len(fast)} retries came {median(g for _n, g in fast) * 1000:.0f} ms (median) after the command, "
-                f"while devices' ACKs take up to {self._ack_p95() * 1000:.0f} ms",
-                "raise the controller's ACK timeout above the devices' answer time", [n for n, _g in fast],
-                "controller"))
+            out.append(FINDINGS[CONTROLLER_FAST_RETRY].found(
+                "controller", [n for n, _g in fast], retries=len(fast),
+                gap_ms=median(g for _n, g in fast) * 1000, p95_ms=p95 * 1000))
         # most failures left alone: a controller that gives up after a few attempts
         # (or an untimed capture's alignment guessing which command went unanswered)
         # leaves some, but retries most
         given_up = len(self.never_retried)
         if given_up >= 3 and given_up > self.retried:
-            out.append(Finding(
-                "controller_no_retry", WARNING, "the controller never retries a failed command",
-                f"{given_up} commands NAK'd or unanswered were not sent again"
-                f"{'' if not self.retried else f' ({self.retried} were)'}",
-                "retransmit after NAK or an ACK timeout (the spec's handshake expects it)",
-                self.never_retried.evidence(), "controller"))
+            no_retry = FINDINGS[CONTROLLER_NO_RETRY]
+            retried = no_retry.phrase("retried", retried=self.retried) if self.retried else ""
+            out.append(no_retry.found("controller", self.never_retried.evidence(), given_up=given_up,
+                                      retried=retried))
         if self.ix_given_up:
-            out.append(Finding(
-                "controller_ix_timeout", WARNING, "the controller gives up on IX before it ends",
-                f"{len(self.ix_given_up)} IX commands were sent again before their result came; "
-                f"initialisation takes seconds (up to a minute)",
-                "wait for IX's result (60 s is safe) before resending or moving on", self.ix_given_up.evidence(),
-                "controller"))
+            out.append(FINDINGS[CONTROLLER_IX_TIMEOUT].found(
+                "controller", self.ix_given_up.evidence(), resent=len(self.ix_given_up)))
         return out
 
     def _ack_p95(self) -> float:
         return self.ack_latency.quantile(0.95) or 0.0
-
-    def _fast_retries(self) -> list[tuple[int, float]]:
-        p95 = self._ack_p95()
-        if not p95:
-            return []
-        return [(n, g) for n, g in self.retry_gaps if g < p95]
 
     def restart_ack_trend(self, since: float) -> None:
         """The capture's skew correction changed for line B events from ``since`` on:
@@ -691,29 +650,27 @@ class WiringDoctor:
             before = median(d.first_acks[:k])
             after = median(list(d.last_acks)[-k:])
             if after > 2 * before and after - before > 0.005:
-                out.append(Finding(
-                    "slow_answers", WARNING, f"device {addr} answers slower and slower",
-                    f"median ACK latency {before * 1000:.1f} ms at first, {after * 1000:.1f} ms lately "
-                    f"({n} ACKs)",
-                    f"a device slowing down is busy or failing: check {addr}'s load, power and temperature",
-                    [], addr))
+                out.append(FINDINGS[SLOW_ANSWERS].found(addr, [], addr=addr, before_ms=before * 1000,
+                                                        after_ms=after * 1000, acks=n))
         return out
 
     def _device_map(self) -> list[Finding]:
         if not self.devices:
             return []
+        kind = FINDINGS[DEVICE_MAP]
         parts = []
         for addr, d in sorted(self.devices.items()):
-            state = f"answers on {','.join(sorted(d.lines))}" if d.answers else "never answered"
-            extra = f"; NIC to {', '.join(sorted(d.nic))}" if d.nic else ""
-            ident = f"; {d.identity}" if d.identity else ""
-            parts.append(f"{addr}: {d.commands} commands, {state}{extra}{ident}")
-        title = f"{len(self.devices)} device address(es) addressed"
+            state = kind.phrase("answers", lines=",".join(sorted(d.lines))) if d.answers \
+                else kind.phrase("never_answered")
+            nic = kind.phrase("nic", commands=", ".join(sorted(d.nic))) if d.nic else ""
+            ident = kind.phrase("identity", identity=d.identity) if d.identity else ""
+            parts.append(kind.phrase("device", addr=addr, commands=d.commands, state=state, nic=nic, identity=ident))
+        past = ""
         if self.other_addresses:
             # garbled input names many addresses: past the first ones, only counted
-            title += f", and more (past {_MAX_DEVICES})"
-            parts.append(f"{_n(len(self.other_addresses), 'command')} to further addresses, not tracked one by one")
-        return [Finding("device_map", INFO, title, "\n".join(parts), "", [], "map")]
+            past = kind.phrase("past", limit=_MAX_DEVICES)
+            parts.append(kind.phrase("untracked", commands=_n(len(self.other_addresses), "command")))
+        return [kind.found("map", [], devices=len(self.devices), past=past, per_device="\n".join(parts))]
 
 
 def one_line(f: Finding) -> str:

@@ -11,6 +11,7 @@ import tracemalloc
 
 import analyzer
 from analyzer.analysis.doctor import RETRY_WINDOW, WiringDoctor
+from analyzer.analysis.findings import CONTROLLER_NO_RETRY, DEVICE_MAP
 from tests.conftest import frame, run_cli
 
 
@@ -39,7 +40,7 @@ def test_without_time_a_failed_command_expires_after_a_window_of_commands(tmp_pa
     report = json.loads(r.stdout)
     assert report["seconds"] is None and report["events"] == 80
     found = {f["code"]: f for f in report["findings"]}
-    no_retry = found["controller_no_retry"]
+    no_retry = found[CONTROLLER_NO_RETRY]
     # decided once RETRY_WINDOW more commands came; the last ones are still open
     decided = [k for k in unanswered if 40 - (k + 1) > RETRY_WINDOW]
     assert no_retry["detail"] == f"{len(decided)} commands NAK'd or unanswered were not sent again"
@@ -83,6 +84,6 @@ def test_the_device_map_says_when_addresses_are_past_counting(tmp_path):
     doctor = WiringDoctor(("AB",))
     for ev in analyzer.open(str(bus)):
         doctor.add(ev)
-    device_map = next(f for f in doctor.findings() if f.code == "device_map")
+    device_map = next(f for f in doctor.findings() if f.code == DEVICE_MAP)
     assert device_map.title.endswith("and more (past 256)")
     assert "344 commands to further addresses, not tracked one by one" in device_map.detail

@@ -6,25 +6,41 @@ import json
 
 import pytest
 
+from analyzer.analysis.findings import (
+    CONTROLLER_FAST_RETRY,
+    CONTROLLER_IX_TIMEOUT,
+    CONTROLLER_NO_RETRY,
+    CONTROLLER_NO_WAIT,
+    DEAD_LINK,
+    DEVICE_MAP,
+    ECHO,
+    LINES_SWAPPED,
+    NAK_BURST,
+    NOISY_LINK,
+    SILENT_AFTER_RATE,
+    SILENT_DEVICE,
+    SLOW_ANSWERS,
+    WRONG_BAUD,
+)
 from analyzer.simulation import scenario
 from tests.child import Child
 from tests.conftest import run_cli
 
 # fault -> (the finding it must give, other warnings that are true consequences of it)
 EXPECTED = {
-    "swapped": ("lines_swapped", set()),
-    "echo": ("echo", set()),
-    "silent": ("silent_device", set()),
-    "dead-line-b": ("dead_link", set()),
-    "wrong-baud": ("wrong_baud", set()),
-    "noisy": ("noisy_link", {"nak_burst"}),
-    "impatient": ("controller_no_wait", {"controller_no_retry"}),      # it does not wait, nor retry
-    "fast-retry": ("controller_fast_retry", {"controller_no_wait", "controller_no_retry"}),
-    "no-retry": ("controller_no_retry", set()),
-    "ix-timeout": ("controller_ix_timeout", set()),
-    "slowing": ("slow_answers", set()),
+    "swapped": (LINES_SWAPPED, set()),
+    "echo": (ECHO, set()),
+    "silent": (SILENT_DEVICE, set()),
+    "dead-line-b": (DEAD_LINK, set()),
+    "wrong-baud": (WRONG_BAUD, set()),
+    "noisy": (NOISY_LINK, {NAK_BURST}),
+    "impatient": (CONTROLLER_NO_WAIT, {CONTROLLER_NO_RETRY}),      # it does not wait, nor retry
+    "fast-retry": (CONTROLLER_FAST_RETRY, {CONTROLLER_NO_WAIT, CONTROLLER_NO_RETRY}),
+    "no-retry": (CONTROLLER_NO_RETRY, set()),
+    "ix-timeout": (CONTROLLER_IX_TIMEOUT, set()),
+    "slowing": (SLOW_ANSWERS, set()),
     # the link switched to 115200 after 2 s; the gimbals ACKed and stayed at 9600 (docs/time.md)
-    "rate-ignored": ("silent_after_rate", set()),
+    "rate-ignored": (SILENT_AFTER_RATE, set()),
 }
 
 
@@ -57,7 +73,7 @@ def test_each_fault_is_found_and_nothing_else(fault):
 def test_a_clean_installation_raises_nothing():
     report = doctor_on(set(), seconds=8.0)
     assert [f for f in report["findings"] if f["severity"] != "info"] == []
-    device_map = next(f for f in report["findings"] if f["code"] == "device_map")
+    device_map = next(f for f in report["findings"] if f["code"] == DEVICE_MAP)
     for addr in ("1.1.1", "1.1.2", "1.1.3"):
         assert f"{addr}: " in device_map["detail"] and "answers on B" in device_map["detail"]
     assert "NIC to FA" in device_map["detail"]        # auto-focus: not implemented by the simulated firmware

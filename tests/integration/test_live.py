@@ -10,6 +10,7 @@ import tty
 import pytest
 import serial
 
+from analyzer.analysis.findings import SLOW_ANSWERS
 from tests.child import Child
 from tests.conftest import frame, run_cli
 from tests.integration.test_mcap import doctor, go_read, jsonl
@@ -228,7 +229,7 @@ def test_skew_correction_switching_on_partway_decodes_as_it_was_shown_live(tmp_p
     assert jsonl(rec) == live
     found = run_cli("doctor", rec, "--format", "json")
     assert found.returncode == 0, found.stderr
-    assert "slow_answers" not in found.stdout and "slow_answers" not in err
+    assert SLOW_ANSWERS not in found.stdout and SLOW_ANSWERS not in err
 
 
 def test_vanished_port_is_reopened_when_it_returns(tmp_path, socat_bin):

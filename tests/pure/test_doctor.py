@@ -1,15 +1,40 @@
-"""The wiring doctor's rules on scripted traffic, the echo stripper, and advice
-that fits where the traffic is read (files, live ports)."""
+"""The wiring doctor's rules on scripted traffic, the echo stripper, advice that
+fits where the traffic is read (files, live ports), and the findings table: every
+rule fills its entry's words, the hiding rules name real ids, docs/doctor.md shows
+the table."""
 
+import ast
 import json
 import os
 import subprocess
 import sys
 import time
 
+import pytest
+
 import analyzer
-from analyzer.analysis.doctor import Invocation, WiringDoctor
+from analyzer.analysis import findings
+from analyzer.analysis.doctor import ERROR, INFO, WARNING, Invocation, WiringDoctor
 from analyzer.analysis.echo import EchoStripper
+from analyzer.analysis.findings import (
+    CONTROLLER_NO_RETRY,
+    CONTROLLER_NO_WAIT,
+    DEAD_LINK,
+    DEVICE_MAP,
+    ECHO,
+    FINDINGS,
+    LINES_SWAPPED,
+    NOISY_LINK,
+    SILENT_AFTER_RATE,
+    SILENT_DEVICE,
+    SLOW_ANSWERS,
+    TABLE,
+    Finding,
+    FindingKind,
+    fields_of,
+    render,
+    unexplained,
+)
 from analyzer.simulation.traffic import Traffic, Write
 from dissectors.event import ACK, COMMAND, RESULT, Event
 from tests.conftest import ROOT, frame, run_cli
@@ -58,7 +83,7 @@ def test_a_clean_conversation_has_no_warnings(tmp_path):
     log.write_text(polls().socat_log())
     found = findings_of(log)
     assert [f.severity for f in found.values()] == ["info"]      # the device map only
-    assert "1.1.1: 6 commands, answers on B" in found["device_map"].detail
+    assert "1.1.1: 6 commands, answers on B" in found[DEVICE_MAP].detail
 
 
 def test_lines_swapped_from_two_dumps_given_the_wrong_way_round(tmp_path):
@@ -66,26 +91,26 @@ def test_lines_swapped_from_two_dumps_given_the_wrong_way_round(tmp_path):
     (tmp_path / "a.bin").write_bytes(tr.line_bytes("A"))
     (tmp_path / "b.bin").write_bytes(tr.line_bytes("B"))
     found = findings_of(tmp_path / "b.bin", tmp_path / "a.bin")
-    assert found["lines_swapped"].severity == "error"
+    assert found[LINES_SWAPPED].severity == "error"
     # 12 ACKs arrive on "line A" and 12 P? commands on "line B"
-    assert "12 ACK/NAK/NIC bytes arrived on line A and 12 command frames on line B" in found["lines_swapped"].detail
-    assert "dead_link" not in found          # explained by the swap
+    assert "12 ACK/NAK/NIC bytes arrived on line A and 12 command frames on line B" in found[LINES_SWAPPED].detail
+    assert DEAD_LINK not in found          # explained by the swap
     fixed = findings_of(tmp_path / "b.bin", tmp_path / "a.bin", swap_lines=True)
-    assert "lines_swapped" not in fixed and not [f for f in fixed.values() if f.severity != "info"]
+    assert LINES_SWAPPED not in fixed and not [f for f in fixed.values() if f.severity != "info"]
 
 
 def test_silent_device_among_answering_ones_and_dead_link(tmp_path):
     log = tmp_path / "tap.log"
     log.write_text(polls(answer=lambda k: k % 2 == 0).socat_log())     # 1.1.2 never answers
     found = findings_of(log)
-    assert found["silent_device"].subject == "1.1.2" and "6 commands to 1.1.2" in found["silent_device"].detail
+    assert found[SILENT_DEVICE].subject == "1.1.2" and "6 commands to 1.1.2" in found[SILENT_DEVICE].detail
     # 1.1.1's commands take 3 events (command, ACK, result), 1.1.2's one: #4, #8, ...;
     # the sixth (#24) is still pending when the capture ends, so not yet evidence
-    assert found["silent_device"].evidence == [4, 8, 12, 16, 20]
+    assert found[SILENT_DEVICE].evidence == [4, 8, 12, 16, 20]
     log.write_text(polls(answer=lambda k: False).socat_log())
     found = findings_of(log)
-    assert found["dead_link"].severity == "error" and "line B is silent" in found["dead_link"].detail
-    assert "silent_device" not in found
+    assert found[DEAD_LINK].severity == "error" and "line B is silent" in found[DEAD_LINK].detail
+    assert SILENT_DEVICE not in found
 
 
 def test_echo_is_found_and_stripped(tmp_path):
@@ -95,7 +120,7 @@ def test_echo_is_found_and_stripped(tmp_path):
     assert [e.kind for e in events[:3]] == ["command", "ack", "result"]     # no copy of the command
     assert all(e.status == "ok" for e in events if e.kind == COMMAND)
     found = findings_of(log)
-    assert found["echo"].severity == "warning" and "12 commands came back" in found["echo"].detail
+    assert found[ECHO].severity == "warning" and "12 commands came back" in found[ECHO].detail
 
 
 def test_echo_stripper_keeps_real_results():
@@ -124,7 +149,7 @@ def test_noisy_line_and_length_correlation(tmp_path):
     log = tmp_path / "tap.log"
     log.write_text(tr.socat_log())
     found = findings_of(log)
-    noisy = found["noisy_link"]
+    noisy = found[NOISY_LINK]
     assert noisy.subject == "A" and "7 checksum errors" in noisy.detail
     assert "errors grow with length" in noisy.detail          # 7 of 20 long frames, 0 of 20 short
 
@@ -157,17 +182,17 @@ def test_advice_on_raw_dumps_names_them_and_counts_events_not_seconds(tmp_path):
     assert "[found after 36 events]" in r.stdout
     # and what it suggests works
     fixed = run_cli("doctor", b, a, "--swap-lines", "--format", "json")
-    assert [f["code"] for f in json.loads(fixed.stdout)["findings"]] == ["device_map"]
+    assert [f["code"] for f in json.loads(fixed.stdout)["findings"]] == [DEVICE_MAP]
 
 
 def test_advice_on_a_socat_log_is_the_flag_with_its_name(tmp_path):
     log = tmp_path / "tap.log"
     log.write_text(swapped(polls()).socat_log())
     found = json.loads(run_cli("doctor", log, "--format", "json").stdout)["findings"]
-    fix = next(f["fix"] for f in found if f["code"] == "lines_swapped")
+    fix = next(f["fix"] for f in found if f["code"] == LINES_SWAPPED)
     assert fix == f"read its lines the other way round: gimbalscope decode {log} --swap-lines"
     assert [f["code"] for f in json.loads(run_cli("doctor", log, "--swap-lines", "--format", "json").stdout)
-            ["findings"]] == ["device_map"]
+            ["findings"]] == [DEVICE_MAP]
 
 
 def test_advice_on_live_ports_is_the_swapped_port_order(tmp_path):
@@ -185,8 +210,8 @@ def test_advice_on_live_ports_is_the_swapped_port_order(tmp_path):
     assert proc.returncode == 0, err
     found = {f["code"]: f for f in json.loads(out)["findings"]}
     # the ports swapped, the flag `live` and `doctor` take; no TUI here, so no key
-    assert found["lines_swapped"]["fix"] == (f"give the ports the other way round: gimbalscope live {pb} {pa} "
-                                              f"(or add --swap-lines)")
+    assert found[LINES_SWAPPED]["fix"] == (f"give the ports the other way round: gimbalscope live {pb} {pa} "
+                                            f"(or add --swap-lines)")
 
 
 def test_advice_never_names_what_the_command_rejects():
@@ -200,3 +225,107 @@ def test_advice_never_names_what_the_command_rejects():
     assert "press x" not in Invocation(("a.bin", "b.bin"), tui=True).swap_fix()   # files: no swap key
     assert "--scan-baud" not in Invocation(("tap.log",)).baud_fix()              # files have no rate to scan
     assert "gimbalscope decode tap.log --baud RATE" in Invocation(("tap.log",)).baud_fix()
+
+
+# ------------------------------------------------------------ the findings table
+def found_and_phrase_calls() -> list[tuple[str, FindingKind, str | None, set[str]]]:
+    """Every ``.found(...)`` and ``.phrase(...)`` call of the doctor's rules: (where,
+    the table entry, the phrase or None for ``found``, the fields passed). The entry
+    is ``FINDINGS[ID]`` in the call, or a local variable set to it in the function."""
+    with open(os.path.join(ROOT, "analyzer", "analysis", "doctor.py"), encoding="utf-8") as f:
+        tree = ast.parse(f.read())
+
+    def entry(node, local):
+        if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name) and node.value.id == "FINDINGS":
+            return FINDINGS[getattr(findings, node.slice.id)]
+        return local.get(node.id) if isinstance(node, ast.Name) else None
+
+    calls = []
+    for fn in ast.walk(tree):
+        if not isinstance(fn, ast.FunctionDef):
+            continue
+        local = {t.id: kind for a in ast.walk(fn) if isinstance(a, ast.Assign)
+                 for t in a.targets if isinstance(t, ast.Name) and (kind := entry(a.value, {})) is not None}
+        for call in ast.walk(fn):
+            if not (isinstance(call, ast.Call) and isinstance(call.func, ast.Attribute)
+                    and call.func.attr in ("found", "phrase")):
+                continue
+            kind = entry(call.func.value, local)
+            where = f"doctor.py:{call.lineno}"
+            assert kind is not None, f"{where}: say which entry: FINDINGS[ID].{call.func.attr}(...)"
+            assert all(k.arg for k in call.keywords), f"{where}: name every field (no **values)"
+            passed = {k.arg for k in call.keywords}
+            if call.func.attr == "found":
+                calls.append((where, kind, None, passed))
+                continue
+            name = call.args[0]   # a phrase's name, or one of two
+            names = [name.body, name.orelse] if isinstance(name, ast.IfExp) else [name]
+            assert all(isinstance(n, ast.Constant) for n in names), f"{where}: name the phrase"
+            calls += [(where, kind, n.value, passed) for n in names]
+    return calls
+
+
+class AnyValue:
+    """Formats under any spec: a template is checked for its fields, not its values."""
+
+    def __format__(self, spec: str) -> str:
+        return "x"
+
+
+def test_every_rule_fills_its_entrys_templates_with_exactly_their_fields():
+    calls = found_and_phrase_calls()
+    for where, kind, phrase, passed in calls:
+        if phrase is None:
+            assert passed == kind.fields, f"{where}: {kind.id} fills {sorted(kind.fields)}, got {sorted(passed)}"
+            f = kind.found("subject", [], **{name: AnyValue() for name in passed})
+            assert (f.code, f.severity, f.subject) == (kind.id, kind.severity, "subject")
+        else:
+            assert phrase in kind.phrases, f"{where}: {kind.id} has no phrase {phrase!r}"
+            assert passed == fields_of(kind.phrases[phrase]), f"{where}: {kind.id}'s {phrase!r} phrase"
+            kind.phrase(phrase, **{name: AnyValue() for name in passed})
+    # every entry is raised by a rule, and every phrase is said
+    assert {kind.id for _w, kind, phrase, _p in calls if phrase is None} == set(FINDINGS)
+    assert {(kind.id, p) for _w, kind, p, _f in calls if p} == {(k.id, p) for k in TABLE for p in k.phrases}
+
+
+def test_a_missing_field_is_found():
+    silent = FINDINGS[SILENT_DEVICE]
+    with pytest.raises(KeyError, match="answering"):
+        silent.found("1.1.2", [], addr="1.1.2", commands=6)
+
+
+def test_the_table_names_each_id_once_and_hides_only_ids_of_the_table():
+    ids = [kind.id for kind in TABLE]
+    assert len(ids) == len(set(ids)) and set(ids) == set(FINDINGS)
+    # the module's constants are the ids: code and tests name them, never the string
+    constants = {name: value for name, value in vars(findings).items() if name.isupper() and isinstance(value, str)
+                 and value in FINDINGS}
+    assert sorted(constants.values()) == sorted(ids) and all(name.lower() == v for name, v in constants.items())
+    for kind in TABLE:
+        assert set(kind.hides) <= set(FINDINGS) and kind.id not in kind.hides, kind.id
+        assert kind.severity in (ERROR, WARNING, INFO) and kind.shows, kind.id
+
+
+def found(code: str, subject: str = "") -> Finding:
+    return Finding(code, FINDINGS[code].severity, "", "", "", [], subject)
+
+
+def test_a_kept_finding_hides_what_the_table_says_in_later_rules_only():
+    swapped, no_wait, slow = found(LINES_SWAPPED, "A,B"), found(CONTROLLER_NO_WAIT), found(SLOW_ANSWERS, "1.1.1")
+    # the swap explains the controller; a hidden finding explains nothing itself
+    assert unexplained([[swapped], [found(DEAD_LINK, "B")], [no_wait], [slow]]) == [swapped, slow]
+    assert unexplained([[no_wait], [slow]]) == [no_wait]
+    assert unexplained([[slow], [no_wait]]) == [slow, no_wait]          # earlier rules are not hidden
+    # a device silent since a rate change: nothing else about it, nor the controller
+    rate = found(SILENT_AFTER_RATE, "1.1.1")
+    other = found(SLOW_ANSWERS, "1.1.2")
+    assert unexplained([[rate], [found(SILENT_DEVICE, "1.1.3")], [found(CONTROLLER_NO_RETRY, "controller")],
+                        [slow, other]]) == [rate, other]
+
+
+def test_docs_doctor_md_findings_table_is_rendered_from_the_table():
+    with open(os.path.join(ROOT, "docs", "doctor.md"), encoding="utf-8") as f:
+        page = f.read()
+    assert render() in page, "paste the output of: python -m analyzer.analysis.findings"
+    for kind in TABLE:
+        assert f"| `{kind.id}` | {kind.severity} |" in page

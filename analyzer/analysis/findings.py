@@ -1,0 +1,276 @@
+"""Every finding the wiring doctor (analyzer/analysis/doctor.py) can raise, in one
+table, like the problems of dissectors/problems.py: an id (the ``code`` JSON, the
+MCAP ``/log`` topic, Parquet and the TUI carry), a severity, what the traffic shows
+(the findings table of docs/doctor.md is rendered from it), the words of the
+finding, and which other findings it explains.
+
+The words are ``str.format`` templates with named fields. A rule says only what it
+measured and which entry it is::
+
+    FINDINGS[SILENT_DEVICE].found(addr, evidence, addr=addr, commands=12, answering="1.1.1")
+
+Wording that depends on what was measured (an optional clause, one of two fixes) is
+a *phrase* of the entry, filled the same way and passed as a field::
+
+    noisy = FINDINGS[NOISY_LINK]
+    noisy.found(..., trend=noisy.phrase("rising", per_min=12.0), ...)
+
+A root cause explains its consequences: a finding ``hides`` the findings whose ids
+it names (and, with ``hides_subject``, every finding about the same line or
+device). ``WiringDoctor.findings`` runs its rules in order and drops what a kept
+finding of an earlier rule hides.
+
+    python -m analyzer.analysis.findings    # the findings table of docs/doctor.md
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from string import Formatter
+
+from ..styles import ERROR, INFO, WARNING  # the severities every view colours
+
+# ------------------------------------------------------------------ ids
+LINES_SWAPPED = "lines_swapped"
+WRONG_BAUD = "wrong_baud"
+DEAD_LINK = "dead_link"
+SILENT_AFTER_RATE = "silent_after_rate"
+ECHO = "echo"
+SILENT_DEVICE = "silent_device"
+NOISY_LINK = "noisy_link"
+NAK_BURST = "nak_burst"
+CONTROLLER_NO_WAIT = "controller_no_wait"
+CONTROLLER_FAST_RETRY = "controller_fast_retry"
+CONTROLLER_NO_RETRY = "controller_no_retry"
+CONTROLLER_IX_TIMEOUT = "controller_ix_timeout"
+SLOW_ANSWERS = "slow_answers"
+DEVICE_MAP = "device_map"
+
+# what the controller is seen doing: all of it follows from a link that is broken
+CONTROLLER = (CONTROLLER_NO_WAIT, CONTROLLER_FAST_RETRY, CONTROLLER_NO_RETRY, CONTROLLER_IX_TIMEOUT)
+
+
+@dataclass
+class Finding:
+    code: str                  # the id of its table entry: LINES_SWAPPED, ECHO, ...
+    severity: str
+    title: str                 # one line, plain words
+    detail: str                # what the traffic shows
+    fix: str                   # what to try
+    evidence: list[int] = field(default_factory=list)   # event numbers
+    subject: str = ""          # the line or device it is about
+    first_seen: float | None = None   # capture time it was first found (None without time)
+    first_seen_event: int | None = None   # events seen when it was first found
+
+    @property
+    def key(self) -> tuple[str, str]:
+        return self.code, self.subject
+
+    def to_dict(self) -> dict:
+        return {"code": self.code, "severity": self.severity, "subject": self.subject, "title": self.title,
+                "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen,
+                "first_seen_event": self.first_seen_event}
+
+
+def fields_of(template: str) -> set[str]:
+    """The named fields a template fills: ``"{n} bytes, {share:.0%}"`` -> {n, share}."""
+    return {name for _text, name, _spec, _conv in Formatter().parse(template) if name}
+
+
+@dataclass(frozen=True, eq=False)
+class FindingKind:
+    """One entry of the table. Compared by identity, like the problems' table."""
+    id: str                    # the finding's code, LINES_SWAPPED
+    severity: str              # ERROR, WARNING or INFO
+    shows: str                 # what the traffic shows, for people (docs/doctor.md's table; Markdown)
+    title: str                 # templates of the finding's words
+    detail: str
+    fix: str
+    phrases: dict[str, str] = field(default_factory=dict)   # wording the rule picks from, by name
+    hides: tuple[str, ...] = ()      # ids of the findings this one explains
+    hides_subject: bool = False      # and every finding about its subject
+
+    @property
+    def fields(self) -> set[str]:
+        """The fields a rule passes to ``found``."""
+        return fields_of(self.title) | fields_of(self.detail) | fields_of(self.fix)
+
+    def found(self, subject: str, evidence: list[int], **values) -> Finding:
+        """The finding, its templates filled with what the rule measured."""
+        return Finding(self.id, self.severity, self.title.format(**values), self.detail.format(**values),
+                       self.fix.format(**values), evidence, subject)
+
+    def phrase(self, name: str, **values) -> str:
+        """One of the entry's phrases, filled."""
+        return self.phrases[name].format(**values)
+
+
+TABLE: list[FindingKind] = []
+
+
+def _kind(*args, **kw) -> FindingKind:
+    kind = FindingKind(*args, **kw)
+    TABLE.append(kind)
+    return kind
+
+
+# A wire fault leaves every command unanswered and the controller in trouble.
+_WIRE_CONSEQUENCES = (DEAD_LINK, SILENT_DEVICE, NAK_BURST, NOISY_LINK, *CONTROLLER)
+_CHECK_WIRE_B = ("check the device→controller wire and the tap on it (RX/TX swapped, a loose pin, the adapter), "
+                 "then the devices' power")
+
+# ---------------------------------------------------------------- the wiring
+_kind(LINES_SWAPPED, ERROR,
+      "ACK/NAK/NIC bytes on line A and command frames on line B (`--swap-lines`, or `x` in a live TUI, "
+      "fixes it without restarting)",
+      "lines swapped: the tap's line A carries the device's answers",
+      "{answer_bytes} ACK/NAK/NIC bytes arrived on line A and {command_frames} command frames on line B; "
+      "{answered} commands were answered as wired",
+      "{swap_fix}",           # where the traffic is read decides: Invocation.swap_fix
+      hides=_WIRE_CONSEQUENCES)
+_kind(WRONG_BAUD, ERROR,
+      "bytes arrive on a line but under 30% of them decode (then `--scan-baud`)",
+      "line {line}: bytes arrive but almost nothing decodes (wrong baud rate?)",
+      "{bytes} bytes, {share:.0%} in valid frames or answers, {noise_bytes} bytes of noise, "
+      "{bad_frames} frames with bad checksums",
+      "{baud_fix}",           # Invocation.baud_fix
+      hides=_WIRE_CONSEQUENCES)
+_kind(DEAD_LINK, ERROR,
+      "commands, and no device answers at all (line B silent, or garbled)",
+      "no device answers at all",
+      "{commands} commands, no ACK or NAK; {where}",
+      "{check}",
+      phrases={"b_silent": "line B is silent: no byte came back",
+               "none_answered": "no device answered",
+               "b_garbled": "line B carries {bytes} bytes but none answers a command",
+               "line_garbled": "the line carries {bytes} bytes but none answers a command",
+               "check_wire": _CHECK_WIRE_B,
+               "check_baud": "check the baud rate and the devices' addresses"},
+      hides=CONTROLLER)
+_kind(SILENT_AFTER_RATE, ERROR,
+      "a device that answered stops answering once the link's rate was changed (it ACKed and did not "
+      "switch, or cannot talk at the new rate)",
+      "{silence}",
+      "{commands} commands to {addr} since the rate change, no ACK or NAK; it answered {answered} times at "
+      "{before} bps before",
+      "the device ACKed the change but does not talk at {baud} bps: ask it for its highest rate (B?) at {before} "
+      "bps, set the controller back to {before} bps, or power-cycle the device (it starts at its default rate)",
+      phrases={"set_to": "{addr} was set to {baud} bps at {at} and has not answered since",
+               "link_set_to": "{addr} has not answered since the link was set to {baud} bps at {at}"},
+      # the rate change explains the silence, and what the controller does about it
+      hides=(SILENT_DEVICE, DEAD_LINK, *CONTROLLER), hides_subject=True)
+_kind(ECHO, WARNING,
+      "line B repeats line A's frames as they are sent; the copies are dropped from decoding (the raw bytes "
+      "stay in recordings)",
+      "line B repeats line A (echo): stripped from decoding",
+      "{echoes} commands came back on line B byte for byte while they were being sent",
+      "a half-duplex adapter or RS-485 converter echoes what it sends: disable its echo (or local loopback) if "
+      "the controller is confused by it; decoding already ignores the copies")
+_kind(SILENT_DEVICE, WARNING,
+      "one address never answers while others do",
+      "device {addr} never answers",
+      "{commands} commands to {addr}, no ACK or NAK, while {answering} answer",
+      "check {addr}'s power and address setting, and its drop on the bus")
+_kind(NOISY_LINK, WARNING,
+      "checksum errors and noise runs per line and per minute, the trend, and whether long frames fail more "
+      "often than short ones (a clock or baud mismatch)",
+      "line {line} is noisy",
+      "{checksum_errors} and {noise_runs} {span}{trend}{length}",
+      "{check}",
+      phrases={"timed": "in {seconds:.0f} s ({per_min:.1f}/min)",
+               "untimed": "in {events}",
+               "rising": "; rising: {per_min:.0f}/min in the last minute",
+               "falling": "; falling: {per_min:.0f}/min in the last minute",
+               "length": "; long frames fail {long:.0%}, short ones {short:.0%}: errors grow with length, "
+                         "like a clock (baud) mismatch or timing problem",
+               "check_cable": "check the cable (shielding, length, grounding) and the connectors",
+               "check_clock": "check both ends run the same baud rate (a slightly off clock), then the cable"})
+_kind(NAK_BURST, WARNING,
+      "five NAKs or more within 10 s, three times the usual rate",
+      "NAK bursts: devices reject commands in runs",
+      "{naks} NAKs, up to {burst} within 10 s",
+      "devices NAK what they receive corrupted: check the controller→device wire (line A)")
+
+# ---------------------------------------------------------------- the controller
+_kind(CONTROLLER_NO_WAIT, WARNING,
+      "the controller sends the next command before an ACK could come",
+      "the controller sends before the previous ACK",
+      "{commands} commands were followed by the next one after {gap_ms:.1f} ms (median), before any ACK/NAK; "
+      "devices take up to {p95_ms:.0f} ms to answer",
+      "the controller must wait for ACK/NAK (or its timeout) before the next command (§1.4.2)",
+      # answers cannot be matched to commands sent on top of each other: their
+      # latencies say nothing about the devices
+      hides=(SLOW_ANSWERS,))
+_kind(CONTROLLER_FAST_RETRY, WARNING,
+      "the controller retries sooner than devices answer",
+      "the controller retries sooner than devices answer",
+      "{retries} retries came {gap_ms:.0f} ms (median) after the command, while devices' ACKs take up to "
+      "{p95_ms:.0f} ms",
+      "raise the controller's ACK timeout above the devices' answer time")
+_kind(CONTROLLER_NO_RETRY, WARNING,
+      "the controller never sends a NAK'd or unanswered command again",
+      "the controller never retries a failed command",
+      "{given_up} commands NAK'd or unanswered were not sent again{retried}",
+      "retransmit after NAK or an ACK timeout (the spec's handshake expects it)",
+      phrases={"retried": " ({retried} were)"})
+_kind(CONTROLLER_IX_TIMEOUT, WARNING,
+      "the controller resends IX (initialise) before its result",
+      "the controller gives up on IX before it ends",
+      "{resent} IX commands were sent again before their result came; initialisation takes seconds (up to a "
+      "minute)",
+      "wait for IX's result (60 s is safe) before resending or moving on")
+
+# ---------------------------------------------------------------- the devices
+_kind(SLOW_ANSWERS, WARNING,
+      "a device's ACK latency doubling (and 5 ms more) over the capture",
+      "device {addr} answers slower and slower",
+      "median ACK latency {before_ms:.1f} ms at first, {after_ms:.1f} ms lately ({acks} ACKs)",
+      "a device slowing down is busy or failing: check {addr}'s load, power and temperature")
+_kind(DEVICE_MAP, INFO,
+      "every address, where it answers, which commands it NICs (what its firmware implements), its D? identity",
+      "{devices} device address(es) addressed{past}",
+      "{per_device}",         # a line per device, then the commands past counting
+      "",
+      phrases={"past": ", and more (past {limit})",
+               "device": "{addr}: {commands} commands, {state}{nic}{identity}",
+               "answers": "answers on {lines}",
+               "never_answered": "never answered",
+               "nic": "; NIC to {commands}",
+               "identity": "; {identity}",
+               "untracked": "{commands} to further addresses, not tracked one by one"})
+
+FINDINGS: dict[str, FindingKind] = {kind.id: kind for kind in TABLE}
+
+
+def unexplained(batches: Iterable[list[Finding]]) -> list[Finding]:
+    """The findings of the doctor's rules, batch by batch in the rules' order, less
+    those a kept finding of an earlier batch hides. A hidden finding hides nothing."""
+    out: list[Finding] = []
+    hidden: set[str] = set()             # ids hidden so far
+    hidden_subjects: set[str] = set()    # lines or devices whose findings are hidden
+    for batch in batches:
+        kept = [f for f in batch if f.code not in hidden and f.subject not in hidden_subjects]
+        for f in kept:
+            kind = FINDINGS[f.code]
+            hidden.update(kind.hides)
+            if kind.hides_subject:
+                hidden_subjects.add(f.subject)
+        out.extend(kept)
+    return out
+
+
+def render() -> str:
+    """The findings table of docs/doctor.md (section "Wiring doctor")."""
+    lines = ["| finding | severity | what the traffic shows | explains (not raised with it) |",
+             "|---|---|---|---|"]
+    for kind in TABLE:
+        explains = [f"`{code}`" for code in kind.hides]
+        if kind.hides_subject:
+            explains.append("any finding about the same device")
+        lines.append(f"| `{kind.id}` | {kind.severity} | {kind.shows} | {', '.join(explains) or '—'} |")
+    return "\n".join(lines) + "\n"
+
+
+if __name__ == "__main__":
+    print(render(), end="")
