@@ -51,7 +51,7 @@ from .event import (
 )
 from .problems import CHECKSUM, LENGTH, TRUNCATED, Problem
 from .problems import NOISE as NOISE_PROBLEM
-from .wire import ACK, NAK, NIC, START
+from .wire import ACK, NAK, NIC, START, LineSettings
 
 _SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}
 _FRAME_KIND = {"A": COMMAND, "B": RESULT}
@@ -107,20 +107,23 @@ class Deframer:
     ``frame`` on AB (pairing decides). Simple response bytes are recognised on B
     and AB only; on A they are noise.
 
-    byte_time: seconds per character on the wire, to give every byte a time.
-    frame_gap: a silence longer than this inside a frame cuts it (timed input only).
+    settings: the line's ``LineSettings`` (dissectors/wire.py), which a capture
+    shares with the line's source and changes when the link's rate changes; the
+    deframer reads its byte time (seconds per character, to give every byte a
+    time) and frame gap (a silence longer than this inside a frame cuts it;
+    timed input only) at each read. Without it, ``byte_time`` and ``frame_gap``
+    make settings of the deframer's own (the default gap follows the byte time).
     """
 
     def __init__(self, line: str = "B", byte_time: float = 0.0,
-                 frame_gap: float | None = None, simple_responses: bool | None = None) -> None:
+                 frame_gap: float | None = None, simple_responses: bool | None = None,
+                 settings: LineSettings | None = None) -> None:
         self.line = line
+        self.settings = settings if settings is not None else LineSettings.timed_by(byte_time, frame_gap)
         self.frame_kind = _FRAME_KIND.get(line, FRAME)
         self.simple = (line != "A") if simple_responses is None else simple_responses
         # the simple response kind of each byte value, for the C loop
         self._kinds = tuple(_SIMPLE.get(b) if self.simple else None for b in range(256))
-        self.byte_time = byte_time
-        self._default_gap = frame_gap is None
-        self.frame_gap = frame_gap if frame_gap is not None else max(0.05, 20 * byte_time)
         self._buf = b""
         self._base = 0              # absolute offset of _buf[0]
         self._seg_off: list[int] = []   # absolute offset where each timed chunk starts
@@ -151,10 +154,10 @@ class Deframer:
     def set_byte_time(self, byte_time: float) -> None:
         """The line's rate changed (a rate-set command was ACKed): bytes fed from
         now on take ``byte_time`` each; bytes already fed keep theirs. The default
-        frame gap follows the rate; one given explicitly stays."""
-        if self._default_gap:
-            self.frame_gap = max(0.05, 20 * byte_time)
-        self.byte_time = byte_time
+        frame gap follows the rate; one given explicitly stays. (This changes the
+        settings the deframer reads: a capture changes its shared ``LineSettings``
+        instead, ``set_rate``.)"""
+        self.settings.set_byte_time(byte_time)
 
     def feed(self, data: bytes, t: float | None = None, not_before: float | None = None) -> list[Event]:
         """Add bytes; ``t`` is the wire time the first of them started (None: untimed),
@@ -168,7 +171,8 @@ class Deframer:
         n = len(data)
         if not n:
             return []
-        bt = self.byte_time
+        settings = self.settings   # read once a call: a rate change applies from the next read
+        bt = settings.byte_time
         buf = self._buf
         if t is not None:
             self._timed = True
@@ -178,7 +182,7 @@ class Deframer:
                 read = t + n * bt
                 bt = (read - floor) / n if read > floor else 0.0
                 t = floor
-            if buf and last is not None and t - last > self.frame_gap:
+            if buf and last is not None and t - last > settings.frame_gap:
                 self._gaps.append(self._base + len(buf))
             self.last_end = t + n * bt
         if not buf and self._noise_start is None and not self._gaps:
@@ -218,7 +222,7 @@ class Deframer:
 
     def idle(self, now: float) -> list[Event]:
         """Live input: nothing arrived until ``now``; close what a silence closes."""
-        if self._buf and self.last_end is not None and now - self.last_end > self.frame_gap:
+        if self._buf and self.last_end is not None and now - self.last_end > self.settings.frame_gap:
             return self._parse(final=True)
         return []
 
@@ -249,7 +253,7 @@ class Deframer:
         if t is None:
             self.last_end = None   # the skipped bytes ended later; the next chunk's time stands
         else:
-            end = t + n * self.byte_time
+            end = t + n * self.settings.byte_time
             self.last_end = end if last is None or end > last else last
         return out
 
@@ -317,20 +321,36 @@ class Deframer:
 
     # ----------------------------------------------------------------- parse
     def _parse(self, final: bool) -> list[Event]:
+        """The events the buffered bytes make, as far as no later byte can change
+        them (all of them when ``final``); consumed bytes are dropped."""
         out: list[Event] = []
+        i = self._scan_buffer(out, final)
+        buf = self._buf
+        base = self._base
+        if final and i >= len(buf):
+            self._flush_noise(out, base + len(buf))
+        self._resume = base + i
+        # drop consumed bytes, keeping a pending noise run's bytes
+        keep_from = i if self._noise_start is None else self._noise_start - base
+        if keep_from > 0:
+            self._buf = buf[keep_from:]
+            self._base = base + keep_from
+            self._prune()
+        return out
+
+    def _scan_buffer(self, out: list[Event], final: bool) -> int:
+        """Append to ``out`` the events of the buffer from where scanning resumes;
+        returns the buffer index it stopped at (its end, or a frame still arriving).
+        The C loop takes what needs no decision; this loop takes the rest."""
         append = out.append
         buf = self._buf
         base = self._base
         n = len(buf)
         simple = _SIMPLE if self.simple else {}
-        line = self.line
-        frame_kind = self.frame_kind
-        timed = self._timed
+        line, frame_kind, timed, kinds = self.line, self.frame_kind, self._timed, self._kinds
         fast = not self._gaps   # no silence inside the buffer: frames cannot be cut
         not_noise = (_NOT_NOISE if self.simple else _START).search
-        # no silence inside: the C loop takes what needs no decision
-        scan = _scan if fast else None
-        kinds = self._kinds
+        scan = _scan if fast else None   # (no silence inside: the C loop may run)
         segments = (self._seg_off, self._seg_t, self._seg_bt) if timed else ()
         i = self._resume - base
         while i < n:
@@ -349,11 +369,8 @@ class Deframer:
                         if self._noise_start is not None:
                             self._flush_noise(out, base + i)
                         raw = buf[i:end]
-                        if timed:
-                            t0 = self._time_at(base + i)
-                            t1 = self._time_at(base + end - 1, 1)
-                        else:
-                            t0 = t1 = None
+                        t0 = self._time_at(base + i) if timed else None
+                        t1 = self._time_at(base + end - 1, 1) if timed else None
                         append(Event(line, base + i, frame_kind, raw, t0, t1,
                                      (raw[1], raw[2], raw[3]), raw[4], raw[6:-1], True))
                         i = end
@@ -369,8 +386,7 @@ class Deframer:
                 if self._noise_start is not None:
                     self._flush_noise(out, abs_i)
                 if timed:
-                    t = self._time_at(abs_i)
-                    append(Event(line, abs_i, kind, buf[i:i + 1], t, self._time_at(abs_i, 1)))
+                    append(Event(line, abs_i, kind, buf[i:i + 1], self._time_at(abs_i), self._time_at(abs_i, 1)))
                 else:
                     append(Event(line, abs_i, kind, buf[i:i + 1]))
                 i += 1
@@ -381,16 +397,7 @@ class Deframer:
             j = m.start() if m is not None else n
             self._noise(out, base + i, base + j)
             i = j
-        if final and i >= n:
-            self._flush_noise(out, base + n)
-        self._resume = base + i
-        # drop consumed bytes, keeping a pending noise run's bytes
-        keep_from = i if self._noise_start is None else self._noise_start - base
-        if keep_from > 0:
-            self._buf = buf[keep_from:]
-            self._base = base + keep_from
-            self._prune()
-        return out
+        return i
 
     def _prune(self) -> None:
         base = self._base

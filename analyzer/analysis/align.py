@@ -212,10 +212,7 @@ def align(a_batches: Iterator[list[Event]], b_batches: Iterator[list[Event]]) ->
             out += groups.lead
             groups.lead.clear()
         if not cunits:
-            while gunits:
-                out += gpop()
-                groups.fill(1)
-            out += groups.lead
+            out += _rest(groups)
             if out:
                 yield out
             return
@@ -225,7 +222,6 @@ def align(a_batches: Iterator[list[Event]], b_batches: Iterator[list[Event]]) ->
             out += cpop()
             continue
         group = gunits[0]
-        move = "take"
         cost = _fit(cmd, group, late)
         nxt = cunits[1][-1] if len(cunits) > 1 else None
         # The next command repeats this one's bytes and would be left without a
@@ -233,11 +229,7 @@ def align(a_batches: Iterator[list[Event]], b_batches: Iterator[list[Event]]) ->
         repeated = (cost == 0 and nxt is not None and nxt.raw == cmd.raw and nxt.kind == COMMAND and (
             len(gunits) < 2 or _fit(nxt, gunits[1], late) > 0))
         if repeated or cost:
-            window = [c for c in map(_command_of, islice(cunits, WINDOW)) if c is not None]
-            # a controller repeats a command's bytes only after a failure
-            move = _plan(window, list(islice(gunits, WINDOW)), late, prefer_skip=repeated,
-                         cmds_end=cmds.done and len(cunits) <= WINDOW,
-                         groups_end=groups.done and len(gunits) <= WINDOW)
+            move = _first_move(cmds, groups, late, repeated)
             if move == "skip_cmd":
                 out += cpop()
                 continue
@@ -247,13 +239,41 @@ def align(a_batches: Iterator[list[Event]], b_batches: Iterator[list[Event]]) ->
         out += cpop()
         out += gpop()
         if late and len(group) > 1:
-            for r in group:
-                if r.kind == RESULT:
-                    for c in late:
-                        if address_fits(c, r) and result_fits(c.entry, r.payload):
-                            late.remove(c)
-                            break
+            _claim_late(group, late)
         entry = cmd.entry
         if entry is not None and entry.result_due == DUE and group[0].kind == ACK and (
                 len(group) == 1 or not any(e.kind in (RESULT, NIC) for e in group)):
             late.append(cmd)
+
+
+def _first_move(cmds: _Commands, groups: _Groups, late: deque, repeated: bool) -> str:
+    """The first move of the cheapest alignment of the next commands and groups
+    (``_plan``), when the next group does not plainly answer the next command."""
+    cunits, gunits = cmds.units, groups.units
+    window = [c for c in map(_command_of, islice(cunits, WINDOW)) if c is not None]
+    # a controller repeats a command's bytes only after a failure
+    return _plan(window, list(islice(gunits, WINDOW)), late, prefer_skip=repeated,
+                 cmds_end=cmds.done and len(cunits) <= WINDOW,
+                 groups_end=groups.done and len(gunits) <= WINDOW)
+
+
+def _claim_late(group: list[Event], late: deque) -> None:
+    """The results in ``group`` that a late command was waiting for: it waits no more."""
+    for r in group:
+        if r.kind == RESULT:
+            for c in late:
+                if address_fits(c, r) and result_fits(c.entry, r.payload):
+                    late.remove(c)
+                    break
+
+
+def _rest(groups: _Groups) -> list[Event]:
+    """Line A has ended: every group left, in order, and what came before the
+    first of them."""
+    out: list[Event] = []
+    units = groups.units
+    while units:
+        out += units.popleft()
+        groups.fill(1)
+    out += groups.lead
+    return out

@@ -96,7 +96,7 @@ class Transaction:
     It holds numbers, not events: the events reference the record, and
     references both ways would make every command a reference cycle, which
     reference counting does not free (decoding relies on it freeing events at
-    once: ``capture._gc_busy``). ``deadline``, ``optional`` and ``age`` are
+    once: analyzer/capture/collector.py). ``deadline``, ``optional`` and ``age`` are
     pairing's own bookkeeping while answers are awaited: one object per command.
     """
 

@@ -14,6 +14,9 @@ Wildcard addresses (255 at any level): the rate belongs to the wire, not to one
 device, and the spec gives no exception for broadcasts, so a wildcard rate-set is
 followed like any other once it is ACKed. One that gets no ACK leaves the rate as
 it was; ``RateFollower.unconfirmed`` says so, since the devices may have switched.
+
+Acting on a change (the lines' settings, the event in the output, the warnings)
+is the capture's: analyzer/capture/rates.py.
 """
 
 from __future__ import annotations

@@ -3,6 +3,11 @@
 A source yields ``Chunk``s: bytes seen on one line, with the wire time of their
 first byte when the source knows time. Raw dumps, socat logs, MCAP recordings and
 live serial ports are sources.
+
+Whoever reads a source (a ``Capture``) gives it, through methods the source owns,
+where its warnings go (``report_to``) and each line's settings (``read_with``:
+the ``LineSettings`` the capture changes when the link's rate changes, which a
+source that back-dates its reads reads as it makes each chunk).
 """
 
 from __future__ import annotations
@@ -11,6 +16,8 @@ import weakref
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Callable, Iterator
+
+from dissectors.wire import LineSettings
 
 from ..lines import LINE_A, LINE_B, Chunk
 
@@ -31,9 +38,6 @@ class Source(ABC):
     # clock for every line (a socat log, a single-line tap), 2 a clock per line (two
     # live adapters, whose delays differ: the only case for skew correction)
     clocks: int = 0
-    # the byte time chunk times are derived with; the capture changes it when the
-    # link's rate changes (docs/time.md, "Rate changes")
-    byte_time: float = 10 / 9600
     start_time: float | None = None    # epoch seconds of t = 0, when known
     description: str = ""
 
@@ -41,18 +45,35 @@ class Source(ABC):
         self._warn: Callable[[str], None] = _ignore
         self._early: list[str] = []                 # see warn_later
         self._cleanups: list[weakref.finalize] = []  # see on_close
+        # each line's settings (docs/time.md, "Wire times"): 9600 8N1 until
+        # whoever reads the source gives its own (read_with)
+        self.line_settings: dict[str, LineSettings] = {}
 
     @property
     def warn(self) -> Callable[[str], None]:
-        """Told every warning; whoever reads the source (a ``Capture``) sets it."""
+        """Told every warning (``report_to`` says where they go)."""
         return getattr(self, "_warn", _ignore)
 
-    @warn.setter
-    def warn(self, handler: Callable[[str], None]) -> None:
+    def report_to(self, handler: Callable[[str], None]) -> None:
+        """Give every warning to ``handler`` from now on; those found while the
+        source was opened go to it at once."""
         self._warn = handler
         early, self._early = getattr(self, "_early", []), []
         for msg in early:
             handler(msg)
+
+    def read_with(self, settings: dict[str, LineSettings]) -> None:
+        """Read with these settings, one per line (docs/time.md, "Rate changes"):
+        the capture reading the source changes them when the link's rate changes,
+        and a source that back-dates its reads reads their byte time chunk by chunk."""
+        self.line_settings = dict(settings)
+
+    def settings_of(self, line: str) -> LineSettings:
+        """``line``'s settings (9600 8N1 for a line never given any)."""
+        settings = self.line_settings.get(line)
+        if settings is None:
+            settings = self.line_settings[line] = LineSettings()
+        return settings
 
     def warn_later(self, msg: str) -> None:
         """A warning found while the source was being opened, before anyone listens:

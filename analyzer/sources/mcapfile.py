@@ -655,7 +655,7 @@ def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:
         Source.__init__(src)
         src.path, src.label, src._said = path, label, set()
         src.lines, src.timed = tuple(lines.split(",")), timed == "timed"
-        src.warn = lambda msg: send(("warn", msg))
+        src.report_to(lambda msg: send(("warn", msg)))
         batch = []
         for chunks in src._batches(src._topics(), need_t=src.timed):
             batch.extend(map(tuple, chunks))

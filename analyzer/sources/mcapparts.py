@@ -60,13 +60,11 @@ class McapPartsSource(Source):
         if unchecked:
             self.warn_later(unchecked)
 
-    def _set_warn(self, handler: Callable[[str], None]) -> None:
+    def report_to(self, handler: Callable[[str], None]) -> None:
         """Every part's warnings go where the source's go."""
-        Source.warn.fset(self, handler)
+        super().report_to(handler)
         for part in self.parts:
-            part.warn = handler
-
-    warn = property(Source.warn.fget, _set_warn)
+            part.report_to(handler)
 
     def chunks(self) -> Iterator[Chunk]:
         return chain.from_iterable(_shifted(part.chunks(), shift) for part, shift in zip(self.parts, self._shifts))

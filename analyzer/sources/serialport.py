@@ -10,10 +10,11 @@ whose skew between the lines is estimated. When nothing arrives the source
 yields idle ticks (empty chunks), so silences cut frames and timeouts expire
 while the line is quiet.
 
-Rate changes (docs/time.md, "Rate changes"): when the controller's rate-set
-command is ACKed, the capture calls ``set_rate`` and every port listens at the
+Rate changes (docs/time.md, "Rate changes"): each port follows its line's
+``LineSettings`` (given by the capture, ``read_with``). When the controller's
+rate-set command is ACKed the capture changes them, and the port listens at the
 new rate from then on (pyserial reconfigures an open port in place), as does a
-port reopened later.
+port reopened later; reads are back-dated with the line's byte time of the moment.
 
 A port that vanishes (USB unplugged) is reported, the gap is marked (a warning
 and a silence), and the port is reopened when it returns.
@@ -38,6 +39,8 @@ from typing import Callable, Iterator
 import serial
 
 from ..errors import CaptureError
+from dissectors.wire import LineSettings
+
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from .base import Source
 
@@ -130,15 +133,18 @@ class SerialTap(Source):
         self.ports = list(ports)
         self.lines = (LINE_AB,) if len(ports) == 1 else (LINE_A, LINE_B)
         self.clocks = len(ports)
-        self.settings = (baud, data_bits, parity, stop_bits)
+        self._open: dict[str, serial.SerialBase] = {}    # each line's port now
+        self._watched: list[LineSettings] = []           # the settings whose changes its ports follow
+        self.read_with({line: LineSettings(baud, data_bits, parity, stop_bits) for line in self.lines})
         self.description = " + ".join(self.ports)
         self.clock = clock
         self.state = {line: "open" for line in self.lines}   # open, lost, reconnecting
         self._queue: queue.Queue = _ByteQueue(QUEUE_BYTES)
         self._leftover: list[tuple] = []   # a reader's last read when stop found the queue full
         self._stop = threading.Event()
-        self._serials = [open_port(p, *self.settings) for p in self.ports]   # fail early, one line
-        self._open: dict[str, serial.SerialBase] = dict(zip(self.lines, self._serials))   # each line's port now
+        self._serials = [open_port(p, *self._port_settings(line))   # fail early, one line
+                         for line, p in zip(self.lines, self.ports)]
+        self._open.update(zip(self.lines, self._serials))
         self.start_time = clock()
         self._threads = [threading.Thread(target=self._reader, args=(line, port, ser), daemon=True,
                                           name=f"tap-{line}")
@@ -146,16 +152,31 @@ class SerialTap(Source):
         for th in self._threads:
             th.start()
 
-    def set_rate(self, baud: int) -> None:
-        """Listen at ``baud`` from now on (the link's rate changed). A port that
-        refuses the rate is said, once, and keeps its old one."""
-        self.settings = (baud, *self.settings[1:])
-        for line, ser in list(self._open.items()):
-            try:
-                ser.baudrate = baud
-            except (serial.SerialException, ValueError, OSError) as e:
-                self.warn(f"{self.ports[self.lines.index(line)]}: cannot change to {baud} bps ({e}): "
-                          f"it goes on at the old rate")
+    def read_with(self, settings: dict[str, LineSettings]) -> None:
+        """Each port follows its line's settings from now on (module doc)."""
+        super().read_with(settings)
+        for line in self.lines:
+            own = self.settings_of(line)
+            if not any(own is seen for seen in self._watched):
+                self._watched.append(own)
+                own.watch(lambda changed, line=line: self._rate_changed(line, changed.baud))
+
+    def _port_settings(self, line: str) -> tuple[int, int, str, float]:
+        """What ``open_port`` takes, from the line's settings now."""
+        s = self.settings_of(line)
+        return s.baud, s.data_bits, s.parity, s.stop_bits
+
+    def _rate_changed(self, line: str, baud: int) -> None:
+        """The line's port listens at ``baud`` from now on (the link's rate changed).
+        A port that refuses the rate is said, once, and keeps its old one."""
+        ser = self._open.get(line)
+        if ser is None:
+            return
+        try:
+            ser.baudrate = baud
+        except (serial.SerialException, ValueError, OSError) as e:
+            self.warn(f"{self.ports[self.lines.index(line)]}: cannot change to {baud} bps ({e}): "
+                      f"it goes on at the old rate")
 
     def stop(self) -> None:
         """End the capture: chunks() returns once what was read is delivered (a
@@ -214,7 +235,7 @@ class SerialTap(Source):
         if self._stop.wait(REOPEN_EVERY):
             return None
         try:
-            ser = open_port(port, *self.settings)
+            ser = open_port(port, *self._port_settings(line))
         except CaptureError:
             return None
         self._open[line] = ser
@@ -268,4 +289,4 @@ class SerialTap(Source):
 
     def _chunk(self, item: tuple, kind: type[Chunk]) -> Chunk:
         line, data, t_read = item
-        return kind(line, data, (t_read - self.start_time) - len(data) * self.byte_time)
+        return kind(line, data, (t_read - self.start_time) - len(data) * self.line_settings[line].byte_time)

@@ -16,8 +16,9 @@ fraction printed with 9 digits but holding *microseconds* (``.000321418`` is
 0.321418 s). A file whose fractions ever reach 1 000 000 carries real
 nanoseconds (newer socat) and is read that way. The time is when socat read the
 chunk, about when its last byte arrived, so the first byte started
-``length × byte_time`` earlier (``--baud``; the capture changes ``byte_time``
-when the link's rate changes, and later chunks are back-dated with the new one).
+``length × byte_time`` earlier (``--baud``; the byte time is read from the line's
+``LineSettings`` as each chunk is made, so when the capture follows a change of
+the link's rate, later chunks are back-dated with the new one).
 The time unit is decided from the first 2000 headers, read with the head used for
 detection, so the log is read once (it may be a pipe or compressed:
 analyzer/sources/files.py).
@@ -59,6 +60,8 @@ from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Callable, Iterator
 
 from ..errors import CaptureError
+from dissectors.wire import LineSettings
+
 from ..lines import LINE_A, LINE_B, Chunk
 from .base import Reader, ReadSettings, Source
 from .files import HEAD, Input
@@ -353,6 +356,11 @@ class _Timeline:
         return self.latest
 
 
+# the chunk being read, from its header: line, (whole seconds, fraction) of its
+# stamp, the length it says, the line number of the header
+_Current = tuple[str, tuple[int, float], int, int]
+
+
 class SocatLogSource(Source):
     timed = True
     clocks = 1   # one socat process stamps both directions
@@ -364,14 +372,16 @@ class SocatLogSource(Source):
         self.input = source if isinstance(source, Input) else Input(source)
         self.path = self.input.path
         self.name = self.input.name
-        self.byte_time = byte_time
+        # each line's settings: the byte time given until the capture gives its own
+        # (read_with), which follow the link's rate changes
+        self.line_settings = {line: LineSettings.timed_by(byte_time) for line in self.lines}
         self.tz = tz
         self.description = self.input.describe("socat -x log")
         head = self._unit_head()
         self._readings = _Readings(zone, nanosecond_fractions(head))
         # (whole epoch seconds, fraction) of t = 0; known now so a recorder made
         # before reading has the start time
-        self._origin = self._origin_in(head)
+        self._origin = self._origin_in(head, byte_time)
         if self._origin is not None:
             self.start_time = self._origin[0] + self._origin[1]
         self.on_close(self.input.close)
@@ -385,7 +395,7 @@ class SocatLogSource(Source):
             head = self.input.read_head(size)
         return head
 
-    def _origin_in(self, head: bytes) -> tuple[int, float] | None:
+    def _origin_in(self, head: bytes, byte_time: float) -> tuple[int, float] | None:
         """t = 0 as ``_parse`` will find it: the first byte of the first good header
         with hex after it in ``head`` (its stamp less its length × byte time); None
         when the head holds none."""
@@ -394,7 +404,7 @@ class SocatLogSource(Source):
                 sec, _, frac = self._readings.of(m)
             except (ValueError, OverflowError):
                 continue
-            return sec, frac - int(m.group(4)) * self.byte_time
+            return sec, frac - int(m.group(4)) * byte_time
         return None
 
     def chunks(self) -> Iterator[Chunk]:
@@ -408,35 +418,16 @@ class SocatLogSource(Source):
             self.warn(self.input.problem)
 
     def _parse(self, f, tally: _Tally) -> Iterator[Chunk]:
-        """The chunks of the log ``f``; problems go to ``tally`` (see module doc)."""
-        name = self.name
+        """The chunks of the log ``f``; problems go to ``tally`` (see module doc).
+        The loop runs once a line of the log and reads hex lines, the most
+        common, itself; a header and any other line go to the methods below."""
         timeline = _Timeline(self._readings, tally)
         line_no = 0
         headers = 0          # chunk headers seen (good or not)
         hex_seen = False     # a hex line was read: the log was made with -x
-        current: tuple[str, tuple[int, float], int, int] | None = None   # line, time, length, lineno
+        current: _Current | None = None   # the chunk being read (its header's facts)
         data = bytearray()
         expected_from = {LINE_A: 0, LINE_B: 0}
-
-        def finish_chunk() -> Chunk | None:
-            """The chunk collected so far (None when it carries no bytes)."""
-            nonlocal current
-            line, (sec, frac), length, at = current
-            current = None
-            if len(data) != length:
-                tally.add("length", at, f"chunk says length={length} but carries {len(data)} bytes "
-                                        f"(log cut short?)")
-            if not data:
-                return None
-            # the first byte started this long before the read; byte_time is read
-            # here, as the capture changes it when the link's rate changes
-            first = frac - length * self.byte_time
-            if self._origin is None:
-                self._origin = (sec, first)
-                self.start_time = sec + first
-            t0 = self._origin
-            return Chunk(line, bytes(data), round((sec - t0[0]) + (first - t0[1]), 9))
-
         for raw_line in f:
             line_no += 1
             first = raw_line[:1]
@@ -452,56 +443,85 @@ class SocatLogSource(Source):
                 continue
             if first == b">" or first == b"<":
                 if current is not None:
-                    chunk = finish_chunk()
+                    chunk, current = self._chunk(current, data, tally), None
                     if chunk is not None:
                         yield chunk
                 m = HEADER.match(raw_line)
                 if m is None:
-                    if headers == 0 and line_no <= START_LINES:
-                        raise self._not_socat(line_no)
-                    tally.add("garbled", line_no, "garbled chunk header, skipped with its chunk")
+                    self._garbled(headers, line_no, tally)
                     continue
                 headers += 1
-                line = LINE_A if first == b">" else LINE_B
-                frm = int(m.group(5))
-                if frm != expected_from[line]:
-                    tally.add("jump", line_no, f"line {line} jumps from byte {expected_from[line]} to {frm}: "
-                                               f"bytes missing from the log")
-                expected_from[line] = int(m.group(6)) + 1
-                try:
-                    stamp = timeline.place_header(m, line_no)
-                except (ValueError, OverflowError):
-                    when = m.group(2).decode("ascii")
-                    tally.add("time", line_no, f"header with an impossible date or time ({when}), "
-                                               f"skipped with its chunk")
-                    continue
+                current = self._header(m, first, line_no, expected_from, timeline, tally)
                 data = bytearray()
-                current = (line, stamp, int(m.group(4)), line_no)
                 continue
-            stripped = raw_line.strip()
-            if not stripped or DIAGNOSTIC.match(raw_line):
-                continue
-            if stripped == b"--":
-                if current is not None:
-                    chunk = finish_chunk()
-                    if chunk is not None:
-                        yield chunk
-                continue
-            if headers == 0 and line_no <= START_LINES:
-                raise self._not_socat(line_no)
-            if current is not None and not data and not hex_seen:
-                raise CaptureError(f"{name}:{line_no}: socat log without hex dump; record it with socat -x -v")
-            tally.add("stray", line_no, "not socat -x -v output, skipped")
-            if current is not None and len(data) >= current[2]:
-                # the chunk is whole: hex lines before the next header belong to a
-                # header this line replaced, and would spoil it
-                chunk = finish_chunk()
+            if self._closes(raw_line, line_no, headers, hex_seen, current, data, tally) and current is not None:
+                chunk, current = self._chunk(current, data, tally), None
                 if chunk is not None:
                     yield chunk
         if current is not None:
-            chunk = finish_chunk()
+            chunk = self._chunk(current, data, tally)
             if chunk is not None:
                 yield chunk
+
+    def _chunk(self, current: _Current, data: bytearray, tally: _Tally) -> Chunk | None:
+        """The chunk ``current`` names, of the bytes collected for it (None when
+        it carries none)."""
+        line, (sec, frac), length, at = current
+        if len(data) != length:
+            tally.add("length", at, f"chunk says length={length} but carries {len(data)} bytes (log cut short?)")
+        if not data:
+            return None
+        # the first byte started this long before the read, at the line's byte
+        # time now: the capture changes it when the link's rate changes
+        first = frac - length * self.line_settings[line].byte_time
+        if self._origin is None:
+            self._origin = (sec, first)
+            self.start_time = sec + first
+        t0 = self._origin
+        return Chunk(line, bytes(data), round((sec - t0[0]) + (first - t0[1]), 9))
+
+    def _header(self, m: re.Match, arrow: bytes, line_no: int, expected_from: dict[str, int],
+                timeline: _Timeline, tally: _Tally) -> _Current | None:
+        """The chunk a good header ``m`` begins, or None when its time is impossible
+        (skipped with its chunk). Bytes missing before it are said."""
+        line = LINE_A if arrow == b">" else LINE_B
+        frm = int(m.group(5))
+        if frm != expected_from[line]:
+            tally.add("jump", line_no, f"line {line} jumps from byte {expected_from[line]} to {frm}: "
+                                       f"bytes missing from the log")
+        expected_from[line] = int(m.group(6)) + 1
+        try:
+            stamp = timeline.place_header(m, line_no)
+        except (ValueError, OverflowError):
+            when = m.group(2).decode("ascii")
+            tally.add("time", line_no, f"header with an impossible date or time ({when}), skipped with its chunk")
+            return None
+        return line, stamp, int(m.group(4)), line_no
+
+    def _garbled(self, headers: int, line_no: int, tally: _Tally) -> None:
+        """A line that starts like a header and is not one."""
+        if headers == 0 and line_no <= START_LINES:
+            raise self._not_socat(line_no)
+        tally.add("garbled", line_no, "garbled chunk header, skipped with its chunk")
+
+    def _closes(self, raw_line: bytes, line_no: int, headers: int, hex_seen: bool, current: _Current | None,
+                data: bytearray, tally: _Tally) -> bool:
+        """A line neither hex nor a header: does it end the chunk being read? A
+        separator does; a blank line or socat's own diagnostics are passed over;
+        anything else is stray, and ends a chunk that is already whole (hex lines
+        before the next header belong to a header this line replaced, and would
+        spoil it)."""
+        stripped = raw_line.strip()
+        if not stripped or DIAGNOSTIC.match(raw_line):
+            return False
+        if stripped == b"--":
+            return True
+        if headers == 0 and line_no <= START_LINES:
+            raise self._not_socat(line_no)
+        if current is not None and not data and not hex_seen:
+            raise CaptureError(f"{self.name}:{line_no}: socat log without hex dump; record it with socat -x -v")
+        tally.add("stray", line_no, "not socat -x -v output, skipped")
+        return current is not None and len(data) >= current[2]
 
     def _not_socat(self, line_no: int) -> CaptureError:
         return CaptureError(f"{self.name}:{line_no}: not a socat -x -v log "

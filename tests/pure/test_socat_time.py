@@ -14,6 +14,7 @@ from analyzer.sources import SocatLogSource
 from analyzer.sources.base import ReadSettings
 from analyzer.sources.files import Input
 from analyzer.sources.socatlog import open_socat_log, time_zone
+from dissectors.wire import LineSettings
 
 BT = 10 / 9600
 BERLIN = ZoneInfo("Europe/Berlin")
@@ -46,7 +47,7 @@ def write(tmp_path, text, name="tap.log"):
 
 def read(src):
     warnings = []
-    src.warn = warnings.append
+    src.report_to(warnings.append)
     return list(src.chunks()), warnings
 
 
@@ -95,7 +96,7 @@ def test_time_zone_names():
 def test_start_time_is_learnt_from_the_first_chunk_when_the_head_does_not_tell(tmp_path, monkeypatch):
     log = socat_log([(">", "2026/11/21 08:35:52", 321418, COMMAND),
                      ("<", "2026/11/21 08:35:52", 371708, ACK)])
-    monkeypatch.setattr(SocatLogSource, "_origin_in", lambda self, head: None)
+    monkeypatch.setattr(SocatLogSource, "_origin_in", lambda self, head, byte_time: None)
     src = SocatLogSource(write(tmp_path, log), BT, tz="UTC")
     assert src.start_time is None
     chunks, _ = read(src)
@@ -238,10 +239,13 @@ def test_a_new_byte_time_back_dates_later_chunks_only(tmp_path):
                      ("<", "2026/11/21 08:40:00", 200000, ACK),
                      (">", "2026/11/21 08:40:01", 0, COMMAND)])
     src = SocatLogSource(write(tmp_path, log), BT, tz="UTC")
+    lines = {line: LineSettings(9600) for line in src.lines}   # what a capture gives it
+    src.read_with(lines)
     chunks = src.chunks()
     first = next(chunks)
     fast = 10 / 115200   # the link switched to 115200 baud after the first command
-    src.byte_time = fast
+    for settings in lines.values():
+        settings.set_rate(115200)
     rest = list(chunks)
     assert first.t == 0.0
     origin = 0.1 - 9 * BT   # t = 0 keeps the byte time the log was opened with

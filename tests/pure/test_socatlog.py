@@ -69,7 +69,7 @@ def test_missing_bytes_and_short_chunks_are_warned(tmp_path):
     log = LOG.replace("from=1 to=16", "from=5 to=20").replace("length=9", "length=10")
     src = SocatLogSource(write(tmp_path, log), BT)
     warnings = []
-    src.warn = warnings.append
+    src.report_to(warnings.append)
     list(src.chunks())
     assert any("jumps from byte 1 to 5" in w for w in warnings)
     assert any("length=10 but carries 9 bytes" in w for w in warnings)

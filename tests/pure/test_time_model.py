@@ -41,7 +41,8 @@ class Timed(Source):
 
     def chunks(self) -> Iterator[Chunk]:
         for line, data, read in self.reads:
-            yield Chunk(line, data, read - len(data) * self.byte_time)
+            # the byte time of the moment: the capture's line settings follow rate changes
+            yield Chunk(line, data, read - len(data) * self.settings_of(line).byte_time)
 
 
 def decode(source: Source, **options) -> tuple[list, list[str]]:
@@ -273,7 +274,7 @@ def test_frames_that_only_look_like_rate_sets_are_let_go():
     cap = Capture(Timed(reads), Options())
     events = list(cap)
     assert RATE not in [e.kind for e in events] and cap.baud == 9600
-    assert cap._marks == 0   # every mark was seen to be a frame: no more looking at every event
+    assert cap.rates.marks == 0   # every mark was seen to be a frame: no more looking at every event
 
 
 def test_the_deframer_keeps_its_line_in_order():
