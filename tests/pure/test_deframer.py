@@ -305,3 +305,23 @@ def test_skip_closes_a_pending_noise_run_and_keeps_times():
     out += d.skip(50)
     ack = d.feed(b"\x06", 3.0)
     assert [(e.kind, e.offset, e.t) for e in out + ack] == [("noise", 0, 1.0), ("ack", 53, 3.0)]
+
+
+def test_deframers_read_the_byte_time_and_frame_gap_of_shared_line_settings():
+    from dissectors.wire import LineSettings
+
+    settings = LineSettings(9600)   # one object, read by every deframer given it
+    a, b = Deframer("A", settings=settings), Deframer("B", settings=settings)
+    assert settings.frame_gap == 0.05                       # 20 characters at 9600 is less than 50 ms
+    (first,) = b.feed(b"\x06", 1.0)
+    assert first.t_end == pytest.approx(1.0 + 10 / 9600)
+    settings.set_rate(1200)
+    assert settings.byte_time == pytest.approx(10 / 1200)
+    assert settings.frame_gap == pytest.approx(20 * 10 / 1200)   # the default gap follows the rate
+    (second,) = b.feed(b"\x06", 2.0)
+    (cmd,) = a.feed(frame((1, 1, 1), 0, b"P?"), 3.0)
+    assert second.t_end == pytest.approx(2.0 + 10 / 1200) and cmd.t_end == pytest.approx(3.0 + 9 * 10 / 1200)
+    # a frame gap given explicitly stays whatever the rate
+    given = LineSettings(9600, frame_gap=0.2)
+    given.set_rate(1200)
+    assert given.frame_gap == 0.2 and Deframer("B", settings=given).settings.frame_gap == 0.2

@@ -265,6 +265,21 @@ def test_a_rate_set_read_a_byte_at_a_time_is_followed():
     assert events[-1].t == pytest.approx(1.2 - 9 * BT_115200)
 
 
+def test_a_followed_rate_change_changes_the_line_settings_every_reader_holds():
+    reads = [("A", C7, 1.0), ("B", b"\x06", 1.0030), ("A", CMD, 1.2)]
+    source = Timed(reads)
+    cap = Capture(source, Options())
+    list(cap)
+    (change,) = cap.rate_changes
+    assert (change.previous, change.baud) == (9600, 115200) and cap.baud == 115200
+    for line in ("A", "B"):
+        settings = cap.line_settings[line]
+        # one object per line: the source reads the very settings the capture changed
+        assert source.settings_of(line) is settings
+        assert settings.baud == 115200 and settings.byte_time == pytest.approx(BT_115200)
+        assert settings.changes == [change]
+
+
 def test_frames_that_only_look_like_rate_sets_are_let_go():
     # CN and CX (camera power, Table 16) are two-byte payloads starting with "C" too
     reads = []
