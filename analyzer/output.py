@@ -1,9 +1,11 @@
-"""Sinks that print events: JSON Lines for scripts, a tshark-like text line for
-people (coloured on a terminal through Rich, plain when piped).
+"""How an event is shown, whoever writes it: as a JSON object (``dumps``,
+``dumps_line``: the encoding of docs/json-lines.md) and as a tshark-like text line
+(``text_line``, its style's escape codes ``SgrCodes``), for the writers of
+analyzer/writers, the TUI and the reports; and writing to standard output.
 
-A sink that cannot write says where in one line: ``StdoutError`` for standard
-output (a full disk behind ``> file``, ``> /dev/full``, EIO), ``OutputError``
-naming the file otherwise. A reader that went away (``| head``) stays a
+A write that fails says where in one line: ``StdoutError`` for standard output (a
+full disk behind ``> file``, ``> /dev/full``, EIO), ``OutputError`` naming the
+file otherwise (``Writing``). A reader that went away (``| head``) stays a
 ``BrokenPipeError``: that is no error (``cli/main.py``).
 """
 
@@ -11,7 +13,7 @@ from __future__ import annotations
 
 import sys
 from functools import partial
-from typing import IO, Callable
+from typing import Callable
 
 from dissectors import summarize
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RATE, RESULT, Event
@@ -30,11 +32,8 @@ try:
     def dumps(obj) -> bytes:
         return orjson.dumps(obj)
 
-    def dumps_line(obj) -> bytes:
-        return orjson.dumps(obj, option=_NL)
-
-    # the sink's per-event call: orjson itself, without a Python frame around it
-    _dumps_line = partial(orjson.dumps, option=_NL)
+    # a writer's per-event call: orjson itself, without a Python frame around it
+    dumps_line = partial(orjson.dumps, option=_NL)
 except ImportError:  # pragma: no cover - orjson is a dependency; keep working without it
     import json
 
@@ -43,8 +42,6 @@ except ImportError:  # pragma: no cover - orjson is a dependency; keep working w
 
     def dumps_line(obj) -> bytes:
         return dumps(obj) + b"\n"
-
-    _dumps_line = dumps_line
 
 
 STDOUT = "standard output"
@@ -65,7 +62,7 @@ class Writing:
     """A guard around writes (``with guard:``): a reader that went away stays a
     ``BrokenPipeError`` (quiet, ``cli/main.py``); any other failed write becomes the
     one-line ``error(e)``. A class made once per output, not a generator context
-    manager: the text sink enters it for every event."""
+    manager: the text writer enters it for every event."""
 
     __slots__ = ("error",)
 
@@ -98,57 +95,6 @@ def print_out(text: str) -> None:
     write is a ``StdoutError``, one line in ``cli/main.py``."""
     with _STDOUT_WRITES:
         sys.stdout.write(text + "\n")
-
-
-class _Sink:
-    """What both sinks share: where they write, and one error for a failed write
-    (after which they write nothing more, so closing does not fail again)."""
-
-    def __init__(self, out, name: str | None) -> None:
-        if name is None:
-            stdout = out is None or out is sys.stdout or out is getattr(sys.stdout, "buffer", None)
-            name = STDOUT if stdout else str(getattr(out, "name", "output"))
-        self.name = name
-        self.broken = False
-        self._writes = Writing(self._failed)
-
-    def _failed(self, e: OSError) -> OutputError:
-        self.broken = True
-        return output_error(self.name, e)
-
-
-class JsonLinesSink(_Sink):
-    """One JSON object per event (docs/json-lines.md). Lines are written
-    in blocks; ``flush_each`` (live taps) writes and flushes every event.
-    ``name`` names ``out`` in errors (default: standard output)."""
-
-    BLOCK = 512
-
-    def __init__(self, out: IO[bytes] | None = None, flush_each: bool = False, name: str | None = None) -> None:
-        super().__init__(out, name)
-        self.out = out or sys.stdout.buffer
-        self.flush_each = flush_each
-        self._lines: list[bytes] = []
-        self._block = 1 if flush_each else self.BLOCK   # events per write
-
-    def __call__(self, ev: Event) -> None:
-        lines = self._lines
-        lines.append(_dumps_line(ev.to_dict()))
-        if len(lines) >= self._block:
-            self._write(self.flush_each)
-
-    def _write(self, flush: bool) -> None:
-        if self.broken:
-            self._lines.clear()
-            return
-        with self._writes:
-            self.out.write(b"".join(self._lines))
-            self._lines.clear()
-            if flush:
-                self.out.flush()
-
-    def close(self) -> None:
-        self._write(True)
 
 
 def device_address(ev: Event) -> str:
@@ -222,55 +168,6 @@ def text_line(ev: Event) -> tuple[str, str]:
 def style_of(ev: Event) -> str:
     """The Rich style of ``ev``'s line: its row's, as the TUI colours it (``styles``)."""
     return ROW_STYLE[row_class(ev)]
-
-
-class TextSink(_Sink):
-    """tshark-like lines; colour only when writing to a terminal (or ``color=True``).
-    ``name`` names ``out`` in errors (default: standard output).
-
-    Colour is each row style's escape codes, rendered once by Rich (``SgrCodes``)
-    and written around the line: one Rich print per line cost ten times the
-    plain output. A line that is not all printable characters (none of ours:
-    wire bytes are shown as ``\\xNN``) goes through Rich's console as before, so
-    control characters are handled exactly as Rich handles them.
-    """
-
-    def __init__(self, out: IO[str] | None = None, color: bool | None = None, flush_each: bool = False,
-                 name: str | None = None) -> None:
-        super().__init__(out, name)
-        self.out = out or sys.stdout
-        is_tty = hasattr(self.out, "isatty") and self.out.isatty()
-        self.color = is_tty if color is None else color
-        self.flush_each = flush_each
-        self._console = None
-        self._codes: SgrCodes | None = None
-        if self.color:
-            from rich.console import Console
-            self._console = Console(file=self.out, highlight=False, soft_wrap=True, force_terminal=True)
-            self._codes = SgrCodes(self._console)
-
-    def __call__(self, ev: Event) -> None:
-        if self.broken:
-            return
-        text, style = text_line(ev)
-        with self._writes:
-            codes = self._codes
-            if codes is None:
-                self.out.write(text + "\n")
-            elif text.isprintable():
-                start, end = codes[style]
-                self.out.write(start + text + end + "\n")
-            else:
-                from rich.text import Text
-                self._console.print(Text(text, style=style or None))
-            if self.flush_each:
-                self.out.flush()
-
-    def close(self) -> None:
-        if self.broken:
-            return
-        with self._writes:
-            self.out.flush()
 
 
 class SgrCodes(dict):

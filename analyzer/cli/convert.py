@@ -8,7 +8,7 @@ the lines ``decode --format jsonl`` prints.
 
 The output is checked before any work (never over an input, ``--force`` to
 replace a file) and written beside the target, renamed onto it only when whole:
-a failed conversion leaves no file behind (analyzer/outfile.py).
+a failed conversion leaves no file behind (the writer base, analyzer/writers/base.py).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 
 from ..info import CaptureInfo
-from ..outfile import AtomicOutput, check_output
+from ..outfile import check_output
 from ..writers import WRITERS, open_writer, writer_class
 from .common import add_input_args, open_inputs, run_tap
 
@@ -39,6 +39,6 @@ def run(args: argparse.Namespace) -> int:
     writer_class(args.output)                                    # then: a format we write
     capture = open_inputs(args)
     info = CaptureInfo.of(capture, command="convert", site=args.site)
-    with AtomicOutput(args.output) as target:   # a failure on the way removes it
-        run_tap(capture, "convert", open_writer(args.output, info, target.file), info=info, progress=True)
+    with open_writer(args.output, info) as writer:   # the file takes its name only if the run ends well
+        run_tap(capture, "convert", writer, info=info, progress=True)
     return 0

@@ -8,16 +8,19 @@ from __future__ import annotations
 
 import argparse
 
+from ..info import CaptureInfo
 from ..listeners import EventPrinter
-from ..output import JsonLinesSink, TextSink
+from ..writers import FORMATS, open_format
 from .common import add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
+
+COLOR = {"auto": None, "always": True, "never": False}   # --color: None = when standard output is a terminal
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("decode", help="print every event of a capture",
                        description="Decode a capture: one line per event, or JSON Lines.")
     add_input_args(p)
-    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    p.add_argument("--format", choices=tuple(FORMATS), default="text")
     add_filter_arg(p, 'show only matching events, e.g. \'status == "nak" or problems\'')
     p.add_argument("--color", choices=("auto", "always", "never"), default="auto")
     p.set_defaults(run=run)
@@ -26,10 +29,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    if args.format == "jsonl":
-        sink = JsonLinesSink()
-    else:
-        sink = TextSink(color={"auto": None, "always": True, "never": False}[args.color])
+    info = CaptureInfo.of(capture, command="decode")
+    # the writer of the format, to standard output, as convert picks one for a file
+    options = {"color": COLOR[args.color]} if args.format == "text" else {}
+    writer = open_format(args.format, info, **options)
     # no bar when the lines go to the terminal: they show the progress themselves
-    run_tap(capture, "decode", EventPrinter(sink, keep), progress=True, streams_stdout=True)
+    run_tap(capture, "decode", EventPrinter(writer, keep), info=info, progress=True, streams_stdout=True)
     return 0

@@ -26,9 +26,10 @@ from ..capture import Capture, open_live
 from ..info import CaptureInfo
 from ..listeners import DoctorListener, EventPrinter, NotePrinter
 from ..outfile import check_output
-from ..output import JsonLinesSink, TextSink
 from ..runner import Listener, TapRunner
+from ..writers.jsonl import JsonLinesWriter as JsonLinesSink
 from ..writers.mcap import McapWriter
+from ..writers.text import TextWriter as TextSink
 from .common import (
     UsageError,
     add_filter_arg,

@@ -12,7 +12,8 @@ import time
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..outfile import show
-from ..output import JsonLinesSink, TextSink
+from ..writers.jsonl import JsonLinesWriter as JsonLinesSink
+from ..writers.text import TextWriter as TextSink
 from .common import (
     UsageError,
     add_filter_arg,

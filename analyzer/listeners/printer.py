@@ -1,48 +1,53 @@
-"""Printing what the runner hears: events on standard output (text or JSON Lines,
-analyzer/output.py), notes on standard error."""
+"""Printing what the runner hears: events on standard output (a writer of
+``--format``, text or JSON Lines: analyzer/writers, ``FORMATS``), notes on
+standard error."""
 
 from __future__ import annotations
 
 import re
 import sys
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from dissectors.event import Event
 
 from ..runner import DOCTOR, ERROR, INFO, Listener, Note
 
-Sink = Callable[[Event], None]
+if TYPE_CHECKING:
+    from ..writers.base import FileWriter
 
 REPEATS = 3   # warnings of one kind said in full before the rest are counted
 
 
 class EventPrinter(Listener):
-    """Every event to ``sink`` (a ``TextSink`` or ``JsonLinesSink``), those ``keep``
-    accepts when a filter is given; ``pace(event)`` may wait before each
+    """Every event to ``writer`` (a ``TextWriter`` or ``JsonLinesWriter``), those
+    ``keep`` accepts when a filter is given; ``pace(event)`` may wait before each
     (``replay`` at the recorded pace). ``seen`` counts every event heard."""
 
-    def __init__(self, sink, keep: Callable[[Event], bool] | None = None,
+    def __init__(self, writer: FileWriter, keep: Callable[[Event], bool] | None = None,
                  pace: Callable[[Event], None] | None = None) -> None:
-        self.sink = sink
+        self.writer = writer
         self.keep = keep
         self.pace = pace
         self.seen = 0
 
+    def on_start(self, runner) -> None:
+        self.writer.on_start(runner)
+
     def on_events(self, events: list[Event]) -> None:
         self.seen += len(events)
-        sink, keep, pace = self.sink, self.keep, self.pace
+        write, keep, pace = self.writer.write, self.keep, self.pace
         if keep is None and pace is None:
             for ev in events:
-                sink(ev)
+                write(ev)
             return
         for ev in events:
             if pace is not None:
                 pace(ev)
             if keep is None or keep(ev):
-                sink(ev)
+                write(ev)
 
     def on_stop(self) -> None:
-        self.sink.close()
+        self.writer.on_stop()
 
 
 class NotePrinter(Listener):

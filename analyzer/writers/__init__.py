@@ -1,24 +1,30 @@
-"""Output formats by suffix, like python-can's ``MESSAGE_WRITERS``.
+"""Output formats, like python-can's ``MESSAGE_WRITERS``: files by suffix
+(``WRITERS``, ``convert -o OUT.suffix``), what is printed on standard output by
+name (``FORMATS``, ``--format``).
 
 A writer is a listener of the tap runner (analyzer/runner.py) that writes what it
-hears to a file: ``Writer(path, info, file=...)``, with ``info`` the run's
-``CaptureInfo`` and ``file`` an open binary file it writes into (``convert`` gives
-the temporary file that is renamed onto ``path`` when whole). A new format is one
-module here and one line in ``WRITERS``. Entries name their class as
-``module:Class`` so that a command imports only the writer it uses (MCAP pulls
-in the mcap and zstd packages). Every writer keeps the time model of
-docs/time.md: capture times, not the time of writing.
+hears: ``Writer(path, info, file=...)``, with ``info`` the run's ``CaptureInfo``,
+built on ``base.FileWriter``, which opens the target (``path`` atomically, an
+open ``file``, or standard output for ``path=None``), closes it and says what was
+written. A new format is one module here and one line in ``WRITERS`` (or
+``FORMATS``). Entries name their class as ``module:Class`` so that a command
+imports only the writer it uses (MCAP pulls in the mcap and zstd packages).
+Every writer keeps the time model of docs/time.md: capture times, not the time
+of writing.
 """
 
 from __future__ import annotations
 
 import importlib
 import os
-from typing import BinaryIO
+from typing import TYPE_CHECKING, BinaryIO
 
 from ..info import CaptureInfo
 from ..outfile import OutputRefused, show
 from ..runner import Listener
+
+if TYPE_CHECKING:   # the registry stays light: a command imports only the writer it uses
+    from .base import FileWriter
 
 # a folder output: a dataset of tables rather than one file (``gimbalscope export``)
 FOLDER_WRITER = "analyzer.writers.parquet:ParquetDatasetWriter"
@@ -28,6 +34,13 @@ WRITERS: dict[str, str] = {
     ".jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
     ".ndjson": "analyzer.writers.jsonl:JsonLinesWriter",
     ".pcapng": "analyzer.writers.pcapng:PcapngWriter",
+}
+
+
+# what decode, live and replay print on standard output (--format), first the default
+FORMATS: dict[str, str] = {
+    "text": "analyzer.writers.text:TextWriter",
+    "jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
 }
 
 
@@ -53,6 +66,12 @@ def _load(entry: str) -> type[Listener]:
 def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None) -> Listener:
     """A writer of ``path``'s format, writing into ``file`` (or ``path`` itself)."""
     return writer_class(path)(path, info, file=file)
+
+
+def open_format(name: str, info: CaptureInfo, **options) -> FileWriter:
+    """A writer of the format ``name`` (``FORMATS``) to standard output;
+    ``options`` are the format's own (the text's ``color``, ``flush_each``)."""
+    return _load(FORMATS[name])(None, info, **options)
 
 
 def file_output(path: str) -> bool:

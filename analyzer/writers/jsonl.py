@@ -1,35 +1,57 @@
-"""JSON Lines output: one event object per line, the lines ``decode --format
-jsonl`` prints (the event contract, docs/json-lines.md). Times are the events' ``t`` and
-``t_end``, seconds from the capture's start (docs/time.md, "Message times")."""
+"""JSON Lines output: one event object per line (the event contract,
+docs/json-lines.md), to a file (``convert -o OUT.jsonl``) or to standard output
+(``decode``, ``live`` and ``replay`` with ``--format jsonl``): the same lines
+either way. Times are the events' ``t`` and ``t_end``, seconds from the
+capture's start (docs/time.md, "Message times")."""
 
 from __future__ import annotations
 
-from typing import BinaryIO
+import os
+from typing import IO
 
 from dissectors.event import Event
 
 from ..info import CaptureInfo
-from ..outfile import write_error
-from ..output import JsonLinesSink
-from ..runner import Listener
+from ..output import dumps_line
+from .base import FileWriter
 
 
-class JsonLinesWriter(Listener):
-    def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None) -> None:
-        self.info = info
-        self._own = file is None
-        try:
-            self._file = file if file is not None else open(path, "wb")
-        except OSError as e:
-            raise write_error(path, e) from None
-        self._sink = JsonLinesSink(self._file, name=path)
+class JsonLinesWriter(FileWriter):
+    """Lines are written in blocks of ``BLOCK`` events; ``flush_each`` (live taps)
+    writes and flushes every event. ``write(event)`` writes one (the printer's
+    call, after its filter)."""
+
+    BLOCK = 512
+
+    def __init__(self, path: str | os.PathLike | None = None, info: CaptureInfo | None = None, *,
+                 file: IO[bytes] | None = None, flush_each: bool = False, atomic: bool = True) -> None:
+        self.flush_each = flush_each
+        self._lines: list[bytes] = []
+        self._block = 1 if flush_each else self.BLOCK   # events per write
+        super().__init__(path, info, file=file, atomic=atomic)
 
     def on_events(self, events: list[Event]) -> None:
-        sink = self._sink
+        write = self.write
         for ev in events:
-            sink(ev)
+            write(ev)
 
-    def on_stop(self) -> None:
-        self._sink.close()
-        if self._own:
-            self._file.close()
+    def write(self, ev: Event) -> None:
+        lines = self._lines
+        lines.append(dumps_line(ev.to_dict()))
+        if len(lines) >= self._block:
+            self._write(self.flush_each)
+
+    def _write(self, flush: bool) -> None:
+        lines = self._lines
+        if self.broken:
+            lines.clear()
+            return
+        with self.writes:
+            self.file.write(b"".join(lines))
+            self.count += len(lines)
+            lines.clear()
+            if flush:
+                self.file.flush()
+
+    def finish(self) -> None:
+        self._write(False)   # closing the target flushes it

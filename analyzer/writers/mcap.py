@@ -30,8 +30,9 @@ from dissectors.wire import byte_time
 
 from ..formats import mcap_schemas as S
 from ..info import CaptureInfo
-from ..runner import ERROR, INFO, RECORDING, WARNING, Listener, Note
+from ..runner import ERROR, INFO, RECORDING, WARNING, Note
 from ..sources import Chunk
+from .base import FileWriter, Target
 from .mcap_recorder import McapRecorder, RotatingRecorder
 
 # note level -> foxglove.Log level
@@ -57,28 +58,47 @@ def log_level(note: Note) -> int | None:
     return LOG_LEVELS.get(note.level, S.WARNING)
 
 
-class McapWriter(Listener):
+class McapWriter(FileWriter):
     def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, live: bool = False,
                  rotate_bytes: int | None = None, rotate_seconds: float | None = None,
                  metadata: dict[str, str] | None = None) -> None:
-        self.path = path
-        self.info = info
         self.live = live
         self._runner = None
         self._extra = metadata or {}
-        kw = dict(message_clock(info), lines=info.lines)
-        if live:
-            kw.update(metadata=info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
+        self._rotate = (rotate_bytes, rotate_seconds) if rotate_bytes or rotate_seconds else None
+        # live (and in parts): in place, the recorder's own files (module doc)
+        super().__init__(path, info, file=file, atomic=not (live or self._rotate))
+
+    def in_place(self, path: str) -> Target:
+        """A live recording, or one in parts: the recorder opens its files itself,
+        in place, flushes them every second when live, and after a failed write
+        closes them as well as it can (analyzer/writers/mcap_recorder.py)."""
+        kw = dict(message_clock(self.info), lines=self.info.lines)
+        if self.live:
+            kw.update(metadata=self.info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
         else:
-            kw.update(metadata={}, file=file)
-        if rotate_bytes or rotate_seconds:
-            self.recorder = RotatingRecorder(path, max_bytes=rotate_bytes, max_seconds=rotate_seconds, **kw)
+            kw.update(metadata={})
+        if self._rotate:
+            max_bytes, max_seconds = self._rotate
+            self.recorder = RotatingRecorder(path, max_bytes=max_bytes, max_seconds=max_seconds, **kw)
         else:
             self.recorder = McapRecorder(path, **kw)
+        return Recording(self.recorder, path)
+
+    def begin(self) -> None:
+        """A recording into the target's file (a conversion)."""
+        if self.file is not None:
+            self.recorder = McapRecorder(self.path, metadata={}, file=self.file,
+                                         lines=self.info.lines, **message_clock(self.info))
 
     @property
     def failed(self) -> str | None:
         return self.recorder.failed
+
+    @property
+    def count(self) -> int:
+        """Messages recorded (the recorder counts them)."""
+        return self.recorder.messages
 
     def summary(self) -> str:
         return self.recorder.summary()
@@ -117,7 +137,7 @@ class McapWriter(Listener):
         if level is not None:
             self.recorder.note(note.text, note.t, level)
 
-    def on_stop(self) -> None:
+    def finish(self) -> None:
         rec = self.recorder
         runner = self._runner
         if self.live:
@@ -135,3 +155,18 @@ class McapWriter(Listener):
         """The recording stopped (the file closed as well as it could); the tap goes on."""
         if self._runner is not None:
             self._runner.post(message, WARNING, origin=RECORDING)
+
+
+class Recording(Target):
+    """The target of a recording whose files the recorder opened itself: it
+    closes them (``finish``); a failed run leaves them as they are, in place."""
+
+    def __init__(self, recorder: McapRecorder | RotatingRecorder, path: str) -> None:
+        super().__init__(None, path)
+        self.recorder = recorder
+
+    def close(self) -> None:
+        self.recorder.close()   # done by ``finish``: closing again does nothing
+
+    def discard(self) -> None:
+        self.recorder.close()

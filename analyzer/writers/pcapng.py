@@ -26,8 +26,7 @@ from ..formats import pdu
 from ..formats.mcap_messages import WireClock
 from ..formats.pcapng import PcapngStream
 from ..info import LINE_ROLES, CaptureInfo
-from ..outfile import write_error
-from ..runner import Listener
+from .base import FileWriter
 from .mcap import message_clock
 
 APPLICATION = "gimbalscope"
@@ -39,32 +38,35 @@ def open_stream(file: BinaryIO, info: CaptureInfo) -> PcapngStream:
     return PcapngStream(file, f"{APPLICATION} {__version__}", comment=None if info.timed else pdu.UNTIMED)
 
 
-class PcapngWriter(Listener):
+class PcapngWriter(FileWriter):
     """The registry's ``.pcapng`` writer: one section, for the capture ``info``
     describes. ``capture``: its number in a file of several (``export``);
     ``flush``: push each batch out as it comes (a live FIFO)."""
 
     many_captures = True   # export may put several captures in one file
+    noun = "packets"
 
     def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, capture: int = 0,
-                 flush: bool = False) -> None:
-        self.info = info
+                 flush: bool = False, atomic: bool = True) -> None:
         self.capture = capture
         self.flush = flush
-        self._own = None
-        if file is None:
-            try:
-                file = self._own = open(path, "wb")
-            except OSError as e:
-                raise write_error(path, e) from None
-        self.stream = open_stream(file, info)
+        super().__init__(path, info, file=file, atomic=atomic)
+
+    def begin(self) -> None:
+        info = self.info
+        self.stream = open_stream(self.file, info)
         names = info.line_names
         self.interface = {
             line: self.stream.add_interface(pdu.LINKTYPE, line, f"{LINE_ROLES.get(line, line)}: {names.get(line, '')}")
             for line in info.lines}
         self.clock = WireClock(**message_clock(info))
-        self.packets = 0
 
+    @property
+    def packets(self) -> int:
+        return self.count
+
+    # Writes are not guarded (``self.writes``): a packet at a time, and the FIFO's
+    # tap (analyzer/wireshark/extcap.py) stops on the OSError of a reader gone.
     def on_events(self, events: list[Event]) -> None:
         packet, encode, comment, time_ns = self.stream.packet, pdu.encode, pdu.comment, self.clock.time_ns
         interface, capture = self.interface, self.capture
@@ -75,12 +77,6 @@ class PcapngWriter(Listener):
                 continue
             packet(interface.get(ev.line, first), time_ns(ev.t, ev.number, ev.offset), encode(ev, capture), comment(ev))
             n += 1
-        self.packets += n
+        self.count += n
         if self.flush and n:
-            self.stream.flush()
-
-    def on_stop(self) -> None:
-        if self._own is not None:
-            self._own.close()
-        elif self.flush:
             self.stream.flush()

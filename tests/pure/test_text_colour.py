@@ -6,8 +6,9 @@ import io
 
 import pytest
 
-from analyzer.output import TextSink, text_line
+from analyzer.output import text_line
 from analyzer.styles import ROW_STYLE, ROW_CHECKSUM, ROW_NOISE, ROW_RETRANSMISSION
+from analyzer.writers.text import TextWriter
 from dissectors.event import COMMAND, NOISE, Event
 
 RESET = "\x1b[0m"
@@ -37,10 +38,10 @@ def command(**kw) -> Event:
 
 def printed(*events: Event) -> str:
     out = io.StringIO()
-    sink = TextSink(out, color=True)
+    writer = TextWriter(file=out, color=True)
     for e in events:
-        sink(e)
-    sink.close()
+        writer.write(e)
+    writer.on_stop()
     return out.getvalue()
 
 
@@ -97,7 +98,7 @@ def test_control_characters_are_not_passed_to_the_terminal():
 
 def test_plain_output_is_untouched():
     out = io.StringIO()
-    sink = TextSink(out, color=False)
+    writer = TextWriter(file=out, color=False)
     e = noise()
-    sink(e)
+    writer.write(e)
     assert out.getvalue() == text_line(e)[0] + "\n"
