@@ -1,8 +1,8 @@
 """Every finding the wiring doctor (analyzer/analysis/doctor.py) can raise, in one
-table, like the problems of dissectors/problems.py: an id (the ``code`` JSON, the
-MCAP ``/log`` topic, Parquet and the TUI carry), a severity, what the traffic shows
-(the findings table of docs/doctor.md is rendered from it), the words of the
-finding, and which other findings it explains.
+table, like the problems of dissectors/problems.py: an id (the ``code`` of the JSON
+report, of the Parquet findings and of the TUI's findings), a severity, what the
+traffic shows (the findings table of docs/doctor.md is rendered from it), the words
+of the finding, and which other findings it explains.
 
 The words are ``str.format`` templates with named fields. A rule says only what it
 measured and which entry it is::
@@ -53,6 +53,7 @@ CONTROLLER = (CONTROLLER_NO_WAIT, CONTROLLER_FAST_RETRY, CONTROLLER_NO_RETRY, CO
 
 @dataclass
 class Finding:
+    """What the doctor found, in words, with its evidence: made by a table entry's ``found``."""
     code: str                  # the id of its table entry: LINES_SWAPPED, ECHO, ...
     severity: str
     title: str                 # one line, plain words

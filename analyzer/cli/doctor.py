@@ -1,7 +1,9 @@
 """``gimbalscope doctor INPUT…|PORT…``: what is wrong with the link, in plain words
-with the fix to try (analyzer.analysis.doctor: swapped lines, wrong baud rate, echo, silent
-devices, noise, controller timing, slow answers, the device map). From any capture,
-or live from one or two ports (``--seconds``, findings printed as they appear).
+with the fix to try (analyzer.analysis.doctor; every finding is in the table of
+analyzer.analysis.findings: swapped lines, wrong baud rate, echo, silent devices, a
+device silent since a rate change, noise, controller timing, slow answers, the device
+map). From any capture, or live from one or two ports (``--seconds``, findings
+printed as they appear).
 
 ``--scan-baud PORT…`` listens (never transmits) at each standard rate of §1.5.1
 in turn and says which one decodes cleanly.
@@ -18,7 +20,8 @@ import sys
 import threading
 from dataclasses import replace
 
-from ..analysis.doctor import INFO, Finding, WiringDoctor
+from ..analysis.doctor import INFO, WiringDoctor
+from ..analysis.findings import Finding
 from ..capture import Capture, open_live
 from ..capture import open as open_capture
 from ..listeners import DoctorListener, FindingTeller

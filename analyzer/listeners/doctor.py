@@ -13,11 +13,11 @@ from dissectors.event import Event
 from ..analysis.doctor import (
     INFO,
     UNTIMED_CHECK_EVERY,
-    Finding,
     Invocation,
     WiringDoctor,
     one_line,
 )
+from ..analysis.findings import Finding
 from ..runner import DOCTOR, Listener, Note
 
 
