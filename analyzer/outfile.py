@@ -16,9 +16,10 @@ half-written, and every failure one line saying what and where.
 A refusal (``OutputRefused``, from ``check_output``) is a usage mistake: exit 2.
 A failure while writing (``OutputError``) is exit 1.
 
-Live recordings are the exception (analyzer/writers/mcap_recorder.py): they are written in
-place and flushed every second, because a killed tap must leave its capture
-under the name the user gave.
+Every writer of the registry writes through ``AtomicOutput`` (the writer base,
+analyzer/writers/base.py). Live recordings are the exception (``atomic=False``,
+analyzer/writers/mcap.py): they are written in place and flushed every second,
+because a killed tap must leave its capture under the name the user gave.
 """
 
 from __future__ import annotations

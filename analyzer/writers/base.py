@@ -8,10 +8,10 @@ runner that writes what it hears into one target:
   it (``outfile.AtomicOutput``) that replaces the path when the run ends well
   and is removed when it fails, so a failed run leaves no partial file and the
   file it would have replaced intact;
-- a path written in place (``atomic=False``): every write is in the file at
-  once, under the name given, whatever happens next. That is what a live
-  recording needs: a killed tap must leave its capture (analyzer/writers/mcap.py,
-  whose recorder opens its files itself: ``in_place``);
+- a path written in place (``atomic=False``): the file is there under the name
+  given from the start, and what was written and flushed stays, whatever happens
+  next. That is what a live recording needs: a killed tap must leave its capture
+  (analyzer/writers/mcap.py, whose recorder opens its files itself: ``in_place``);
 - an open file the caller gives (``file=``): written into and flushed, never
   closed (the FIFO Wireshark reads, a test's buffer);
 - standard output (``path=None``): flushed, never closed.
@@ -42,8 +42,9 @@ from ..runner import Listener
 
 def wrote(counts: dict[str, int], name: str) -> str:
     """What a writer says it wrote, one line, as the other commands word their
-    outputs: ``wrote 1,024 events to out.jsonl``."""
-    return f"wrote {', '.join(f'{n:,} {noun}' for noun, n in counts.items())} to {name}"
+    outputs: ``wrote 1,024 events to out.jsonl`` (``1 event``)."""
+    said = (f"{n:,} {noun[:-1] if n == 1 and noun.endswith('s') else noun}" for noun, n in counts.items())
+    return f"wrote {', '.join(said)} to {name}"
 
 
 class Target:
@@ -81,11 +82,12 @@ class Atomic(Target):
 
 
 class InPlace(Target):
-    """A path written in place, unbuffered: what a write hands over is in the file."""
+    """A path written in place: the file is there under its name from the
+    start; a writer flushes when what it wrote must be in it (a live tap's)."""
 
     def __init__(self, path: str | os.PathLike) -> None:
         try:
-            file = open(path, "wb", buffering=0)
+            file = open(path, "wb")
         except OSError as e:
             raise write_error(path, e) from None
         super().__init__(file, path)
@@ -97,7 +99,7 @@ class InPlace(Target):
         try:
             self.file.close()   # what was written stays: that is the point
         except OSError:
-            pass
+            pass   # a full disk fails the last flush too
 
 
 def _name_of(file: IO) -> str:

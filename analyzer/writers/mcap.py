@@ -4,11 +4,12 @@ events, transactions and the run's notes on ``/log``, with the run's
 
 Two ways to record:
 
-- a conversion (``convert``, the default): written into the file given, metadata
-  at the end (with what reading learnt); a write error raises ``RecordingError``
-  and the caller throws the file away;
+- a conversion (``convert``, the default): written atomically by the writer base
+  (analyzer/writers/base.py), metadata at the end (with what reading learnt); a
+  write error raises ``RecordingError`` and the file is thrown away;
 - a live recording (``live=True``: ``--record``, the TUI's record key): written in
-  place and flushed every second, so a killed tap leaves a file that opens;
+  place (``atomic=False``) and flushed every second, so a killed tap leaves a file
+  that opens;
   metadata first; optionally in parts (``rotate_bytes``, ``rotate_seconds``). A
   write error stops the recording, not the tap: it is posted as a note once.
 
@@ -59,6 +60,9 @@ def log_level(note: Note) -> int | None:
 
 
 class McapWriter(FileWriter):
+    """The registry's ``.mcap`` writer (module doc): a conversion is written
+    atomically by the writer base; a live recording, or one in parts, in place."""
+
     def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, live: bool = False,
                  rotate_bytes: int | None = None, rotate_seconds: float | None = None,
                  metadata: dict[str, str] | None = None) -> None:

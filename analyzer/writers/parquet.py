@@ -8,7 +8,9 @@ paths), so exporting it again replaces its own files and nothing else. The new
 files are written beside the old ones under a name readers skip
 (``*.parquet.tmp``) and take their place on ``commit()``, once the capture has
 been read to its end: an export that fails or is stopped leaves the dataset as
-it was (``abort()``).
+it was (``abort()``). That commit of many files is this writer's own, so it is
+no ``FileWriter`` (analyzer/writers/base.py); it says what it wrote as they do
+(``summary()``).
 """
 
 from __future__ import annotations
@@ -33,7 +35,9 @@ from ..formats.parquet_rows import (
     partitions,
 )
 from ..info import CaptureInfo
+from ..outfile import show
 from ..runner import Listener
+from .base import wrote
 
 ROWS_PER_GROUP = 32 * 1024   # rows per row group: a few MB of Python rows per table at a time (memory stays flat)
 TMP = ".tmp"
@@ -154,6 +158,10 @@ class ParquetDatasetWriter(Listener):
                 tries -= 1
                 if not tries:
                     raise
+
+    def summary(self) -> str:
+        """What was written, one line: ``wrote 1,024 events, 12 transactions, 0 findings to DIR``."""
+        return wrote(self.rows, show(self.root))
 
     def old_files(self) -> list[str]:
         """The capture's files in the dataset now (and any left by a failed export)."""
