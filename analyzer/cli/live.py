@@ -27,9 +27,8 @@ from ..info import CaptureInfo
 from ..listeners import DoctorListener, EventPrinter, NotePrinter
 from ..outfile import check_output
 from ..runner import Listener, TapRunner
-from ..writers.jsonl import JsonLinesWriter as JsonLinesSink
+from ..writers import open_format
 from ..writers.mcap import McapWriter
-from ..writers.text import TextWriter as TextSink
 from .common import (
     UsageError,
     add_filter_arg,
@@ -171,7 +170,7 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     """Run a live capture to the end, printing events and notes, with the wiring
     doctor alongside (SIGINT/SIGTERM stop it cleanly)."""
     keep = build_filter(getattr(args, "filter", None))
-    sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
+    sink = open_format(args.format, info, flush_each=True)   # every event as it comes
     recorder, servers = open_outputs(capture, info, args, record)
     # the servers beside the recorder: both hear the doctor's notes after the same events
     listeners = [l for l in (recorder, *servers, DoctorListener(), EventPrinter(sink, keep), NotePrinter())

@@ -12,8 +12,7 @@ import time
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..outfile import show
-from ..writers.jsonl import JsonLinesWriter as JsonLinesSink
-from ..writers.text import TextWriter as TextSink
+from ..writers import open_format
 from .common import (
     UsageError,
     add_filter_arg,
@@ -67,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     if wants_tui(args):
         return replay_in_tui(capture, info, args)
     servers = open_servers(capture, info, args)
-    sink = JsonLinesSink(flush_each=True) if args.format == "jsonl" else TextSink(flush_each=True)
+    sink = open_format(args.format, info, flush_each=True)   # every event as it comes
     # the server after the printer: it is paced as the printer is
     run_tap(capture, "replay", EventPrinter(sink, keep, pace=pacer(args.speed)), *servers, info=info)
     return 0
