@@ -246,7 +246,7 @@ class Capture:
             if not chunk.data:
                 continue                  # untimed input: no ticks
             if physical != line:
-                chunk = Chunk(line, chunk.data, chunk.t)
+                chunk = type(chunk)(line, chunk.data, chunk.t)   # its own type: undecoded stays so
             if tap is not None:
                 tap(chunk, d.offset)
             if rates is not None:

@@ -81,7 +81,8 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
             merge.idle(deframers, t)
         else:
             if swap:
-                chunk = Chunk(SWAP[chunk.line], data, t)
+                # its own type: a live tap's backlog stays undecoded on the other line too
+                chunk = type(chunk)(SWAP[chunk.line], data, t)
             line = chunk.line
             if rates is not None and line != "B":   # (marked's own first test, saving a call a chunk)
                 rates.marked(line, data)

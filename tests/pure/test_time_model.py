@@ -303,3 +303,20 @@ def test_the_deframer_keeps_its_line_in_order():
     # and not before a time the caller gives (the other line's latest read, one clock)
     (third,) = d.feed(b"\x06", 1.0006 - BT_9600, not_before=1.0010)
     assert third.t == pytest.approx(1.0010) and third.t_end == pytest.approx(1.0010)
+
+
+def test_bytes_a_live_tap_passed_over_stay_undecoded_with_the_lines_swapped():
+    # a tap behind the line hands its backlog over undecoded (for the recording
+    # only): read on physical line B, which --swap-lines makes line A, the two
+    # commands in it must not become events, whichever line they count on
+    from analyzer.sources.serialport import UndecodedChunk
+
+    class Behind(Timed):
+        def chunks(self) -> Iterator[Chunk]:
+            yield UndecodedChunk("B", CMD + CMD, 0.05)
+
+    for swap in (False, True):
+        cap = Capture(Behind([]), Options(swap_lines=swap))
+        events = list(cap)
+        assert [e for e in events if e.kind == "command"] == [], f"swap_lines={swap}"
+        assert cap.undecoded == {("A" if swap else "B"): 2 * len(CMD)}
