@@ -15,8 +15,8 @@ from typing import Iterator
 import pytest
 from mcap.writer import Writer
 
-from analyzer.sources import (LINE_AB, CaptureError, Chunk, Input, RawDumpSource, Reader, SocatLogSource, Source,
-                              detect, formats, registry)
+from analyzer.sources import (LINE_AB, CaptureError, Chunk, Input, RawDumpSource, Reader, ReadSettings,
+                              SocatLogSource, Source, detect, formats, registry)
 from analyzer.sources.mcapfile import McapSource
 from analyzer.sources.pcapngfile import PcapngSource
 from tests.conftest import BUS, CTL, DEV, ROOT, SOCAT_LOG
@@ -189,7 +189,7 @@ class ToySource(Source):
         yield Chunk(LINE_AB, self.input.stream().read()[len(TOY_MAGIC):])
 
 
-def open_toy(inputs: list[Input], byte_time: float) -> ToySource:
+def open_toy(inputs: list[Input], settings: ReadSettings) -> ToySource:
     inp, = inputs
     return ToySource(inp)
 
