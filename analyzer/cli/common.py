@@ -203,7 +203,7 @@ def warn(msg: str) -> None:
 def progress_listener(streams_stdout: bool = False) -> Listener:
     """The progress bar as a listener, for any command that reads capture files
     (``export`` too): shown only when ``progress.wanted``."""
-    from ..progress import ProgressListener, ReadProgress, wanted
+    from ..listeners.progress import ProgressListener, ReadProgress, wanted
     return ProgressListener(ReadProgress(enabled=wanted(streams_stdout)))
 
 
@@ -219,7 +219,7 @@ def run_tap(capture: Capture, command: str, *listeners: Listener, info: CaptureI
     printed on standard error (``notes``; none with -q), with the doctor's findings
     among them (``findings``); an empty capture is said (``say_empty``). With
     ``progress``, a bar of the bytes read shows on a terminal when the work is
-    long (analyzer/progress.py); ``streams_stdout``: the command prints as it
+    long (analyzer/listeners/progress.py); ``streams_stdout``: the command prints as it
     goes, so no bar when that is to a terminal."""
     if progress:
         listeners = (progress_listener(streams_stdout), *listeners)

@@ -136,7 +136,7 @@ def run_to_file(args: argparse.Namespace, jobs: list[Job]) -> int:
 
 
 def run_jobs(args: argparse.Namespace, jobs: list[Job]) -> list[Outcome]:
-    from ..progress import wanted
+    from ..listeners.progress import wanted
     notes = NotePrinter(findings=False, quiet=common._quiet)
 
     def done(outcome: Outcome) -> None:

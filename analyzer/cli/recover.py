@@ -24,8 +24,8 @@ import sys
 from mcap.records import Channel, Schema
 from mcap.writer import CompressionType, Writer
 
+from ..listeners.progress import ReadProgress, wanted
 from ..outfile import AtomicOutput, check_output, show, write_error
-from ..progress import ReadProgress, wanted
 from ..sources.files import open_input
 from ..sources.mcapscan import (
     MAGIC,

@@ -174,7 +174,7 @@ def run_job(job: Job, progress=None) -> Outcome:
 
 class PoolMeter:
     """Bytes read of every job's inputs, from the jobs' reports (the progress
-    bar's meter, analyzer/progress.py)."""
+    bar's meter, analyzer/listeners/progress.py)."""
 
     def __init__(self, jobs: list[Job], reports) -> None:
         self.sizes = {}
@@ -203,7 +203,7 @@ class PoolMeter:
 def export(jobs: list[Job], workers: int, *, show_progress: bool = False, on_done=None) -> list[Outcome]:
     """Run every job, ``workers`` at a time; ``on_done(outcome)`` as each ends.
     The outcomes in the jobs' order."""
-    from ..progress import ReadProgress
+    from ..listeners.progress import ReadProgress
 
     outcomes: dict[int, Outcome] = {}
     if workers <= 1 or len(jobs) <= 1:

@@ -273,7 +273,7 @@ class McapSource(Source):
                     return
                 if isinstance(item, tuple):       # ("warn" | "error" | "progress", message or bytes read)
                     if item[0] == "progress":
-                        READS.report(self.path, item[1])   # the progress bar's (analyzer/progress.py)
+                        READS.report(self.path, item[1])   # the progress bar's (analyzer/listeners/progress.py)
                         continue
                     if item[0] == "error":
                         raise CaptureError(item[1])

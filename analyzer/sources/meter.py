@@ -17,7 +17,7 @@ def _NO_HANDLE() -> None:
 
 class ReadMeter:
     """How far the capture files have been read: bytes read of their size on
-    disk, for a progress bar (analyzer/progress.py).
+    disk, for a progress bar (analyzer/listeners/progress.py).
 
     Every input file is opened in one place (``files.open_input``), which hands
     the open file to ``track``; nothing is counted per read. The position is the

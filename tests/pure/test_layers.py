@@ -25,7 +25,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("analysis of events, and the simulator", ("analyzer.analysis", "analyzer.simulation")),
     ("formats that readers and writers share", ("analyzer.formats", "analyzer.output")),
     ("readers", ("analyzer.sources",)),
-    ("the capture and its runner", ("analyzer.capture", "analyzer.runner", "analyzer.progress")),
+    ("the capture and its runner", ("analyzer.capture", "analyzer.runner")),
     ("writers", ("analyzer.writers",)),
     ("listeners", ("analyzer.listeners",)),
     ("jobs: the fleet dataset, Wireshark", ("analyzer.dataset", "analyzer.wireshark")),

@@ -5,7 +5,7 @@ of the inputs' size on disk, with the rate and the time left.
 One piece for every command: ``ReadProgress`` is a context manager (``recover``
 uses it so), and ``ProgressListener`` the same as a tap runner's listener
 (``cli/common.run_tap`` attaches it). The bytes are counted where the input files
-are opened (``analyzer.sources.base.READS``), never per read, so the bar costs
+are opened (``analyzer.sources.meter.READS``), never per read, so the bar costs
 the work nothing but a thread waking a few times a second.
 
 When it shows (docs/cli.md, "Progress and warnings"):
@@ -29,8 +29,8 @@ import os
 import sys
 import threading
 
-from .runner import Listener
-from .sources.meter import READS, ReadMeter
+from ..runner import Listener
+from ..sources.meter import READS, ReadMeter
 
 DELAY = 3.0                                # seconds of work before a bar appears
 DELAY_ENV = "GIMBALSCOPE_PROGRESS_DELAY"   # another delay in seconds (tests: 0)
