@@ -14,6 +14,7 @@ a failed conversion leaves no file behind (the writer base, analyzer/writers/bas
 from __future__ import annotations
 
 import argparse
+import sys
 
 from ..info import CaptureInfo
 from ..outfile import check_output
@@ -27,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "Foxglove-readable) or to JSON Lines; the output's suffix chooses: "
                                    + ", ".join(WRITERS) + ".")
     add_input_args(p)
-    p.add_argument("-o", "--output", required=True, metavar="OUT.mcap|OUT.jsonl")
+    p.add_argument("-o", "--output", required=True, metavar="OUT" + "|OUT".join(WRITERS))
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
     p.add_argument("--site", metavar="NAME", help="where the capture was made, kept in a recording's metadata "
                                                    "(gimbalscope export puts it in the dataset's site column)")
@@ -41,4 +42,6 @@ def run(args: argparse.Namespace) -> int:
     info = CaptureInfo.of(capture, command="convert", site=args.site)
     with open_writer(args.output, info) as writer:   # the file takes its name only if the run ends well
         run_tap(capture, "convert", writer, info=info, progress=True)
+    # said as export, report and recover say what they wrote (standard output may be piped on)
+    print(f"gimbalscope: {writer.summary()}", file=sys.stderr)
     return 0

@@ -30,6 +30,7 @@ import argparse
 import json
 import os
 import re
+import sys
 from typing import TYPE_CHECKING, Iterable, Sequence
 
 from ..analysis.positions import AZ, EL
@@ -37,7 +38,7 @@ from ..capture import Capture
 from ..formats import mcap_schemas as S
 from ..info import CaptureInfo
 from ..listeners import PositionFinder
-from ..outfile import AtomicOutput, check_output
+from ..outfile import AtomicOutput, check_output, show
 from ..output import print_out
 from .common import add_serial_args, open_inputs, run_tap, warn
 
@@ -106,6 +107,7 @@ def run_layout(args: argparse.Namespace) -> int:
     else:
         with AtomicOutput(args.output) as target:   # a failure on the way removes it
             target.write(text.encode() + b"\n")
+        print(f"gimbalscope: wrote the layout to {show(args.output)}", file=sys.stderr)
     return 0
 
 

@@ -18,6 +18,7 @@ before the tap starts too.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import signal
 import sys
@@ -62,6 +63,7 @@ def add_tui_args(p: argparse.ArgumentParser) -> None:
 
 def add_record_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
+    p.add_argument("--force", action="store_true", help="with --record: replace FILE.mcap if it exists")
     p.add_argument("--rotate-mb", type=positive_float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
     p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
     p.add_argument("--site", metavar="NAME", help="with --record: where the tap is, kept in the recording's metadata "
@@ -134,13 +136,21 @@ def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
         return None
     mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
     try:
-        # replacing a file is the documented behaviour; a port, a folder or a missing folder is not
-        check_output(record, info.inputs if info.live else (), force=True, role="port")
+        # a recording is never replaced silently (--force), and never written over a
+        # port, into a folder or a missing folder; in parts, the first part's name counts
+        first = first_part(record) if mb or minutes else record
+        check_output(first, info.inputs if info.live else (), force=getattr(args, "force", False), role="port")
         return McapWriter(record, info, live=True, rotate_bytes=int(mb * 1e6) if mb else None,
                           rotate_seconds=minutes * 60 if minutes else None)
     except BaseException:
         capture.source.close()
         raise
+
+
+def first_part(record: str) -> str:
+    """The file a recording in parts starts with (``tap.mcap``: ``tap-0001.mcap``)."""
+    base, ext = os.path.splitext(record)
+    return f"{base}-0001{ext}"
 
 
 def wants_tui(args: argparse.Namespace) -> bool:

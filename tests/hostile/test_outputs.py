@@ -324,9 +324,11 @@ def test_live_record_onto_a_port_is_refused(tmp_path):
 def test_convert_to_json_lines_equals_decode(tmp_path, suffix):
     out = tmp_path / f"x{suffix}"
     r = run_cli("convert", SOCAT_LOG, "-o", out)
-    assert r.returncode == 0 and r.stderr == "", r.stderr
     decoded = run_cli("decode", SOCAT_LOG, "--format", "jsonl")
     assert out.read_text() == decoded.stdout and decoded.stdout
+    # it says what it wrote, as export and report do: one event a line
+    lines = decoded.stdout.count("\n")
+    assert r.returncode == 0 and r.stderr == f"gimbalscope: wrote {lines:,} events to {out}\n", r.stderr
 
 
 @pytest.mark.parametrize("name", ["x.json", "x.txt", "x"])

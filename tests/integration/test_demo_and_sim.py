@@ -145,3 +145,24 @@ def test_demo_and_live_bad_options_are_one_line(tmp_path):
         out = run_cli(*args, timeout=30)
         assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
         assert len(out.stderr.strip().splitlines()) == 1 and fragment in out.stderr, out.stderr
+
+
+def test_record_never_replaces_a_recording_silently(tmp_path):
+    kept = tmp_path / "kept.mcap"
+    kept.write_bytes(b"an earlier recording")
+    first_part = tmp_path / "tap-0001.mcap"
+    first_part.write_bytes(b"an earlier first part")
+    for args in (["demo", "--seconds", "1", "--format", "jsonl", "--record", kept],
+                 ["live", "loop://", "--format", "jsonl", "--record", kept],
+                 ["demo", "--seconds", "1", "--format", "jsonl", "--record", tmp_path / "tap.mcap", "--rotate-mb", "1"]):
+        out = run_cli(*args, timeout=60)
+        assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+        lines = out.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].endswith("exists (use --force to overwrite)"), out.stderr
+    assert kept.read_bytes() == b"an earlier recording"
+    assert first_part.read_bytes() == b"an earlier first part"
+    assert not (tmp_path / "tap.mcap").exists()
+    # --force replaces it with the new recording
+    out = run_cli("demo", "--seconds", "1", "--format", "jsonl", "--record", kept, "--force", timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert kept.read_bytes().startswith(b"\x89MCAP0\r\n")

@@ -331,6 +331,7 @@ def test_output_file(tmp_path, bus_dump):
     out = tmp_path / "gimbal.json"
     r = run_cli("foxglove", "layout", path, "-o", out)
     assert r.returncode == 0 and r.stdout == "", r.stderr
+    assert r.stderr == f"gimbalscope: wrote the layout to {out}\n"   # it says what it wrote
     written = json.loads(out.read_text())
     check_layout(written, devices, ["AB"])
     assert written == layout_of(path)
