@@ -107,6 +107,12 @@ class GimbalscopeApp(App):
         """A filter or search running in the background: its progress ("" when none)."""
         return self.main.scan.text
 
+    @property
+    def messages(self):
+        """The feed's warnings, newest last (the status bar shows the last): as the
+        app has always offered them to whoever drives it."""
+        return self.status_bar.messages
+
     def get_default_screen(self) -> CaptureScreen:
         return self.main
 
