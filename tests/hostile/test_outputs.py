@@ -349,7 +349,9 @@ def test_non_utf8_input_and_output_names(tmp_path):
     for name in (b"out-\xff.mcap", b"out-\xff.jsonl"):
         out = os.path.join(folder, name)
         r = run_bytes("convert", src, "-o", out)
-        assert r.returncode == 0 and r.stderr == b"", r.stderr
+        # one line saying what it wrote, the name's undecodable byte shown as \xff
+        shown = os.path.join(folder, name.replace(b"\xff", b"\\xff"))
+        assert r.returncode == 0 and r.stderr.count(b"\n") == 1 and r.stderr.endswith(b" to " + shown + b"\n"), r.stderr
         assert os.listdir(folder).count(name) == 1
     decoded = run_bytes("decode", os.path.join(folder, b"out-\xff.mcap"), "--format", "jsonl")
     assert decoded.returncode == 0 and decoded.stdout == expected.stdout, decoded.stderr
