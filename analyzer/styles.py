@@ -9,20 +9,7 @@ problems are coloured by their severity (``SEVERITY_STYLE``).
 
 from __future__ import annotations
 
-from dissectors.event import (
-    ACK,
-    COMMAND,
-    NAK,
-    NIC,
-    NO_ACK,
-    NO_RESULT,
-    NOISE,
-    RATE,
-    RESULT,
-    ST_NAK,
-    ST_NIC,
-    Event,
-)
+from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RATE, RESULT, ST_NAK, ST_NIC, Event
 from dissectors.problems import ERROR, NOTE, WARNING
 
 # A finding that only informs (the device map): the doctor's third severity. The

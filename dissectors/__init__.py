@@ -3,13 +3,7 @@ command table, field decoders. Pure: no I/O anywhere in this package."""
 
 from .commands import BY_ID, COMMANDS, Command
 from .deframer import Deframer
-from .dissect import (
-           apply_command,
-           dissect_command,
-           dissect_result,
-           result_fits,
-           summarize,
-)
+from .dissect import apply_command, dissect_command, dissect_result, result_fits, summarize
 from .event import Event
 from .wire import build_frame, checksum
 

@@ -33,22 +33,10 @@ import os
 import re
 from bisect import bisect_right
 
-from .event import (
-    ACK as K_ACK,
-)
-from .event import (
-    COMMAND,
-    FRAME,
-    NOISE,
-    RESULT,
-    Event,
-)
-from .event import (
-    NAK as K_NAK,
-)
-from .event import (
-    NIC as K_NIC,
-)
+from .event import ACK as K_ACK
+from .event import COMMAND, FRAME, NOISE, RESULT, Event
+from .event import NAK as K_NAK
+from .event import NIC as K_NIC
 from .problems import CHECKSUM, LENGTH, TRUNCATED, Problem
 from .problems import NOISE as NOISE_PROBLEM
 from .wire import ACK, NAK, NIC, START, LineSettings

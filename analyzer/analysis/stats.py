@@ -18,22 +18,8 @@ from collections import Counter
 from typing import Any
 
 from dissectors.event import (
-    ACK,
-    COMMAND,
-    NAK,
-    NIC,
-    NO_ACK,
-    NO_RESULT,
-    NOISE,
-    P_CHECKSUM,
-    P_LENGTH,
-    P_NOISE,
-    PENDING,
-    RATE,
-    RESULT,
-    STATUSES,
-    Event,
-)
+    ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, PENDING, RATE, RESULT, STATUSES,
+    Event)
 
 _LOG_STEP = math.log(1.01)
 _CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))

@@ -28,15 +28,8 @@ from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
 from ..styles import SEVERITY_STYLE
 from .common import (
-    STANDARD_BAUDS,
-    UsageError,
-    add_quiet_arg,
-    add_serial_args,
-    non_negative_float,
-    options_from,
-    positive_float,
-    run_tap,
-)
+    STANDARD_BAUDS, UsageError, add_quiet_arg, add_serial_args, non_negative_float, options_from, positive_float,
+    run_tap)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

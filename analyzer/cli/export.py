@@ -31,13 +31,7 @@ from ..outfile import OutputRefused, show
 from ..runner import ERROR, WARNING, Note
 from ..writers import WRITERS, file_output, folder_output, holds_many_captures
 from . import common
-from .common import (
-    UsageError,
-    add_quiet_arg,
-    add_serial_args,
-    options_from,
-    positive_int,
-)
+from .common import UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -174,15 +174,7 @@ def channel_records(path: str) -> tuple[set[str], set[str]]:
     without one by a walk over its records and chunks (each length checked:
     analyzer/sources/mcapscan.py). Damage ends the walk through what it hit."""
     from ..sources.mcapscan import (
-        OP_CHANNEL,
-        OP_CHUNK,
-        OP_SCHEMA,
-        Damaged,
-        Walk,
-        read_chunk,
-        read_cut_chunk,
-        summary_records,
-    )
+        OP_CHANNEL, OP_CHUNK, OP_SCHEMA, Damaged, Walk, read_chunk, read_cut_chunk, summary_records)
 
     wanted = (OP_SCHEMA, OP_CHANNEL)
     schemas: set[str] = set()

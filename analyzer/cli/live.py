@@ -30,14 +30,7 @@ from ..outfile import check_output
 from ..runner import Listener, TapRunner
 from ..writers import open_format
 from ..writers.mcap import McapWriter
-from .common import (
-    UsageError,
-    add_filter_arg,
-    add_serial_args,
-    build_filter,
-    options_from,
-    positive_float,
-)
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -13,15 +13,7 @@ from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..outfile import show
 from ..writers import open_format
-from .common import (
-    UsageError,
-    add_filter_arg,
-    add_quiet_arg,
-    add_serial_args,
-    build_filter,
-    open_inputs,
-    run_tap,
-)
+from .common import UsageError, add_filter_arg, add_quiet_arg, add_serial_args, build_filter, open_inputs, run_tap
 from .live import add_foxglove_arg, add_tui_args, open_servers, wants_tui
 
 
@@ -55,9 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    from ..sources.mcapfile import (
-        McapSource,  # here: every other command starts without it
-    )
+    from ..sources.mcapfile import McapSource  # here: every other command starts without it
     from ..sources.mcapparts import McapPartsSource
 
     if not isinstance(capture.source, (McapSource, McapPartsSource)):

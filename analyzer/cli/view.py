@@ -8,13 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .common import (
-    UsageError,
-    add_filter_arg,
-    add_input_args,
-    build_filter,
-    open_inputs,
-)
+from .common import UsageError, add_filter_arg, add_input_args, build_filter, open_inputs
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -10,13 +10,7 @@ from __future__ import annotations
 
 from dissectors.event import Event
 
-from ..analysis.doctor import (
-    INFO,
-    UNTIMED_CHECK_EVERY,
-    Invocation,
-    WiringDoctor,
-    one_line,
-)
+from ..analysis.doctor import INFO, UNTIMED_CHECK_EVERY, Invocation, WiringDoctor, one_line
 from ..analysis.findings import Finding
 from ..runner import DOCTOR, Listener, Note
 

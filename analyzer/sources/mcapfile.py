@@ -55,26 +55,8 @@ from ..outfile import show
 from .base import ReadSettings, Source
 from .files import Input, open_input
 from .mcapscan import (
-    MAGIC,
-    MESSAGE_HEAD,
-    OP_CHANNEL,
-    OP_CHUNK,
-    OP_DATA_END,
-    OP_FOOTER,
-    OP_MESSAGE,
-    OP_METADATA,
-    OP_SCHEMA,
-    RECORD,
-    RECORD_HEAD,
-    Damaged,
-    Walk,
-    intact_prefix,
-    op_name,
-    parse,
-    read_chunk,
-    read_cut_chunk,
-    summary_records,
-)
+    MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA, OP_SCHEMA, RECORD,
+    RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk, summary_records)
 from .meter import READS
 
 RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}

@@ -38,9 +38,9 @@ from typing import Callable, Iterator
 
 import serial
 
-from ..errors import CaptureError
 from dissectors.wire import LineSettings
 
+from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from .base import Source
 

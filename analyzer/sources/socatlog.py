@@ -59,9 +59,9 @@ import time
 from datetime import datetime, timedelta, timezone, tzinfo
 from typing import Callable, Iterator
 
-from ..errors import CaptureError
 from dissectors.wire import LineSettings
 
+from ..errors import CaptureError
 from ..lines import LINE_A, LINE_B, Chunk
 from .base import Reader, ReadSettings, Source
 from .files import HEAD, Input
@@ -127,9 +127,7 @@ def time_zone(name: str | None) -> tzinfo | None:
     if name is None:
         return None
     try:
-        from zoneinfo import (
-            ZoneInfo,  # here: only a zone given by name needs the package
-        )
+        from zoneinfo import ZoneInfo  # here: only a zone given by name needs the package
         return ZoneInfo(name)
     except (LookupError, ValueError, OSError):   # ZoneInfoNotFoundError is a KeyError
         raise ValueError(f"unknown time zone {name!r} "

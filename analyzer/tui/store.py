@@ -29,24 +29,8 @@ from collections.abc import Iterator, Sequence
 
 from dissectors.dissect import dissect_command, dissect_result
 from dissectors.event import (
-    ACK,
-    COMMAND,
-    FRAME,
-    NAK,
-    NIC,
-    NO_ACK,
-    NO_FIELDS,
-    NO_PROBLEMS,
-    NO_RESULT,
-    NOISE,
-    OK,
-    PENDING,
-    RATE,
-    RESULT,
-    ST_NAK,
-    ST_NIC,
-    Event,
-)
+    ACK, COMMAND, FRAME, NAK, NIC, NO_ACK, NO_FIELDS, NO_PROBLEMS, NO_RESULT, NOISE, OK, PENDING, RATE, RESULT, ST_NAK,
+    ST_NIC, Event)
 
 KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE, RATE, FRAME)
 STATUSES = (None, OK, ST_NAK, ST_NIC, NO_ACK, NO_RESULT, PENDING)

@@ -26,14 +26,7 @@ from __future__ import annotations
 import re
 
 from dissectors import problems as P
-from dissectors.commands import (
-    BAUD_CODES,
-    COMMANDS,
-    DERIVED,
-    ERROR_BITS,
-    STATUS_BITS,
-    field_types,
-)
+from dissectors.commands import BAUD_CODES, COMMANDS, DERIVED, ERROR_BITS, STATUS_BITS, field_types
 from dissectors.fields import Field, Layout
 
 from ..formats import pdu

@@ -27,13 +27,7 @@ from dissectors.event import Event
 from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.transactions import TransactionRows
 from ..formats import parquet_schema as S
-from ..formats.parquet_rows import (
-    EventBatches,
-    TransactionBatches,
-    day_of,
-    findings_batch,
-    partitions,
-)
+from ..formats.parquet_rows import EventBatches, TransactionBatches, day_of, findings_batch, partitions
 from ..info import CaptureInfo
 from ..outfile import show
 from ..runner import Listener

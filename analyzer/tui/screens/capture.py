@@ -12,8 +12,9 @@ from textual.screen import Screen
 from textual.widgets import Footer
 
 from ..model import CaptureModel
-from ..widgets import (BackgroundScan, DetailTree, EventList, FilterBar, GotoBar, HexView, RecordControl,
-                       SearchBar, StatusBar, TimelineView)
+from ..widgets import (
+    BackgroundScan, DetailTree, EventList, FilterBar, GotoBar, HexView, RecordControl, SearchBar, StatusBar,
+    TimelineView)
 from ..widgets.prompt import Prompt
 
 # Filters and searches over more rows than this run in a worker thread, with
