@@ -33,12 +33,10 @@ import os
 import re
 from bisect import bisect_right
 
-from .event import ACK as K_ACK
-from .event import COMMAND, FRAME, NOISE, RESULT, Event
-from .event import NAK as K_NAK
-from .event import NIC as K_NIC
-from .problems import CHECKSUM, LENGTH, TRUNCATED, Problem
-from .problems import NOISE as NOISE_PROBLEM
+from .event import (
+    ACK as K_ACK, COMMAND, Event, FRAME, NAK as K_NAK, NIC as K_NIC, NOISE, RESULT,
+)
+from .problems import CHECKSUM, LENGTH, NOISE as NOISE_PROBLEM, TRUNCATED, Problem
 from .wire import ACK, NAK, NIC, START, LineSettings
 
 _SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}

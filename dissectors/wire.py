@@ -78,42 +78,33 @@ class LineSettings:
         self.frame_gap = 0.0
         self.changes: list = []    # the rate changes followed (``analyzer.analysis.rate.RateChange``), in order
         self._watchers: list[Callable[[LineSettings], None]] = []
-        self._set_byte_time(byte_time(baud, data_bits, parity, stop_bits))
+        self.set_byte_time(byte_time(baud, data_bits, parity, stop_bits))
 
     @classmethod
     def timed_by(cls, byte_time: float, frame_gap: float | None = None) -> "LineSettings":
         """Settings known only by their byte time (seconds per character)."""
         settings = cls(frame_gap=frame_gap)
         settings.baud = None
-        settings._set_byte_time(byte_time)
+        settings.set_byte_time(byte_time)
         return settings
-
-    def copy(self) -> "LineSettings":
-        """The same settings, for another line (no changes, no watchers)."""
-        other = LineSettings(9600, self.data_bits, self.parity, self.stop_bits, self._given_gap)
-        other.baud = self.baud
-        other._set_byte_time(self.byte_time)
-        return other
 
     def set_rate(self, baud: int, change: object = None) -> None:
         """The link's rate is ``baud`` from now on (``change``: the rate change
         followed, kept in ``changes``); watchers are told."""
         self.baud = baud
-        self._set_byte_time(byte_time(baud, self.data_bits, self.parity, self.stop_bits))
+        self.set_byte_time(byte_time(baud, self.data_bits, self.parity, self.stop_bits))
         if change is not None:
             self.changes.append(change)
         for watcher in self._watchers:
             watcher(self)
 
-    def set_byte_time(self, seconds: float) -> None:
-        """A new byte time given directly (a deframer's ``set_byte_time``)."""
-        self._set_byte_time(seconds)
-
     def watch(self, watcher: Callable[[LineSettings], None]) -> None:
         """Call ``watcher(settings)`` after every ``set_rate``."""
         self._watchers.append(watcher)
 
-    def _set_byte_time(self, seconds: float) -> None:
+    def set_byte_time(self, seconds: float) -> None:
+        """A new byte time (a rate change, or given directly: a deframer's
+        ``set_byte_time``); the frame gap follows unless it was given."""
         self.byte_time = seconds
         self.frame_gap = self._given_gap if self._given_gap is not None else default_frame_gap(seconds)
 

@@ -9,8 +9,7 @@ import sys
 
 from ..analysis.filter import FilterError, Predicate, compile_filter
 from ..analysis.pairing import Timeouts
-from ..capture import Capture, Options
-from ..capture import open as open_capture
+from ..capture import Capture, Options, open as open_capture
 from ..errors import UsageError
 from ..info import CaptureInfo
 from ..listeners import NotePrinter

@@ -22,8 +22,7 @@ from dataclasses import replace
 
 from ..analysis.doctor import INFO, WiringDoctor
 from ..analysis.findings import Finding
-from ..capture import Capture, open_live
-from ..capture import open as open_capture
+from ..capture import Capture, open as open_capture, open_live
 from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
 from ..styles import SEVERITY_STYLE

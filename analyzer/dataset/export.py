@@ -15,8 +15,7 @@ import queue
 import time
 from dataclasses import dataclass, field
 
-from ..capture import Options
-from ..capture import open as open_capture
+from ..capture import Options, open as open_capture
 from ..info import CaptureInfo
 from ..outfile import show
 from ..runner import Listener, TapRunner

@@ -21,8 +21,7 @@ from bisect import bisect_left, bisect_right
 from dissectors.event import Event
 
 from ...analysis.stats import Stats
-from ..detail import DetailNode
-from ..detail import detail as detail_tree
+from ..detail import DetailNode, detail as detail_tree
 from ..store import EventStore, EventsView
 from .devices import DeviceInfo, DeviceMap
 from .filter import FilterView
