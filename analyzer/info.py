@@ -110,7 +110,7 @@ class CaptureInfo:
 
 
 def _hostname() -> str:
-    import socket  # here: reading a capture (``analyzer.open``) needs neither module
+    import socket   # here: reading a capture (``analyzer.open``) needs neither module
     return socket.gethostname()
 
 

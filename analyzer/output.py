@@ -178,7 +178,7 @@ class SgrCodes(dict):
 
     def __init__(self, console) -> None:
         super().__init__()
-        from rich.console import COLOR_SYSTEMS  # Rich's names ("256") to its ColorSystem
+        from rich.console import COLOR_SYSTEMS   # Rich's names ("256") to its ColorSystem
         system = console.color_system
         self._system = COLOR_SYSTEMS[system] if system else None
         self._no_color = console.no_color

@@ -37,7 +37,7 @@ from dissectors import dissect_command
 from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, OK, RATE, RESULT, ST_NAK, ST_NIC, Event
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
-from ..styles import ERROR, INFO, WARNING  # the severities every view colours
+from ..styles import ERROR, INFO, WARNING   # the severities every view colours
 from .findings import (
     CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK, DEVICE_MAP, ECHO,
     FINDINGS, LINES_SWAPPED, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, WRONG_BAUD, Finding,

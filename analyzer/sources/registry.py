@@ -46,7 +46,7 @@ def _open_mcap(inputs: list[Input], settings: ReadSettings) -> Source:
     if len(inputs) == 1:
         from .mcapfile import open_mcap
         return open_mcap(inputs, settings)
-    from .mcapparts import open_mcap_parts  # the parts of one tap's recording (docs/time.md, "Parts")
+    from .mcapparts import open_mcap_parts   # the parts of one tap's recording (docs/time.md, "Parts")
     return open_mcap_parts(inputs, settings)
 
 

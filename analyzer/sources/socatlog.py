@@ -127,7 +127,7 @@ def time_zone(name: str | None) -> tzinfo | None:
     if name is None:
         return None
     try:
-        from zoneinfo import ZoneInfo  # here: only a zone given by name needs the package
+        from zoneinfo import ZoneInfo   # here: only a zone given by name needs the package
         return ZoneInfo(name)
     except (LookupError, ValueError, OSError):   # ZoneInfoNotFoundError is a KeyError
         raise ValueError(f"unknown time zone {name!r} "
