@@ -18,7 +18,6 @@ before the tap starts too.
 from __future__ import annotations
 
 import argparse
-import os
 import re
 import signal
 import sys
@@ -30,6 +29,7 @@ from ..outfile import check_output
 from ..runner import Listener, TapRunner
 from ..writers import open_format
 from ..writers.mcap import McapWriter
+from ..writers.mcap_recorder import part_path
 from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float
 
 
@@ -131,19 +131,13 @@ def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     try:
         # a recording is never replaced silently (--force), and never written over a
         # port, into a folder or a missing folder; in parts, the first part's name counts
-        first = first_part(record) if mb or minutes else record
+        first = part_path(record, 1) if mb or minutes else record
         check_output(first, info.inputs if info.live else (), force=getattr(args, "force", False), role="port")
         return McapWriter(record, info, live=True, rotate_bytes=int(mb * 1e6) if mb else None,
                           rotate_seconds=minutes * 60 if minutes else None)
     except BaseException:
         capture.source.close()
         raise
-
-
-def first_part(record: str) -> str:
-    """The file a recording in parts starts with (``tap.mcap``: ``tap-0001.mcap``)."""
-    base, ext = os.path.splitext(record)
-    return f"{base}-0001{ext}"
 
 
 def wants_tui(args: argparse.Namespace) -> bool:

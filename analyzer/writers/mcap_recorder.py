@@ -390,6 +390,13 @@ def encodable(metadata: dict[str, str]) -> dict[str, str]:
     return {show(k): show(v) for k, v in metadata.items()}
 
 
+def part_path(path: str, part: int) -> str:
+    """The file of part ``part`` (from 1) of a recording in parts named ``path``:
+    ``tap.mcap`` → ``tap-0001.mcap`` (``tap`` → ``tap-0001.mcap``)."""
+    base, ext = os.path.splitext(path)
+    return f"{base}-{part:04d}{ext or '.mcap'}"
+
+
 class RotatingRecorder:
     """Long unattended captures: a new numbered file (``name-0001.mcap``, …) when
     the current one holds ``max_bytes`` of messages (counted before compression:
@@ -401,8 +408,7 @@ class RotatingRecorder:
     def __init__(self, path: str, *, max_bytes: int | None = None, max_seconds: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
                  on_error: Callable[[str], None] | None = None, **kw) -> None:
-        self.base, ext = os.path.splitext(path)
-        self.ext = ext or ".mcap"
+        self.path = path
         self.max_bytes, self.max_seconds, self.clock = max_bytes, max_seconds, clock
         self.on_error = on_error
         self.failed: str | None = None
@@ -415,7 +421,7 @@ class RotatingRecorder:
 
     def _open(self) -> None:
         self.part += 1
-        path = f"{self.base}-{self.part:04d}{self.ext}"
+        path = part_path(self.path, self.part)
         kw = dict(self.kw)
         kw["metadata"] = {**kw.get("metadata", {}), "part": str(self.part)}
         try:

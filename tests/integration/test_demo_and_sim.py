@@ -152,15 +152,18 @@ def test_record_never_replaces_a_recording_silently(tmp_path):
     kept.write_bytes(b"an earlier recording")
     first_part = tmp_path / "tap-0001.mcap"
     first_part.write_bytes(b"an earlier first part")
+    bare_part = tmp_path / "bare-0001.mcap"   # a name without a suffix: its parts are .mcap
+    bare_part.write_bytes(b"an earlier first part")
     for args in (["demo", "--seconds", "1", "--format", "jsonl", "--record", kept],
                  ["live", "loop://", "--format", "jsonl", "--record", kept],
-                 ["demo", "--seconds", "1", "--format", "jsonl", "--record", tmp_path / "tap.mcap", "--rotate-mb", "1"]):
+                 ["demo", "--seconds", "1", "--format", "jsonl", "--record", tmp_path / "tap.mcap", "--rotate-mb", "1"],
+                 ["demo", "--seconds", "1", "--format", "jsonl", "--record", tmp_path / "bare", "--rotate-minutes", "1"]):
         out = run_cli(*args, timeout=60)
         assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
         lines = out.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].endswith("exists (use --force to overwrite)"), out.stderr
     assert kept.read_bytes() == b"an earlier recording"
-    assert first_part.read_bytes() == b"an earlier first part"
+    assert first_part.read_bytes() == b"an earlier first part" and bare_part.read_bytes() == b"an earlier first part"
     assert not (tmp_path / "tap.mcap").exists()
     # --force replaces it with the new recording
     out = run_cli("demo", "--seconds", "1", "--format", "jsonl", "--record", kept, "--force", timeout=60)
