@@ -38,6 +38,7 @@ from ..analysis.echo import EchoStripper
 from ..analysis.pairing import Pairer
 from ..analysis.rate import RateChange
 from ..analysis.transactions import OpenTransaction, TransactionRows
+from ..extras import missing_extra
 from ..lines import LINE_AB, Chunk
 from ..sources import Source
 from .collector import fewer_collections
@@ -172,16 +173,23 @@ class Capture:
 
     def to_arrow(self):
         """The capture's events (those the filter keeps) as a pyarrow Table, the
-        columns of the dataset's ``events`` table (docs/dataset.md)."""
-        from ..formats.parquet_rows import events_table
+        columns of the dataset's ``events`` table (docs/dataset.md). Needs the
+        fleet extra (pyarrow)."""
+        try:
+            from ..formats.parquet_rows import events_table
+        except ImportError as e:
+            hint = missing_extra(e, "to_arrow()")
+            if hint is None:
+                raise
+            raise ImportError(hint, name=e.name) from None
         return events_table(self, keep=self.keep)
 
     def to_pandas(self):
-        """``to_arrow()`` as a pandas DataFrame (needs pandas: pip install 'gimbalscope[pandas]')."""
+        """``to_arrow()`` as a pandas DataFrame (needs the pandas extra)."""
         try:
             import pandas  # noqa: F401
-        except ImportError:
-            raise ImportError("to_pandas() needs pandas: pip install 'gimbalscope[pandas]'") from None
+        except ImportError as e:
+            raise ImportError(missing_extra(e, "to_pandas()") or str(e), name=e.name) from None
         return self.to_arrow().to_pandas()
 
     def batches(self, on_chunk: Callable[[Chunk, int], None] | None = None) -> Iterator[list[Event]]:

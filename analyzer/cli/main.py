@@ -11,6 +11,7 @@ import signal
 import sys
 
 from ..errors import DatasetError
+from ..extras import missing_extra
 from ..outfile import OutputError, show
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
@@ -115,6 +116,13 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_OUTPUT
     except KeyboardInterrupt:
         return 128 + signal.SIGINT
+    except ImportError as e:
+        # an optional part of the install (the fleet extra) that is not there
+        hint = missing_extra(e, args.command)
+        if hint is None:
+            raise
+        error(hint)
+        return EXIT_INPUT
 
 
 if __name__ == "__main__":

@@ -1,0 +1,96 @@
+"""The install's parts (pyproject.toml's extras, docs/install.md): the base install
+taps, decodes, records and converts without the fleet stack; the fleet commands
+without it stop with one line naming the extra.
+
+"Not installed" is made real for the interpreter under test: ``sys.modules[name] =
+None`` makes ``import name`` fail and ``importlib.util.find_spec(name)`` find
+nothing, as when the package is absent."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import tomllib
+
+import pytest
+
+from tests.conftest import BUS, CTL, DEV, ROOT, SOCAT_LOG
+
+FLEET = ("pyarrow", "duckdb", "matplotlib")
+HINT = "pip install 'gimbalscope[fleet]'"
+
+
+def without(modules: tuple[str, ...], *args: str) -> subprocess.CompletedProcess:
+    """``gimbalscope ARGS`` in an interpreter where ``modules`` are not installed."""
+    code = ("import sys\n"
+            f"for name in {modules!r}: sys.modules[name] = None\n"
+            "from analyzer.cli.main import main\n"
+            "sys.exit(main(sys.argv[1:]))\n")
+    return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=ROOT,
+                          timeout=120)
+
+
+def project() -> dict:
+    with open(os.path.join(ROOT, "pyproject.toml"), "rb") as f:
+        return tomllib.load(f)["project"]
+
+
+def test_the_fleet_stack_is_an_extra_and_the_tests_pull_in_every_extra():
+    p = project()
+    base = " ".join(p["dependencies"])
+    extras = p["optional-dependencies"]
+    for name in FLEET:
+        assert name not in base
+        assert any(spec.startswith(name + ">=") for spec in extras["fleet"])
+    pulled = {e for spec in extras["test"] if spec.startswith("gimbalscope[")
+              for e in spec[len("gimbalscope["):-1].split(",")}
+    assert pulled == set(extras) - {"test"}
+
+
+@pytest.mark.parametrize("args", [
+    ("decode", BUS),
+    ("stats", SOCAT_LOG),
+    ("doctor", CTL, DEV),
+])
+def test_the_base_install_decodes_without_the_fleet_stack(args):
+    r = without(FLEET, *args)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip()
+    assert "fleet" not in r.stderr
+
+
+def test_the_base_install_converts_to_every_file_format_without_the_fleet_stack(tmp_path):
+    for suffix in (".mcap", ".jsonl", ".pcapng"):
+        out = tmp_path / f"out{suffix}"
+        r = without(FLEET, "convert", BUS, "-o", str(out))
+        assert r.returncode == 0, r.stderr
+        assert out.stat().st_size > 0
+
+
+@pytest.mark.parametrize("missing, args, needed", [
+    (("pyarrow",), ("export", SOCAT_LOG, "-o", "{tmp}/fleet"), "pyarrow"),
+    (FLEET, ("query", "{tmp}/fleet", "SELECT 1"), "pyarrow"),
+    (("duckdb",), ("query", "{tmp}/fleet", "SELECT 1"), "duckdb"),
+    (("matplotlib",), ("report", "{tmp}/fleet", "--html", "{tmp}/r.html"), "matplotlib"),
+])
+def test_a_fleet_command_without_the_extra_says_what_to_install(tmp_path, missing, args, needed):
+    # a real dataset first, so the command gets as far as needing the missing package
+    made = without((), "export", SOCAT_LOG, "-o", str(tmp_path / "fleet"))
+    assert made.returncode == 0, made.stderr
+    r = without(missing, *(a.format(tmp=tmp_path) for a in args))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith(f"gimbalscope: error: {args[0]} needs {needed}, which is not installed")
+    assert HINT in lines[0] and "Traceback" not in r.stderr
+    assert not (tmp_path / "r.html").exists()
+
+
+def test_to_arrow_without_the_extra_names_it():
+    code = ("import sys\nsys.modules['pyarrow'] = None\nimport analyzer\n"
+            f"analyzer.open({SOCAT_LOG!r}).to_arrow()\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=60)
+    assert r.returncode == 1
+    assert r.stderr.strip().splitlines()[-1].startswith("ImportError: to_arrow() needs pyarrow")
+    assert HINT in r.stderr
