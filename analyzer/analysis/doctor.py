@@ -33,20 +33,18 @@ from collections import Counter, deque
 from dataclasses import dataclass
 from statistics import median
 
-from dissectors import dissect_command
-from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, OK, RATE, RESULT, ST_NAK, ST_NIC, Event
+from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RATE, RESULT, ST_NAK, ST_NIC, Event
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
 from ..styles import ERROR, INFO, WARNING   # the severities every view colours
+from ..words import counted
 from .findings import (
     CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK, DEVICE_MAP, ECHO,
-    FINDINGS, LINES_SWAPPED, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, WRONG_BAUD, Finding,
-    unexplained)
+    FINDINGS, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, Finding, unexplained)
+from .signs import MAX_EVIDENCE as _MAX_EVIDENCE, LineTally, Tally as _Tally, WiringSigns
 from .stats import Latency
 
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
-_ANSWER_BYTES = {0x06, 0x15, 0x3F}
-_MAX_EVIDENCE = 20
 # Without time (raw dumps) a failed command the controller has not sent again
 # within this many later commands was never retried (with time: 3 ACK timeouts).
 RETRY_WINDOW = 8
@@ -84,8 +82,13 @@ class Invocation:
                 fixes.append("press x here to swap them now")
             return "; ".join(fixes)
         if len(ins) == 2:
-            return (f"give the dumps the other way round: gimbalscope decode {ins[1]} {ins[0]} "
-                    f"(or gimbalscope decode {ins[0]} {ins[1]} --swap-lines)")
+            if self.command == "export":   # one input of two files: FILE+FILE
+                return f"export them the other way round: gimbalscope export {ins[1]}+{ins[0]} (or add --swap-lines)"
+            # the command that read them, where it takes the same inputs (the doctor's fix is to decode)
+            cmd = self.command if self.command in ("stats", "convert") else "decode"
+            out = " -o OUT" if cmd == "convert" else ""
+            return (f"give the dumps the other way round: gimbalscope {cmd} {ins[1]} {ins[0]}{out} "
+                    f"(or gimbalscope {cmd} {ins[0]} {ins[1]}{out} --swap-lines)")
         if len(ins) == 1:
             return f"read its lines the other way round: gimbalscope decode {ins[0]} --swap-lines"
         return "read the lines the other way round (--swap-lines; Options(swap_lines=True) in the API)"
@@ -103,37 +106,6 @@ class Invocation:
                 "check the data bits, parity and stop bits too")
 
 
-class _Tally:
-    """A count and some evidence (the first and the latest event numbers): memory
-    stays flat however long the capture, and re-checking costs the same."""
-
-    __slots__ = ("n", "first", "last")
-
-    def __init__(self) -> None:
-        self.n = 0
-        self.first: list[int] = []
-        self.last: deque[int] = deque(maxlen=_MAX_EVIDENCE)
-
-    def add(self, number: int) -> None:
-        self.n += 1
-        if len(self.first) < _MAX_EVIDENCE:
-            self.first.append(number)
-        self.last.append(number)
-
-    def __len__(self) -> int:
-        return self.n
-
-    def __iter__(self):
-        return iter(self.evidence())
-
-    def evidence(self) -> list[int]:
-        return sorted(set(self.first[:_MAX_EVIDENCE // 2]) | set(list(self.last)[-_MAX_EVIDENCE // 2:]))
-
-
-def _n(count: int, noun: str) -> str:
-    return f"{count} {noun}{'' if count == 1 else 's'}"
-
-
 def _densest(times: list[float], window: float) -> int:
     """The most of ``times`` (ascending) within any ``window`` seconds: one pass."""
     best = lo = 0
@@ -144,45 +116,7 @@ def _densest(times: list[float], window: float) -> int:
     return best
 
 
-class _Line:
-    """Per line: bytes, and what they turned into."""
-
-    def __init__(self) -> None:
-        self.bytes = 0
-        self.good_bytes = 0        # in frames whose checksum holds, and answer bytes where they belong
-        self.noise_bytes = 0
-        self.frames = 0
-        self.bad_frames = 0
-        self.noise_runs = 0
-        self.errors = _Tally()     # checksum errors and noise runs: count and evidence
-        self.per_second: deque[list[int]] = deque()   # [second, errors] of the last minute (timed)
-        self.by_length: Counter[tuple[bool, bool]] = Counter()   # (long frame, bad) -> count
-
-    @property
-    def error_count(self) -> int:
-        return self.errors.n
-
-    def recent_errors(self, since: float) -> int:
-        """Errors from capture time ``since`` on (the last minute is kept)."""
-        return sum(n for sec, n in self.per_second if sec + 1 > since)
-
-
-def _error(line: _Line, t: float | None, number: int) -> None:
-    line.errors.add(number)
-    if t is None:
-        return                      # no time, no trend
-    # one bucket per second of capture time: a flood of errors costs no memory
-    sec = int(t)
-    buckets = line.per_second
-    if buckets and buckets[-1][0] == sec:
-        buckets[-1][1] += 1
-    else:
-        buckets.append([sec, 1])
-    while buckets and buckets[0][0] < sec - 61:
-        buckets.popleft()
-
-
-def _length_note(line: _Line) -> tuple[str, str]:
+def _length_note(line: LineTally) -> tuple[str, str]:
     """Do long frames fail more often than short ones (a clock or baud mismatch)?
     The note on it, and the fix to try first."""
     noisy = FINDINGS[NOISY_LINK]
@@ -218,10 +152,11 @@ class WiringDoctor:
 
     def __init__(self, lines: tuple[str, ...] = ("A", "B"), ack_timeout: float = 0.5,
                  invocation: Invocation | None = None) -> None:
-        self.two_lines = tuple(lines) == ("A", "B")
         self.ack_timeout = ack_timeout
         self.invocation = invocation or Invocation()
-        self.lines = {line: _Line() for line in lines}
+        self.signs = WiringSigns(lines)   # per-line tallies, and the signs of swapped lines
+        self.two_lines = self.signs.two_lines
+        self.lines = self.signs.lines
         self.devices: dict[str, _Device] = {}
         self.other_addresses = _Tally()   # commands to addresses beyond the first _MAX_DEVICES
         self.events = 0
@@ -229,10 +164,6 @@ class WiringDoctor:
         self.answers = 0          # answers paired with a command
         self.first_t: float | None = None
         self.last_t: float | None = None
-        # lines swapped
-        self.answer_bytes_on_a = _Tally()
-        self.commands_on_b = _Tally()
-        self.ok_transactions = 0
         # echo
         self.echoes = _Tally()
         # controller
@@ -262,34 +193,13 @@ class WiringDoctor:
             if self.first_t is None:
                 self.first_t = t
             self.last_t = ev.t_end if ev.t_end is not None else t
-        line = self.lines.get(ev.line)
-        if line is None:
-            line = self.lines[ev.line] = _Line()
-        n = len(ev.raw)
-        line.bytes += n
+        misplaced = self.signs.add(ev)
         kind = ev.kind
         if kind == RATE:
             self._rate(ev)
             return
-        if kind == NOISE:
-            line.noise_bytes += n
-            line.noise_runs += 1
-            _error(line, t, ev.number)
-            if ev.line == "A" and all(b in _ANSWER_BYTES for b in ev.raw):
-                self.answer_bytes_on_a.add(ev.number)
+        if kind == NOISE or misplaced:
             return
-        if kind in (COMMAND, RESULT) or ev.checksum_ok is not None:
-            line.frames += 1
-            long = len(ev.payload or b"") >= 8
-            bad = ev.checksum_ok is False
-            line.by_length[(long, bad)] += 1
-            if bad:
-                line.bad_frames += 1
-                _error(line, t, ev.number)
-            else:
-                line.good_bytes += n
-        else:
-            line.good_bytes += n      # ACK/NAK/NIC where they belong
         if kind == COMMAND:
             self._command(ev)
         elif kind in (ACK, NAK, NIC, RESULT):
@@ -327,8 +237,6 @@ class WiringDoctor:
         self._prev_cmd = ev
         self._prev_failed = ev if ev.status in (ST_NAK, NO_ACK) else None
         self._patience(ev, prev)
-        if ev.status in (OK, ST_NIC, NO_RESULT):
-            self.ok_transactions += 1
         if ev.status == ST_NAK:
             self.nak_count += 1
             if ev.t is not None:     # bursts need time
@@ -396,10 +304,6 @@ class WiringDoctor:
         self.never_retried.add(num)
 
     def _answer(self, ev: Event) -> None:
-        if ev.kind == RESULT and ev.request is None and ev.line == "B" and ev.payload is not None \
-                and dissect_command(ev.payload).entry is not None:
-            self.commands_on_b.add(ev.number)    # a command frame travelling device→controller
-            return
         txn = ev.transaction   # the command's record: its device is the answer's
         if txn is None:
             return
@@ -425,7 +329,7 @@ class WiringDoctor:
     # --------------------------------------------------------------- findings
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
-        rules = (self._swapped, self._garbled, self._echo, self._silent_after_rate, self._silent, self._noisy,
+        rules = (self._wiring, self._echo, self._silent_after_rate, self._silent, self._noisy,
                  self._controller, self._slow, self._device_map)
         # root causes first: what they explain is not raised with them (the table's ``hides``)
         out = unexplained(rule() for rule in rules)
@@ -450,28 +354,9 @@ class WiringDoctor:
             return 0.0
         return max(0.0, self.last_t - self.first_t)
 
-    def _swapped(self) -> list[Finding]:
-        if not self.two_lines:
-            return []
-        a, b = len(self.answer_bytes_on_a), len(self.commands_on_b)
-        if a + b < 6 or a + b <= 2 * self.ok_transactions:
-            return []
-        evidence = self.answer_bytes_on_a.evidence()[:10] + self.commands_on_b.evidence()[:10]
-        return [FINDINGS[LINES_SWAPPED].found("A,B", evidence, answer_bytes=a, command_frames=b,
-                                              answered=self.ok_transactions, swap_fix=self.invocation.swap_fix())]
-
-    def _garbled(self) -> list[Finding]:
-        out = []
-        for name, line in self.lines.items():
-            if line.bytes < 100:
-                continue
-            share = line.good_bytes / line.bytes
-            if share >= 0.3:
-                continue
-            out.append(FINDINGS[WRONG_BAUD].found(
-                name, line.errors.evidence(), line=name, bytes=line.bytes, share=share, noise_bytes=line.noise_bytes,
-                bad_frames=line.bad_frames, baud_fix=self.invocation.baud_fix()))
-        return out
+    def _wiring(self) -> list[Finding]:
+        """Swapped lines, a garbled line, nothing of this protocol (analysis/signs.py)."""
+        return self.signs.findings(self.invocation.swap_fix(), self.invocation.baud_fix())
 
     def _echo(self) -> list[Finding]:
         if len(self.echoes) < 3:
@@ -527,7 +412,7 @@ class WiringDoctor:
         burst = self._nak_burst()
         return out + ([burst] if burst is not None else [])
 
-    def _noisy_line(self, name: str, line: _Line) -> Finding | None:
+    def _noisy_line(self, name: str, line: LineTally) -> Finding | None:
         errors = line.error_count
         if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
             return None   # too little to say; garbled lines are wrong_baud
@@ -550,10 +435,10 @@ class WiringDoctor:
         if self.timed:
             span_words = noisy.phrase("timed", seconds=self.span, per_min=per_min)
         else:
-            span_words = noisy.phrase("untimed", events=_n(self.events, "event"))
+            span_words = noisy.phrase("untimed", events=counted(self.events, "event"))
         return noisy.found(name, list(line.errors.last), line=name,
-                           checksum_errors=_n(line.bad_frames, "checksum error"),
-                           noise_runs=_n(line.noise_runs, "noise run"), span=span_words, trend=trend,
+                           checksum_errors=counted(line.bad_frames, "checksum error"),
+                           noise_runs=counted(line.noise_runs, "noise run"), span=span_words, trend=trend,
                            length=length, check=check)
 
     def _nak_burst(self) -> Finding | None:
@@ -640,7 +525,7 @@ class WiringDoctor:
         if self.other_addresses:
             # garbled input names many addresses: past the first ones, only counted
             past = kind.phrase("past", limit=_MAX_DEVICES)
-            parts.append(kind.phrase("untracked", commands=_n(len(self.other_addresses), "command")))
+            parts.append(kind.phrase("untracked", commands=counted(len(self.other_addresses), "command")))
         return [kind.found("map", [], devices=len(self.devices), past=past, per_device="\n".join(parts))]
 
 

@@ -34,6 +34,7 @@ from ..styles import ERROR, INFO, WARNING   # the severities every view colours
 # ------------------------------------------------------------------ ids
 LINES_SWAPPED = "lines_swapped"
 WRONG_BAUD = "wrong_baud"
+NOT_THIS_PROTOCOL = "not_this_protocol"
 DEAD_LINK = "dead_link"
 SILENT_AFTER_RATE = "silent_after_rate"
 ECHO = "echo"
@@ -99,12 +100,28 @@ class FindingKind:
 
     def found(self, subject: str, evidence: list[int], **values) -> Finding:
         """The finding, its templates filled with what the rule measured."""
+        values = _worded(values)
         return Finding(self.id, self.severity, self.title.format(**values), self.detail.format(**values),
                        self.fix.format(**values), evidence, subject)
 
     def phrase(self, name: str, **values) -> str:
         """One of the entry's phrases, filled."""
-        return self.phrases[name].format(**values)
+        return self.phrases[name].format(**_worded(values))
+
+
+class _Count(int):
+    """A count in a template: thousands separated (``151,344 bytes``) as every
+    message words counts; a format spec in the template still applies."""
+
+    def __format__(self, spec: str) -> str:
+        return format(int(self), spec or ",")
+
+
+PLAIN_NUMBERS = {"baud"}   # line rates are written as the spec writes them: 115200
+
+
+def _worded(values: dict) -> dict:
+    return {k: _Count(v) if type(v) is int and k not in PLAIN_NUMBERS else v for k, v in values.items()}
 
 
 TABLE: list[FindingKind] = []
@@ -137,6 +154,14 @@ _kind(WRONG_BAUD, ERROR,
       "{bad_frames} frames with bad checksums",
       "{baud_fix}",           # Invocation.baud_fix
       hides=_WIRE_CONSEQUENCES)
+_kind(NOT_THIS_PROTOCOL, ERROR,
+      "bytes on every line and under 5% of them decode: not a tap of these gimbals' lines (or every line read "
+      "at the wrong rate)",
+      "almost nothing decodes: not traffic of this protocol, or read at the wrong rate",
+      "{bytes} bytes, {share:.0%} in valid frames or answers",
+      "check the input is a tap of the gimbals' serial lines (a raw dump, socat log or recording); if it is, "
+      "{baud_fix}",
+      hides=(WRONG_BAUD, LINES_SWAPPED, *_WIRE_CONSEQUENCES))
 _kind(DEAD_LINK, ERROR,
       "commands, and no device answers at all (line B silent, or garbled)",
       "no device answers at all",

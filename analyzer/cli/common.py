@@ -13,6 +13,7 @@ from ..capture import Capture, Options, open as open_capture
 from ..errors import UsageError
 from ..info import CaptureInfo
 from ..listeners import NotePrinter
+from ..listeners.wiring_check import WiringCheck
 from ..runner import Listener, TapRunner
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
@@ -213,13 +214,17 @@ def open_inputs(args: argparse.Namespace) -> Capture:
 
 def run_tap(capture: Capture, command: str, *listeners: Listener, info: CaptureInfo | None = None,
             notes: bool = True, findings: bool = True, say_empty: bool = True,
-            progress: bool = False, streams_stdout: bool = False) -> TapRunner:
+            progress: bool = False, streams_stdout: bool = False, check: bool = False) -> TapRunner:
     """Run ``capture`` to its end through ``listeners``, the capture's warnings
     printed on standard error (``notes``; none with -q), with the doctor's findings
     among them (``findings``); an empty capture is said (``say_empty``). With
     ``progress``, a bar of the bytes read shows on a terminal when the work is
     long (analyzer/listeners/progress.py); ``streams_stdout``: the command prints as it
-    goes, so no bar when that is to a terminal."""
+    goes, so no bar when that is to a terminal. ``check``: say at the end what the
+    wiring signs show at error level (analyzer/listeners/wiring_check.py)."""
+    if check:
+        # first: its warnings are posted as it stops, before the writers close
+        listeners = (WiringCheck(), *listeners)
     if progress:
         listeners = (progress_listener(streams_stdout), *listeners)
     if notes:

@@ -23,10 +23,10 @@ from .common import add_input_args, open_inputs, run_tap
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("convert", help="convert captures to an MCAP recording or JSON Lines",
+    p = sub.add_parser("convert", help="convert a capture to MCAP, JSON Lines or pcapng (" + ", ".join(WRITERS) + ")",
                        description="Convert raw dumps, a socat log or a recording to MCAP (re-dissectable, "
-                                   "Foxglove-readable) or to JSON Lines; the output's suffix chooses: "
-                                   + ", ".join(WRITERS) + ".")
+                                   "Foxglove-readable), JSON Lines or pcapng (Wireshark); the output's suffix "
+                                   "chooses: " + ", ".join(WRITERS) + ".")
     add_input_args(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT" + "|OUT".join(WRITERS))
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     capture = open_inputs(args)
     info = CaptureInfo.of(capture, command="convert", site=args.site)
     with open_writer(args.output, info) as writer:   # the file takes its name only if the run ends well
-        run_tap(capture, "convert", writer, info=info, progress=True)
+        run_tap(capture, "convert", writer, info=info, progress=True, check=True)
     # said as export, report and recover say what they wrote (standard output may be piped on)
     print(f"gimbalscope: {writer.summary()}", file=sys.stderr)
     return 0

@@ -34,5 +34,6 @@ def run(args: argparse.Namespace) -> int:
     options = {"color": COLOR[args.color]} if args.format == "text" else {}
     writer = open_format(args.format, info, **options)
     # no bar when the lines go to the terminal: they show the progress themselves
-    run_tap(capture, "decode", EventPrinter(writer, keep), info=info, progress=True, streams_stdout=True)
+    run_tap(capture, "decode", EventPrinter(writer, keep), info=info, progress=True, streams_stdout=True,
+            check=True)
     return 0

@@ -7,6 +7,11 @@ printed as they appear).
 
 ``--scan-baud PORT…`` listens (never transmits) at each standard rate of §1.5.1
 in turn and says which one decodes cleanly.
+
+The exit status is for scripts and CI checks (docs/doctor.md, "Exit status"): 0 when
+nothing is found above info, 1 for warnings, 3 for errors; 2 stays a usage or input
+error, as for every command. ``--scan-baud``: 0 when one rate decodes cleanly, 1 when
+the scan cannot tell.
 """
 
 from __future__ import annotations
@@ -25,7 +30,7 @@ from ..analysis.findings import Finding
 from ..capture import Capture, open as open_capture, open_live
 from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
-from ..styles import SEVERITY_STYLE
+from ..styles import ERROR, SEVERITY_STYLE, WARNING
 from .common import (
     STANDARD_BAUDS, UsageError, add_quiet_arg, add_serial_args, non_negative_float, options_from, positive_float,
     run_tap)
@@ -47,6 +52,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dwell", type=positive_float, default=2.0, metavar="S",
                    help="with --scan-baud: seconds at each rate (default 2)")
     p.set_defaults(run=run)
+
+
+# the exit status by the worst severity found (2 is taken: usage and input errors)
+EXIT_BY_SEVERITY = {INFO: 0, WARNING: 1, ERROR: 3}
+SCAN_FOUND, SCAN_UNSURE = 0, 1
+
+
+def exit_status(findings: list[Finding]) -> int:
+    return max((EXIT_BY_SEVERITY[f.severity] for f in findings), default=0)
 
 
 def is_port(arg: str) -> bool:
@@ -117,9 +131,9 @@ def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
                           "findings": [f.to_dict() | {"after": _seconds_in(f, doctor),
                                                       "after_events": f.first_seen_event} for f in findings]},
                          indent=2, ensure_ascii=False))
-        return 0
+        return exit_status(findings)
     report(findings, doctor, events)
-    return 0
+    return exit_status(findings)
 
 
 def _seconds_in(f: Finding, doctor: WiringDoctor) -> float | None:
@@ -185,16 +199,45 @@ def scan_baud(ports: list[str], options, args: argparse.Namespace) -> int:
         if args.format == "text":
             print(f"{rate:>7} baud: {total:6d} bytes, {good / total if total else 0:5.0%} decode, "
                   f"{frames} good frames", flush=True)
-    heard = [r for r in rows if r["bytes"]]
-    best = max(heard, key=lambda r: (r["decoded"], r["good_frames"])) if heard else None
-    clean = best is not None and best["decoded"] >= 0.9 and best["good_frames"] >= 3
+    verdict, best = scan_verdict(rows)
     if args.format == "json":
-        print(json.dumps({"ports": ports, "rates": rows, "best": best["baud"] if clean else None}, indent=2))
-    elif not heard:
-        print("nothing heard at any rate: is anything talking on the line (and the tap on the right pins)?")
-    elif clean:
-        print(f"the line runs at {best['baud']} baud ({best['decoded']:.0%} of bytes decode); "
-              f"use --baud {best['baud']}")
+        print(json.dumps({"ports": ports, "rates": rows, "best": best, "verdict": verdict}, indent=2))
     else:
-        print("no rate decodes cleanly: check data bits, parity and stop bits, then the wiring")
-    return 0
+        print(scan_words(verdict, best, rows))
+    return SCAN_FOUND if best is not None else SCAN_UNSURE
+
+
+def _clean(row: dict) -> bool:
+    return row["decoded"] >= 0.9 and row["good_frames"] >= 3
+
+
+def scan_verdict(rows: list[dict]) -> tuple[str, int | None]:
+    """What the scan concludes: ``found`` (and the rate), ``silent``, ``unclean``,
+    or ``undecided`` when several rates decode cleanly: a port that does not apply
+    the rate (a pseudo-terminal, a network port, an adapter passing bytes through)
+    decodes at every rate, and nothing tells the line's own."""
+    heard = [r for r in rows if r["bytes"]]
+    if not heard:
+        return "silent", None
+    clean = [r for r in heard if _clean(r)]
+    if not clean:
+        return "unclean", None
+    if len(clean) > 1:
+        return "undecided", None
+    return "found", clean[0]["baud"]
+
+
+def scan_words(verdict: str, best: int | None, rows: list[dict]) -> str:
+    if verdict == "found":
+        row = next(r for r in rows if r["baud"] == best)
+        return f"the line runs at {best} baud ({row['decoded']:.0%} of bytes decode); use --baud {best}"
+    if verdict == "silent":
+        return "nothing heard at any rate: is anything talking on the line (and the tap on the right pins)?"
+    if verdict == "unclean":
+        return "no rate decodes cleanly: check data bits, parity and stop bits, then the wiring"
+    clean = [str(r["baud"]) for r in rows if r["bytes"] and _clean(r)]
+    every = len(clean) == sum(1 for r in rows if r["bytes"])
+    which = "every rate decodes" if every else f"{len(clean)} rates decode ({', '.join(clean)})"
+    return (f"cannot tell the rate: {which} equally well, so this port does not apply the rate "
+            f"(a pseudo-terminal, a network port, or an adapter that passes bytes through); "
+            f"read the rate off the controller's settings")

@@ -50,6 +50,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N",
                    help="captures exported at once, each in a process of its own (default: %(default)s, "
                         "the number of cores)")
+    p.add_argument("--separate", action="store_true",
+                   help="the inputs are separate captures, even where two raw dumps look like one capture's "
+                        "two lines (which export otherwise refuses: join them with '+')")
     p.add_argument("--site", metavar="NAME",
                    help="the site column of every row (default: the site a recording names, else empty)")
     add_quiet_arg(p)
@@ -76,6 +79,11 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{show(text)}: export reads capture files (standard input is for decode, stats "
                              "and convert)")
         jobs.append(Job(i, paths, root, options, site=args.site))
+    if not args.separate:
+        from ..dataset.lines_apart import lines_of_one_capture
+        joined = lines_of_one_capture([job.paths for job in jobs], options)
+        if joined is not None:
+            raise UsageError(joined)
     if to_file:
         return run_to_file(args, jobs)
     try:

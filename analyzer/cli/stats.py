@@ -26,7 +26,7 @@ def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
     counter = StatsListener(keep)
-    run_tap(capture, "stats", counter, progress=True)
+    run_tap(capture, "stats", counter, progress=True, check=True)
     data = counter.stats.to_dict()
     if args.format == "json":
         sys.stdout.buffer.write(dumps(data) + b"\n")

@@ -23,6 +23,7 @@ from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from .base import Reader, ReadSettings, Source
 from .files import BLOCK, Input
+from .foreign import foreign_format
 
 
 class RawDumpSource(Source):
@@ -41,6 +42,10 @@ class RawDumpSource(Source):
         for i in self.inputs:
             self.on_close(i.close)
         self.start_time, self.time_origin = _start(self.inputs, settings)
+        for i in self.inputs:
+            what = foreign_format(i.head)
+            if what is not None:
+                self.warn_later(f"{i.name}: starts like {what}, not a serial capture; decoded as raw bytes all the same")
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         inp = self.inputs[self.lines.index(line)]

@@ -89,8 +89,15 @@ def holds_many_captures(path: str) -> bool:
 
 
 def folder_output(path: str) -> str:
-    """``path`` as the folder of a dataset (``FOLDER_WRITER``): refused when it is a file."""
+    """``path`` as the folder of a dataset (``FOLDER_WRITER``): refused when it is a
+    file, or when a new folder's name ends in a file suffix (``-o out.txt`` meant a
+    file, and a folder of that name would only puzzle); an existing folder is taken
+    as it is named."""
+    many = ", ".join(s for s in WRITERS if holds_many_captures(s))
     if os.path.exists(path) and not os.path.isdir(path):
-        raise OutputRefused(f"{show(path)}: is a file; export writes a dataset folder or a "
-                            f"{', '.join(s for s in WRITERS if holds_many_captures(s))} file")
+        raise OutputRefused(f"{show(path)}: is a file; export writes a dataset folder or a {many} file")
+    suffix = os.path.splitext(path.rstrip("/" + os.sep))[1]
+    if suffix and not os.path.isdir(path):
+        raise OutputRefused(f"{show(path)}: {show(suffix)} is a file's suffix; export writes a dataset folder "
+                            f"(a name without one, or a folder made beforehand) or a {many} file")
     return path

@@ -42,6 +42,7 @@ from ..formats.mcap_messages import Messages
 from ..lines import Chunk
 from ..outfile import reason, show
 from ..output import dumps
+from ..words import counted
 
 # The recording's layout (docs/foxglove.md, "Size"): chunks of 1 MiB compressed
 # with zstd at level 9, with every index. Level 9 makes the chunks a fifth
@@ -284,7 +285,7 @@ class McapRecorder:
 
     def summary(self) -> str:
         """What a finished recording says: how many messages, where."""
-        return f"recorded {self.messages} messages to {show(self.path)}"
+        return f"recorded {counted(self.messages, 'message')} to {show(self.path)}"
 
     def __enter__(self) -> "McapRecorder":
         return self
@@ -488,7 +489,7 @@ class RotatingRecorder:
 
     def summary(self) -> str:
         """What a finished recording says: how many messages, in which files."""
-        return f"recorded {self.messages} messages to {', '.join(map(show, self.paths))}"
+        return f"recorded {counted(self.messages, 'message')} to {', '.join(map(show, self.paths))}"
 
     def close(self) -> None:
         cur = self.current

@@ -3,6 +3,8 @@ time on real ptys, ``gimbalscope doctor`` listening on its tap ports with pyseri
 Each fault must be found, and nothing else raised; a clean run raises nothing."""
 
 import json
+import os
+import threading
 
 import pytest
 
@@ -24,7 +26,7 @@ from analyzer.analysis.findings import (
 )
 from analyzer.simulation import scenario
 from tests.child import Child
-from tests.conftest import run_cli
+from tests.conftest import CTL, DEV, SOCAT_LOG, frame, run_cli
 
 # fault -> (the finding it must give, other warnings that are true consequences of it)
 EXPECTED = {
@@ -44,7 +46,14 @@ EXPECTED = {
 }
 
 
-def doctor_on(faults: set[str], seconds: float = 7.0, *extra: str) -> dict:
+# docs/doctor.md, "Exit status": 3 for an error (its table: swapped, wrong baud, dead
+# link, silent after a rate change), 1 for warnings only, 0 for nothing above info
+EXIT_STATUS = {"swapped": 3, "wrong-baud": 3, "dead-line-b": 3, "rate-ignored": 3,
+               "echo": 1, "silent": 1, "noisy": 1, "impatient": 1, "fast-retry": 1, "no-retry": 1,
+               "ix-timeout": 1, "slowing": 1}
+
+
+def doctor_on(faults: set[str], seconds: float = 7.0, *extra: str) -> tuple[dict, int]:
     site = scenario.build(faults, clean=True)
     a, b = site.link.tap_ports
     doctor = Child("doctor", a, b, "--seconds", str(seconds), "--format", "json", *extra)
@@ -55,14 +64,15 @@ def doctor_on(faults: set[str], seconds: float = 7.0, *extra: str) -> dict:
     finally:
         site.stop()
         doctor.kill()
-    assert code == 0, err
-    return json.loads(out)
+    assert code in (0, 1, 3), err
+    return json.loads(out), code
 
 
 @pytest.mark.parametrize("fault", sorted(EXPECTED))
 def test_each_fault_is_found_and_nothing_else(fault):
     code, consequences = EXPECTED[fault]
-    report = doctor_on({fault})
+    report, status = doctor_on({fault})
+    assert status == EXIT_STATUS[fault]
     raised = {f["code"] for f in report["findings"] if f["severity"] != "info"}
     assert code in raised, report["findings"]
     assert raised - {code} <= consequences, report["findings"]
@@ -70,8 +80,10 @@ def test_each_fault_is_found_and_nothing_else(fault):
     assert found["fix"] and found["after"] is not None
 
 
+
 def test_a_clean_installation_raises_nothing():
-    report = doctor_on(set(), seconds=8.0)
+    report, status = doctor_on(set(), seconds=8.0)
+    assert status == 0
     assert [f for f in report["findings"] if f["severity"] != "info"] == []
     device_map = next(f for f in report["findings"] if f["code"] == DEVICE_MAP)
     for addr in ("1.1.1", "1.1.2", "1.1.3"):
@@ -92,6 +104,47 @@ def test_scan_baud_finds_the_line_rate():
     assert report["best"] == scenario.WIRE_BAUD
     rates = {row["baud"]: row for row in report["rates"]}
     assert rates[9600]["decoded"] < 0.5 <= rates[scenario.WIRE_BAUD]["decoded"]
+
+
+def test_scan_baud_on_a_port_that_ignores_the_rate_says_it_cannot_tell():
+    """A pseudo-terminal delivers bytes whole at any rate it is opened at: every rate
+    decodes, and the scan must not name the first of them."""
+    master, slave = os.openpty()
+    command = frame((1, 1, 1), 0, "P?")      # a position query, checksum by hand (Table 1)
+    stop = threading.Event()
+
+    def talk():
+        while not stop.wait(0.02):
+            os.write(master, command)
+
+    talker = threading.Thread(target=talk, daemon=True)
+    talker.start()
+    try:
+        r = run_cli("doctor", "--scan-baud", os.ttyname(slave), "--dwell", "0.5", timeout=120)
+        j = run_cli("doctor", "--scan-baud", os.ttyname(slave), "--dwell", "0.5", "--format", "json", timeout=120)
+    finally:
+        stop.set()
+        talker.join()
+        os.close(slave)
+        os.close(master)
+    assert r.returncode == 1, r.stderr
+    verdict = r.stdout.strip().splitlines()[-1]
+    assert verdict.startswith("cannot tell the rate: every rate decodes equally well"), r.stdout
+    assert "use --baud" not in r.stdout
+    report = json.loads(j.stdout)
+    assert j.returncode == 1 and report["best"] is None and report["verdict"] == "undecided"
+    assert [row["baud"] for row in report["rates"]] == [1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200]
+
+
+@pytest.mark.parametrize("inputs, status", [
+    ((CTL, DEV), 1),          # the sample's bit errors: line A is noisy, a warning
+    ((DEV, CTL), 3),          # the same lines swapped: an error
+    ((SOCAT_LOG,), 1),        # its noise runs on line B: a warning
+])
+def test_doctor_on_files_exits_with_the_worst_severity(inputs, status):
+    for fmt in ("text", "json"):
+        r = run_cli("doctor", *inputs, "--format", fmt)
+        assert r.returncode == status, r.stdout + r.stderr
 
 
 def test_findings_go_to_stderr_and_the_recording_log(tmp_path):

@@ -173,7 +173,7 @@ def test_advice_on_raw_dumps_names_them_and_counts_events_not_seconds(tmp_path):
     a.write_bytes(tr.line_bytes("A"))
     b.write_bytes(tr.line_bytes("B"))
     r = run_cli("doctor", b, a)                   # given the wrong way round
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == 3, r.stderr            # an error-level finding (docs/doctor.md, "Exit status")
     assert f"try: give the dumps the other way round: gimbalscope decode {a} {b} " \
            f"(or gimbalscope decode {b} {a} --swap-lines)" in r.stdout
     assert "PORT" not in r.stdout and "press x" not in r.stdout
@@ -207,7 +207,7 @@ def test_advice_on_live_ports_is_the_swapped_port_order(tmp_path):
         os.write(ma, b"\x06")
         time.sleep(0.05)
     out, err = proc.communicate(timeout=30)
-    assert proc.returncode == 0, err
+    assert proc.returncode == 3, err              # lines swapped is an error
     found = {f["code"]: f for f in json.loads(out)["findings"]}
     # the ports swapped, the flag `live` and `doctor` take; no TUI here, so no key
     assert found[LINES_SWAPPED]["fix"] == (f"give the ports the other way round: gimbalscope live {pb} {pa} "
@@ -232,8 +232,10 @@ def found_and_phrase_calls() -> list[tuple[str, FindingKind, str | None, set[str
     """Every ``.found(...)`` and ``.phrase(...)`` call of the doctor's rules: (where,
     the table entry, the phrase or None for ``found``, the fields passed). The entry
     is ``FINDINGS[ID]`` in the call, or a local variable set to it in the function."""
-    with open(os.path.join(ROOT, "analyzer", "analysis", "doctor.py"), encoding="utf-8") as f:
-        tree = ast.parse(f.read())
+    trees = []
+    for name in ("doctor.py", "signs.py"):   # the doctor's rules, and the wiring signs it rests on
+        with open(os.path.join(ROOT, "analyzer", "analysis", name), encoding="utf-8") as f:
+            trees.append((name, ast.parse(f.read())))
 
     def entry(node, local):
         if isinstance(node, ast.Subscript) and isinstance(node.value, ast.Name) and node.value.id == "FINDINGS":
@@ -241,7 +243,7 @@ def found_and_phrase_calls() -> list[tuple[str, FindingKind, str | None, set[str
         return local.get(node.id) if isinstance(node, ast.Name) else None
 
     calls = []
-    for fn in ast.walk(tree):
+    for module, fn in ((m, fn) for m, tree in trees for fn in ast.walk(tree)):
         if not isinstance(fn, ast.FunctionDef):
             continue
         local = {t.id: kind for a in ast.walk(fn) if isinstance(a, ast.Assign)
@@ -251,7 +253,7 @@ def found_and_phrase_calls() -> list[tuple[str, FindingKind, str | None, set[str
                     and call.func.attr in ("found", "phrase")):
                 continue
             kind = entry(call.func.value, local)
-            where = f"doctor.py:{call.lineno}"
+            where = f"{module}:{call.lineno}"
             assert kind is not None, f"{where}: say which entry: FINDINGS[ID].{call.func.attr}(...)"
             assert all(k.arg for k in call.keywords), f"{where}: name every field (no **values)"
             passed = {k.arg for k in call.keywords}

@@ -1,0 +1,49 @@
+"""The input checked as it is read (``decode``, ``stats``, ``convert``, ``export``):
+the wiring signs of analyzer/analysis/signs.py, kept for every event, and at the end
+one warning line for each error they show: lines swapped, a line read at the wrong
+rate, input that is not this protocol at all. These commands would otherwise print
+orphans or noise and exit 0 without a word; the full doctor (``gimbalscope doctor``)
+says more, at more cost an event."""
+
+from __future__ import annotations
+
+from dissectors.event import Event
+
+from ..analysis.doctor import Invocation
+from ..analysis.findings import Finding
+from ..analysis.signs import WiringSigns
+from ..runner import WARNING, Listener
+
+
+def warning_text(f: Finding) -> str:
+    """One line: what is wrong, what shows it, what to try."""
+    detail = f.detail.splitlines()[0] if f.detail else ""
+    return f"{f.title}: {detail}" + (f" (try: {f.fix})" if f.fix else "")
+
+
+class WiringCheck(Listener):
+    def __init__(self) -> None:
+        self.runner = None
+        self.signs: WiringSigns | None = None
+        self.findings: list[Finding] = []
+        self.warnings: list[str] = []        # what was said, for a job that reports them itself
+
+    def on_start(self, runner) -> None:
+        self.runner = runner
+        self.signs = WiringSigns(runner.lines)
+
+    def on_events(self, events: list[Event]) -> None:
+        add = self.signs.add
+        for ev in events:
+            add(ev)
+
+    def on_stop(self) -> None:
+        if self.signs is None:
+            return
+        info = self.runner.info
+        how = Invocation(info.inputs, info.live, info.command)
+        self.findings = self.signs.findings(how.swap_fix(), how.baud_fix())
+        for f in self.findings:
+            text = warning_text(f)
+            self.warnings.append(text)
+            self.runner.post(text, WARNING, finding=f)
