@@ -12,7 +12,11 @@ closures, never ``eval``-ed::
 
 Names are the event's JSON keys, or a decoded field's name (``azimuth_deg`` is
 ``fields.azimuth_deg``). A name the event does not have (an ACK's ``status``,
-a command's ``latency``) is absent: its value is ``null``.
+a command's ``latency``) is absent: its value is ``null``. Wireshark's prefix
+is accepted (``gimbal.status`` is ``status``), so a filter can come from tshark.
+
+An error names the column and the fault, and the fix where one is likely
+(filter_hints.py): ``status == nak`` offers ``status == "nak"``.
 
 Comparisons between values of different types are false, never errors. The
 types are null, booleans, numbers, strings, lists and objects; ``true`` is not
@@ -47,10 +51,12 @@ import re
 from operator import attrgetter
 from typing import Any, Callable
 
-from dissectors.commands import COMMANDS, DERIVED_FIELDS
+from dissectors.commands import COMMANDS, DERIVED_FIELDS, field_types
 from dissectors.event import KINDS, STATUSES, Event
 
 from ..errors import FilterError
+from .filter_hints import (DST_PARTS, PROTOCOL, Fix, Vocabulary, character_fix, dst_text_fix, operator_fix,
+                           value_fix)
 
 Predicate = Callable[[Event], bool]
 
@@ -78,12 +84,6 @@ def _field_names() -> set[str]:
 FIELD_NAMES = _field_names()
 
 
-def _one_line(text: str) -> str:
-    if text.isprintable():
-        return text
-    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
-
-
 def _clip(text: str, most: int = 40) -> str:
     return text if len(text) <= most else text[:most] + "…"
 
@@ -97,6 +97,10 @@ _TOKEN = re.compile(r"""
   | (?P<name>[A-Za-z_][A-Za-z0-9_]*)
 """, re.VERBOSE)
 KEYWORDS = {"and", "or", "not", "in", "true", "false", "null"}
+COMPARISONS = ("==", "!=", "<", ">", "<=", ">=")
+# what a wrong name was meant to be (filter_hints.py): every name, and each field's unit
+VOCABULARY = Vocabulary((*TOP_LEVEL, *FIELD_NAMES), {n: t.unit for n, t in field_types().items()}, KEYWORDS,
+                        FIELD_NAMES)
 _ESCAPE = re.compile(r"\\(.)")
 
 
@@ -120,7 +124,8 @@ def _tokenize(src: str) -> list[tuple[str, Any, int]]:
     while pos < len(src):
         m = _TOKEN.match(src, pos)
         if m is None:
-            raise FilterError(f"unexpected character {src[pos]!r}", pos + 1, src)
+            fix = character_fix(src, pos)
+            raise FilterError(f"unexpected character {src[pos]!r}{fix.clause(src) if fix else ''}", pos + 1, src)
         kind = m.lastgroup
         text = m.group()
         if kind == "num":
@@ -373,6 +378,8 @@ class _Parser:
         self.toks = _tokenize(src)
         self.i = 0
         self.depth = 0
+        # the comparison being parsed: its operator's token index, the bare name on its left
+        self.left: tuple[int, str | None] = (-1, None)
 
     def peek(self) -> tuple[str, Any, int]:
         return self.toks[self.i]
@@ -382,18 +389,38 @@ class _Parser:
         self.i += 1
         return tok
 
-    def error(self, what: str, tok: tuple[str, Any, int] | None = None) -> FilterError:
+    def error(self, what: str, tok: tuple[str, Any, int] | None = None, hint: str = "") -> FilterError:
         tok = tok or self.peek()
         if tok[0] == "end":
             got = "end of filter"
         else:
             got = repr(_clip(f'"{tok[1]}"' if tok[0] == "str" else str(tok[1])))
-        return FilterError(f"{what}, got {got}", tok[2], self.src)
+        return FilterError(f"{what}, got {got}{hint}", tok[2], self.src)
 
     def expect(self, kind: str, value: Any) -> None:
         tok = self.take()
         if tok[0] != kind or tok[1] != value:
-            raise self.error(f"expected {value!r}", tok)
+            raise self.error(f"expected {value!r}", tok, self.stray_hint(self.i - 1))
+
+    def end_of(self, at: int) -> int:
+        """Where token ``at`` ends in the source (0-based): a string's quotes and
+        escapes are not in its value."""
+        tok = self.toks[at]
+        if tok[0] == "end":
+            return len(self.src)
+        m = _TOKEN.match(self.src, tok[2] - 1)
+        return m.end() if m else tok[2]
+
+    def stray_hint(self, at: int) -> str:
+        """The fix for token ``at`` where an operator, 'and', 'or' or ')' belongs:
+        Wireshark's ``eq``, a keyword in capitals, a left-out ``==``."""
+        kind, val, col = self.toks[at]
+        fix = None
+        if kind == "name":
+            fix = operator_fix(val, col - 1)
+        elif kind in ("str", "num") and at and self.toks[at - 1][0] == "name":
+            fix = Fix(col - 1, col - 1, "== ")     # status "nak"
+        return fix.clause(self.src) if fix else ""
 
     def enter(self, tok: tuple[str, Any, int]) -> None:
         """One level deeper (parenthesis, 'not', list): bounded, so the parser's
@@ -412,7 +439,7 @@ class _Parser:
             raise self.error("empty filter: expected an expression")
         fn = self.parse_or()
         if self.peek()[0] != "end":
-            raise self.error("expected 'and', 'or' or the end of the filter")
+            raise self.error("expected 'and', 'or' or the end of the filter", hint=self.stray_hint(self.i))
         return fn
 
     def _chain(self, word: str, operand, combine):
@@ -447,7 +474,7 @@ class _Parser:
         return lambda ev: bool(inner(ev))
 
     def parse_cmp(self):
-        left_tok = self.peek()
+        left_at = self.i
         left = self.parse_value()
         tok = self.peek()
         negate = False
@@ -455,24 +482,45 @@ class _Parser:
             self.take()
             negate = True
             tok = self.peek()
-        if (tok[0] == "op" and tok[1] in ("==", "!=", "<", ">", "<=", ">=")) or tok[:2] == ("kw", "in"):
+        if (tok[0] == "op" and tok[1] in COMPARISONS) or tok[:2] == ("kw", "in"):
+            op_at = self.i
             self.take()
-            right_tok = self.peek()
+            name = self.bare_name(left_at, op_at)
+            self.left = (op_at, name)
             right = self.parse_value()
-            self._check_enum(left_tok, right_tok, tok[1])
+            if self.i == op_at + 2:    # the right side is one token: a literal or a name
+                self.check_value(name, tok[1], op_at + 1)
             return _comparison(tok[1], left, right, negate)
         if negate:
             raise self.error("expected a value after 'not in'")
         return left
 
-    def _check_enum(self, left_tok, right_tok, op) -> None:
-        """Catch typos like status == "nack" that would silently match nothing."""
-        if left_tok[0] != "name" or left_tok[1] not in ENUMS or op not in ("==", "!="):
+    def bare_name(self, start: int, stop: int) -> str | None:
+        """The name that tokens start..stop-1 are (alone or after ``gimbal.``), else None."""
+        if not 1 <= stop - start <= 3:
+            return None
+        toks = self.toks[start:stop]
+        if len(toks) == 3 and toks[0][:2] == ("name", PROTOCOL) and toks[1][:2] == ("op", "."):
+            toks = toks[2:]
+        return toks[0][1] if len(toks) == 1 and toks[0][0] == "name" else None
+
+    def check_value(self, name: str | None, op: str, at: int) -> None:
+        """Catch comparisons that would silently match nothing: a misspelt value
+        (``status == "nack"``), Wireshark's text address (``dst == "1.1.2"``)."""
+        kind, value, col = self.toks[at]
+        if kind != "str" or op not in ("==", "!="):
             return
-        if right_tok[0] == "str" and right_tok[1] not in ENUMS[left_tok[1]]:
-            allowed = ", ".join(sorted(ENUMS[left_tok[1]]))
-            raise FilterError(f"{left_tok[1]} is never {_clip(right_tok[1])!r} (it is one of: {allowed})",
-                              right_tok[2], self.src)
+        start, end = col - 1, self.end_of(at)
+        if name in ENUMS and value not in ENUMS[name]:
+            allowed = ", ".join(sorted(ENUMS[name]))
+            meant = value_fix(value, ENUMS[name])
+            quote = self.src[start]
+            hint = Fix(start, end, f"{quote}{meant}{quote}").clause(self.src) if meant else ""
+            raise FilterError(f"{name} is never {_clip(value)!r} (it is one of: {allowed}){hint}", col, self.src)
+        if name == "dst":
+            fix = dst_text_fix(value, start, end)
+            raise FilterError(f"dst is a list of numbers (group, port, device), never text"
+                              f"{fix.clause(self.src) if fix else ''}", col, self.src)
 
     def parse_value(self):
         tok = self.take()
@@ -493,7 +541,7 @@ class _Parser:
             self.leave()
             return self.list_value(items)
         if kind == "name":
-            return self.parse_path(val, col)
+            return self.parse_path(val, col, self.i - 1)
         raise self.error("expected a value (a name, number, string, list or '(')", tok)
 
     def parse_items(self) -> list:
@@ -515,8 +563,14 @@ class _Parser:
         its = tuple(items)
         return lambda ev: [f(ev) for f in its]
 
-    def parse_path(self, name: str, col: int):
-        base = self.name_getter(name, col)
+    def parse_path(self, name: str, col: int, at: int):
+        """``name``, ``name.key``, ``name[2]``…; ``at`` is the index of the name's token."""
+        base_col = col
+        if name == PROTOCOL and self.peek()[:2] == ("op", ".") and self.toks[self.i + 1][0] == "name":
+            self.take()                   # Wireshark's prefix: gimbal.status is status
+            at = self.i
+            name, col = self.take()[1:]
+        base = self.name_getter(name, col, at)
         keys = []
         while True:
             tok = self.peek()
@@ -525,6 +579,8 @@ class _Parser:
                 key = self.take()
                 if key[0] != "name":
                     raise self.error("expected a field name after '.'", key)
+                if not keys:
+                    self.check_key(name, base_col, tok, key)
                 keys.append(key[1])
             elif tok[:2] == ("op", "["):
                 self.take()
@@ -536,7 +592,34 @@ class _Parser:
             else:
                 return _path(base, tuple(keys)) if keys else base
 
-    def name_getter(self, name: str, col: int):
+    def check_key(self, base: str, base_col: int, dot: tuple, key: tuple) -> None:
+        """A key no event has under ``base`` (always null) is a mistake: Wireshark's
+        ``gimbal.dst.device``, a misspelt field after ``fields.``."""
+        _, word, col = key
+        end = col - 1 + len(word)
+        if base == "dst":
+            part = DST_PARTS.get(word.lower())
+            hint = (Fix(dot[2] - 1, end, f"[{part}]").clause(self.src) if part is not None
+                    else "; write dst[0], dst[1] or dst[2]")
+            raise FilterError(f"dst is a list (group, port, device): it has no {word!r}{hint}", col, self.src)
+        if base == "fields" and word not in FIELD_NAMES:
+            if word in TOP_LEVEL:     # fields.latency: an event key, not a decoded field
+                hint = Fix(base_col - 1, end, word).clause(self.src)
+            else:
+                hint = VOCABULARY.name_hint(self.src, word, col - 1)
+            raise FilterError(f"no decoded field is named {word!r}{hint}", col, self.src)
+
+    def unknown_hint(self, name: str, col: int, at: int) -> str:
+        """The fix for an unknown name: quoted, where a value belongs (``status ==
+        nak``, a list's element); else, as after ``in`` (a list or text follows it,
+        most often a name: ``"x" in problem``), the name it was likely meant to be."""
+        prev = self.toks[at - 1] if at else ("end", None, 0)
+        if prev[:2] in (("op", "["), ("op", ",")) or (prev[0] == "op" and prev[1] in COMPARISONS):
+            allowed = ENUMS.get(self.left[1] or "") if self.left[0] == at - 1 else None
+            return VOCABULARY.text_hint(self.src, name, col - 1, allowed)
+        return VOCABULARY.name_hint(self.src, name, col - 1)
+
+    def name_getter(self, name: str, col: int, at: int):
         if name == "payload":
             from dissectors.wire import payload_text
             return lambda ev: payload_text(ev.payload) if ev.payload is not None else None
@@ -546,6 +629,9 @@ class _Parser:
             return attrgetter(name)
         if name in FIELD_NAMES:
             return lambda ev, n=name: ev.fields.get(n)
+        hint = self.unknown_hint(name, col, at)
+        if hint:
+            raise FilterError(f"unknown name {name!r}{hint}", col, self.src)
         raise FilterError(f"unknown name {name!r}: use an event key ({', '.join(TOP_LEVEL)}) "
                           f"or a field name (docs/json-lines.md)", col, self.src)
 
