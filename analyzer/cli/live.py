@@ -18,6 +18,7 @@ before the tap starts too.
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import signal
 import sys
@@ -80,6 +81,12 @@ def add_foxglove_arg(p: argparse.ArgumentParser) -> None:
 def foxglove_address(text: str) -> tuple[str, int]:
     """``--foxglove``: HOST:PORT, :PORT or PORT (this machine), HOST (port 8765); an
     IPv6 host in brackets."""
+    if _names_an_input(text):
+        # `--foxglove demo.mcap`: the optional address took the input, and argparse
+        # would go on to say only that an input is missing
+        raise argparse.ArgumentTypeError(
+            f"{text!r} was taken as the server's address, and looks like an input: give --foxglove after the "
+            f"inputs ({text} --foxglove), or its address as --foxglove=HOST:PORT")
     bare_port = text.isascii() and text.isdigit()
     m = _ADDRESS.fullmatch(":" + text if bare_port else text)
     if m is None or not text or int(m.group(2) or 0) > 65535:
@@ -87,6 +94,16 @@ def foxglove_address(text: str) -> tuple[str, int]:
                                          f"(e.g. {FOXGLOVE_HOST}:{FOXGLOVE_PORT}), PORT from 0 to 65535")
     host, port = m.group(1).strip("[]"), m.group(2)
     return host or FOXGLOVE_HOST, int(port) if port else FOXGLOVE_PORT
+
+
+# what inputs are named like: capture files, and the ports a tap reads
+_INPUT_SUFFIXES = (".mcap", ".log", ".bin", ".pcapng", ".gz", ".zst", ".xz", ".bz2")
+
+
+def _names_an_input(text: str) -> bool:
+    """Is ``text`` a file, a device or an input's name rather than a host?"""
+    return (os.path.exists(text) or "/" in text or text.lower().endswith(_INPUT_SUFFIXES)
+            or text == "-")
 
 
 def open_servers(capture: Capture, info: CaptureInfo, args: argparse.Namespace,

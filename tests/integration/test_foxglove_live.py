@@ -257,12 +257,29 @@ def test_a_busy_port_is_one_line_before_the_tap_starts(tmp_path):
 
 
 def test_a_bad_address_is_a_usage_error():
-    for value in ("x:y", "host:", "99999", "/dev/ttyUSB0"):
+    for value in ("x:y", "host:", "99999"):
         out = run_cli("demo", "--no-tui", "--foxglove", value, timeout=PATIENCE)
         assert out.returncode == 2, value
         lines = out.stderr.splitlines()
         assert len(lines) == 1 and lines[0].startswith(f"gimbalscope: error: argument --foxglove: '{value}': "), \
             out.stderr
+    # a port's name is an input, said as such (test_an_input_taken_as_the_address_is_said_as_such)
+    out = run_cli("demo", "--no-tui", "--foxglove", "/dev/ttyUSB0", timeout=PATIENCE)
+    assert out.returncode == 2 and "'/dev/ttyUSB0' was taken as the server's address" in out.stderr
+
+
+def test_an_input_taken_as_the_address_is_said_as_such(tmp_path):
+    """`replay --foxglove demo.mcap`: the optional address takes the file; the error
+    says so and how to write it, not only that FILE.mcap is missing."""
+    rec = tmp_path / "demo.mcap"
+    rec.write_bytes(b"")
+    for value in (str(rec), "demo.mcap", "tap.log"):
+        out = run_cli("replay", "--foxglove", value, timeout=PATIENCE)
+        assert out.returncode == 2, value
+        lines = out.stderr.splitlines()
+        assert lines == [f"gimbalscope: error: argument --foxglove: '{value}' was taken as the server's address, "
+                         f"and looks like an input: give --foxglove after the inputs ({value} --foxglove), or its "
+                         f"address as --foxglove=HOST:PORT (see: gimbalscope replay --help)"], out.stderr
 
 
 def test_demo_serves():
