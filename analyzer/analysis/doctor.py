@@ -520,13 +520,15 @@ class WiringDoctor:
                 else kind.phrase("never_answered")
             nic = kind.phrase("nic", commands=", ".join(sorted(d.nic))) if d.nic else ""
             ident = kind.phrase("identity", identity=d.identity) if d.identity else ""
-            parts.append(kind.phrase("device", addr=addr, commands=d.commands, state=state, nic=nic, identity=ident))
+            parts.append(kind.phrase("device", addr=addr, commands=counted(d.commands, "command"), state=state,
+                                     nic=nic, identity=ident))
         past = ""
         if self.other_addresses:
             # garbled input names many addresses: past the first ones, only counted
             past = kind.phrase("past", limit=_MAX_DEVICES)
             parts.append(kind.phrase("untracked", commands=counted(len(self.other_addresses), "command")))
-        return [kind.found("map", [], devices=len(self.devices), past=past, per_device="\n".join(parts))]
+        return [kind.found("map", [], devices=counted(len(self.devices), "device address", "device addresses"),
+                           past=past, per_device="\n".join(parts))]
 
 
 def one_line(f: Finding) -> str:

@@ -255,11 +255,11 @@ _kind(SLOW_ANSWERS, WARNING,
       "a device slowing down is busy or failing: check {addr}'s load, power and temperature")
 _kind(DEVICE_MAP, INFO,
       "every address, where it answers, which commands it NICs (what its firmware implements), its D? identity",
-      "{devices} device address(es) addressed{past}",
+      "{devices} addressed{past}",           # devices: "3 device addresses"
       "{per_device}",         # a line per device, then the commands past counting
       "",
       phrases={"past": ", and more (past {limit})",
-               "device": "{addr}: {commands} commands, {state}{nic}{identity}",
+               "device": "{addr}: {commands}, {state}{nic}{identity}",   # commands: "1 command"
                "answers": "answers on {lines}",
                "never_answered": "never answered",
                "nic": "; NIC to {commands}",

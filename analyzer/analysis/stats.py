@@ -80,6 +80,19 @@ class Latency:
                 "p95": self.quantile(0.95), "max": self.max}
 
 
+# The columns of the per-command and per-device tables, named as Counts.to_dict()
+# names them, in ``stats`` and the TUI's statistics screen alike (and in the fleet
+# report where it shows the same: analyzer/dataset/report.py). In groups kept side
+# by side when a table is split to fit the terminal.
+COUNT_COLUMNS = (("commands", *STATUSES), ("retransmissions", "checksum_errors"))
+# latencies: (the column's name, the key of Counts.to_dict() and of its latency)
+LATENCY_COLUMNS = (
+    (("ACK min", "ack_latency", "min"), ("ACK median", "ack_latency", "median"),
+     ("ACK p95", "ack_latency", "p95"), ("ACK max", "ack_latency", "max")),
+    (("result median", "result_latency", "median"), ("result max", "result_latency", "max")),
+)
+
+
 class Counts:
     """What is counted per command id and per device."""
     __slots__ = ("commands", "status", "retransmissions", "checksum_errors", "ack_latency",

@@ -52,40 +52,33 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _ms(v) -> str:
-    return "" if v is None else f"{v * 1000:.1f}"
-
-
 def render_text(report) -> None:
     from rich.console import Console
-    from rich.table import Table
+    from rich.text import Text
 
-    console = Console(highlight=False, width=None if sys.stdout.isatty() else 150)
+    from ..dataset.report import PERIOD_COLUMNS, period_cells
+    from ..formats.fit_width import FitLines, FitTable
+
+    # piped, Rich takes the width from COLUMNS, else 80: the text fits it
+    console = Console(highlight=False)
     if not report.devices:
         console.print("no transactions in this dataset")
     worse = report.worse
     if worse:
-        console.print(f"[bold red]{len(worse)} trending worse:[/]")
-        for d in worse:
-            console.print(f"  [red]{d.device}[/]: " + "; ".join(t.text() for t in d.worse), markup=True)
+        lines = [Text(f"{len(worse)} trending worse:", style="bold red")]
+        lines += [Text.assemble("  ", (d.device, "red"), ": " + "; ".join(t.text() for t in d.worse)) for d in worse]
+        console.print(FitLines(*lines))
     elif report.devices:
         console.print("no device is trending worse")
     for d in report.devices:
-        title = f"{d.device}" + ("  [red]trending worse[/]" if d.worse else "")
-        table = Table(title=title, title_justify="left")
-        for col in (report.period, "commands", "ok", "nak", "nic", "no_ack", "no_res", "errors", "NAKs",
-                    "ACK p50 ms", "p95", "result p50 ms", "p95"):
-            table.add_column(col, justify="left" if col == report.period else "right")
-        for p in d.periods:
-            table.add_row(p.start.isoformat(), str(p.commands),
-                          *(str(p.statuses.get(s, 0)) for s in ("ok", "nak", "nic", "no_ack", "no_result")),
-                          f"{p.error_rate:.1%}", f"{p.nak_rate:.1%}", _ms(p.ack_p50), _ms(p.ack_p95),
-                          _ms(p.result_p50), _ms(p.result_p95))
-        console.print(table)
+        title = Text.assemble((d.device, "bold"), ("  trending worse", "red") if d.worse else "")
+        console.print(FitTable(report.period, PERIOD_COLUMNS,
+                               [[p.start.isoformat(), *period_cells(p)] for p in d.periods], title))
     if report.captures:
-        console.print("[bold]wiring doctor, per capture[/]")
+        lines = [Text("wiring doctor, per capture", style="bold")]
         for c in report.captures:
             when = c.start.isoformat() if c.start is not None else "no time"
-            console.print(f"  {c.capture} ({when}" + (f", site {c.site}" if c.site else "") + ")", markup=False)
-            for f in c.findings:
-                console.print(f"    {f.severity}: {f.title}" + (f" ({f.subject})" if f.subject else ""), markup=False)
+            lines.append(Text(f"  {c.capture} ({when}" + (f", site {c.site}" if c.site else "") + ")"))
+            lines += [Text(f"    {f.severity}: {f.title}" + (f" ({f.subject})" if f.subject else ""))
+                      for f in c.findings]
+        console.print(FitLines(*lines))

@@ -21,8 +21,17 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass, field
 
+from ..output import fmt_seconds
+
 STATUSES = ("ok", "nak", "nic", "no_ack", "no_result", "pending")
 ERRORS = ("nak", "nic", "no_ack", "no_result")   # a command that did not get what it asked for
+
+# The columns of a device's periods, in the text report and the HTML page alike: a
+# count or rate by its key in the JSON (``to_dict``), a latency as ``ACK p50`` for
+# ``ack_p50_ms``; the counts as ``stats`` names them. In groups kept side by side
+# when a table is split to fit the terminal.
+PERIOD_COLUMNS = (("commands", *STATUSES), ("error_rate", "nak_rate"),
+                  ("ACK p50", "ACK p95", "result p50", "result p95"))
 
 # A period counts toward a trend only with this many commands: a handful of
 # commands give percentiles and rates that are mostly noise.
@@ -59,6 +68,13 @@ class Period:
     @property
     def nak_rate(self) -> float:
         return self.statuses.get("nak", 0) / self.commands if self.commands else 0.0
+
+
+def period_cells(p: Period) -> list[str]:
+    """A period's row under ``PERIOD_COLUMNS``, as people read it."""
+    return [f"{p.commands:,}", *(f"{p.statuses.get(s, 0):,}" for s in STATUSES),
+            f"{p.error_rate:.1%}", f"{p.nak_rate:.1%}",
+            *(fmt_seconds(v) for v in (p.ack_p50, p.ack_p95, p.result_p50, p.result_p95))]
 
 
 @dataclass

@@ -12,7 +12,8 @@ import html
 import io
 import re
 
-from .report import DeviceReport, Report
+from ..words import counted
+from .report import PERIOD_COLUMNS, DeviceReport, Report, period_cells
 
 _CSS = """
 body { font-family: system-ui, sans-serif; margin: 2em; color: #222; }
@@ -76,10 +77,6 @@ def _charts(device: DeviceReport) -> str:
     return '<div class="charts">' + "".join(out) + "</div>"
 
 
-def _ms(v) -> str:
-    return "" if v is None else f"{v * 1000:.1f}"
-
-
 def _device(d: DeviceReport, period: str) -> str:
     e = html.escape
     head = f'<h2 id="dev-{e(d.device)}">{e(d.device)}'
@@ -87,14 +84,11 @@ def _device(d: DeviceReport, period: str) -> str:
         head += ' <span class="worse">trending worse</span>'
     head += "</h2>"
     trend = "".join(f'<p class="worse">{e(t.text())}</p>' for t in d.worse)
-    rows = "".join(
-        f"<tr><td>{p.start.isoformat()}</td><td>{p.commands}</td>"
-        + "".join(f"<td>{p.statuses.get(s, 0)}</td>" for s in ("ok", "nak", "nic", "no_ack", "no_result"))
-        + f"<td>{p.error_rate:.1%}</td><td>{p.nak_rate:.1%}</td><td>{_ms(p.ack_p50)}</td><td>{_ms(p.ack_p95)}</td>"
-        f"<td>{_ms(p.result_p50)}</td><td>{_ms(p.result_p95)}</td></tr>" for p in d.periods)
-    table = (f"<table><tr><th>{e(period)}</th><th>commands</th><th>ok</th><th>nak</th><th>nic</th><th>no_ack</th>"
-             "<th>no_result</th><th>errors</th><th>NAKs</th><th>ACK p50 ms</th><th>ACK p95 ms</th>"
-             f"<th>result p50 ms</th><th>result p95 ms</th></tr>{rows}</table>")
+    # the columns and cells of the text report (report.PERIOD_COLUMNS)
+    names = "".join(f"<th>{e(name)}</th>" for name in (period, *(n for group in PERIOD_COLUMNS for n in group)))
+    rows = "".join(f"<tr><td>{p.start.isoformat()}</td>" + "".join(f"<td>{e(c)}</td>" for c in period_cells(p))
+                   + "</tr>" for p in d.periods)
+    table = f"<table><tr>{names}</tr>{rows}</table>"
     return head + trend + table + _charts(d)
 
 
@@ -114,9 +108,9 @@ def render(report: Report, title: str) -> str:
                         for f in c.findings)
         site = f", site {e(c.site)}" if c.site else ""
         findings.append(f"<h3>{e(c.capture)} <small>({e(when)}{site})</small></h3><ul>{items}</ul>")
+    commands = sum(d.commands for d in report.devices)
     body = (f"<h1>{e(title)}</h1>"
-            f"<p>{len(report.devices)} devices, {sum(d.commands for d in report.devices):,} commands, "
-            f"per {e(report.period)}.</p>"
+            f"<p>{counted(len(report.devices), 'device')}, {counted(commands, 'command')}, per {e(report.period)}.</p>"
             f"<h2>Trending worse</h2>{summary}"
             + "".join(_device(d, report.period) for d in report.devices)
             + "<h2>Wiring doctor, per capture</h2>" + ("".join(findings) or "<p>No findings.</p>"))

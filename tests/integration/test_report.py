@@ -5,6 +5,7 @@ rates and percentiles are worked out here from the captures' contents."""
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import struct
 import subprocess
@@ -14,6 +15,7 @@ import pytest
 
 from tests.conftest import frame, run_cli
 from tests.integration.test_query import ACK, BYTE, NAK, socat_log
+from tests.text_tables import assert_fits, cells, headers, read_tables, run_piped
 
 DAYS = ["2026-04-06", "2026-04-07", "2026-04-08", "2026-04-09"]
 WORSE_MS = [10, 14, 18, 22]        # 1.1.1's ACK latency each day
@@ -92,7 +94,7 @@ def test_html_is_one_self_contained_page(fleet, tmp_path):
     assert text.count("<svg") == 4   # two charts for each of the two devices
     # nothing fetched: no script, no link, no src; the only URLs are SVG's namespace names
     assert "<script" not in text and "<link" not in text and " src=" not in text
-    urls = {u for u in __import__("re").findall(r"https?://[^\"' )]+", text)}
+    urls = {u for u in re.findall(r"https?://[^\"' )]+", text)}
     assert urls <= {"http://www.w3.org/2000/svg", "http://www.w3.org/1999/xlink"}
     assert "trending worse" in text and "1.1.1" in text
     r = run_cli("report", fleet, "--html", page)
@@ -142,3 +144,43 @@ def test_the_page_renders_in_a_real_browser(fleet, tmp_path):
                     "--window-size=1200,1600", page.as_uri()], capture_output=True, timeout=120)
     assert shot.exists() and shot.stat().st_size > 10_000
     assert _png_colours(shot) > 20   # text, tables and charts, not one blank colour
+
+
+# ------------------------------------------------------------ the text fits; one name a column
+# named as the JSON names the values (the latencies: ack_p50_ms is "ACK p50"), the
+# counts as `stats` names them
+COLUMNS = ["commands", "ok", "nak", "nic", "no_ack", "no_result", "pending", "error_rate", "nak_rate",
+           "ACK p50", "ACK p95", "result p50", "result p95"]
+
+
+@pytest.mark.parametrize("columns", [80, None])
+def test_text_fits_the_width_and_shows_every_cell_whole(fleet, columns):
+    text = run_piped("report", fleet, columns=columns)
+    assert_fits(text, columns or 80)
+    tables = read_tables(text)
+    worse = [t for t in tables if t.title.startswith("1.1.1")]
+    assert len(worse) > 1 and worse[0].title == "1.1.1  trending worse"
+    assert headers(worse) == ["day", *COLUMNS]
+    shown = cells(worse)
+    for day, ms, naks in zip(DAYS, WORSE_MS, WORSE_NAKS):
+        rate = f"{naks / PER_DAY:.1%}"        # every error is a NAK: both rates the same
+        # HO has no result: no result latency; every answer (ACK or NAK) after the day's latency
+        assert [shown[day, c] for c in COLUMNS] == [
+            str(PER_DAY), str(PER_DAY - naks), str(naks), "0", "0", "0", "0", rate, rate,
+            f"{ms}.0 ms", f"{ms}.0 ms", "", ""], day
+    steady = cells([t for t in tables if t.title.startswith("1.1.2")])
+    assert {steady[day, "ACK p95"] for day in DAYS} == {f"{STEADY_MS}.0 ms"}
+
+
+def test_the_page_names_the_columns_as_the_text_does(fleet, tmp_path):
+    page = tmp_path / "report.html"
+    assert run_cli("report", fleet, "--html", page).returncode == 0
+    html = page.read_text()
+    first = html.split("<table>")[1].split("</tr>")[0]
+    assert re.findall(r"<th>(.*?)</th>", first) == ["day", *COLUMNS]
+    assert "NAKs" not in html and "<th>errors</th>" not in html
+    # a row of 1.1.1's last day, as the text shows it
+    last = f"<tr><td>{DAYS[-1]}</td>" + "".join(f"<td>{c}</td>" for c in [
+        "25", "21", "4", "0", "0", "0", "0", "16.0%", "16.0%", "22.0 ms", "22.0 ms", "", ""]) + "</tr>"
+    assert last in html
+    assert "<p>2 devices, 200 commands, per day.</p>" in html   # 25 commands a day, 4 days, 2 devices

@@ -1,13 +1,15 @@
 """Statistics: counts and latency summaries, checked against hand-made events."""
 
+import json
 import os
 
 import pytest
 
 import analyzer
 from analyzer.analysis.stats import Latency, Stats
-from tests.conftest import ROOT, run_cli
+from tests.conftest import BUS, ROOT, SOCAT_LOG, run_cli
 from tests.pure.test_pairing import cmd, res, run, simple
+from tests.text_tables import assert_fits, cells, headers, read_tables, run_piped
 
 
 def test_latency_quantiles_within_one_percent():
@@ -68,3 +70,64 @@ def test_problems_count_events_per_category():
     for e in evs:
         st.add(e)
     assert st.to_dict()["problems"] == {"unknown command": 1}
+
+
+# ------------------------------------------------------------ the text fits the terminal
+# The tables' columns, named as the JSON names them (by hand, from docs/cli.md's table)
+COLUMNS = ["commands", "ok", "nak", "nic", "no_ack", "no_result", "pending", "retransmissions", "checksum_errors",
+           "ACK min", "ACK median", "ACK p95", "ACK max", "result median", "result max"]
+
+
+def stats_text(path, columns: int | None) -> str:
+    return run_piped("stats", path, columns=columns)
+
+
+def _ms(seconds) -> str:
+    return f"{seconds * 1000:.1f} ms"   # the sample's latencies are all under a second
+
+
+def expected_cells(counts: dict) -> dict:
+    """What each row of a table must show, worked out from the JSON figures."""
+    out = {}
+    for key, c in counts.items():
+        for name in COLUMNS[:9]:
+            out[key, name] = f"{c[name]:,}"
+        for name, which, stat in [("ACK min", "ack_latency", "min"), ("ACK median", "ack_latency", "median"),
+                                  ("ACK p95", "ack_latency", "p95"), ("ACK max", "ack_latency", "max"),
+                                  ("result median", "result_latency", "median"),
+                                  ("result max", "result_latency", "max")]:
+            out[key, name] = _ms(c[which][stat]) if c[which]["count"] else ""
+    return out
+
+
+@pytest.mark.parametrize("columns", [80, None, 120])
+def test_stats_fits_the_width_with_every_cell_whole(columns):
+    text = stats_text(SOCAT_LOG, columns)
+    assert_fits(text, columns or 80)   # piped without COLUMNS: 80, not the 134 a table would need
+    data = json.loads(run_cli("stats", SOCAT_LOG, "--format", "json").stdout)
+    tables = read_tables(text)
+    per_command = [t for t in tables if t.title.startswith("per command")]
+    per_device = [t for t in tables if t.title.startswith("per device")]
+    assert len(per_command) + len(per_device) == len(tables)
+    assert headers(per_command) == ["command", *COLUMNS] and headers(per_device) == ["device", *COLUMNS]
+    assert cells(per_command) == expected_cells(data["by_command"])
+    assert cells(per_device) == expected_cells(data["by_device"])
+
+
+def test_the_summary_fits_80_columns_and_says_each_count_once():
+    data = json.loads(run_cli("stats", BUS, "--format", "json").stdout)
+    text = stats_text(BUS, 80)
+    assert_fits(text, 80)
+    lines = text.split("per command")[0].splitlines()
+    assert data["events"] > 1000     # thousands separators in every count, as in the tables
+    assert lines[0] == (f"{data['events']:,} events, {data['commands']:,} commands (no time in this capture)  "
+                        f"bytes: line AB {data['bytes']['AB']:,}")
+    assert lines[1] == "  ".join(f"{s} {data['status'][s]}"
+                                 for s in ("ok", "nak", "nic", "no_ack", "no_result", "pending"))
+    assert lines[2] == f"retransmissions {data['retransmissions']}  orphans {data['orphans']}"
+    assert lines[3].startswith(f"checksum errors {data['checksum_errors']} (")
+    assert lines[4].startswith(f"noise {data['noise']['events']} events / {data['noise']['bytes']} bytes")
+    # the problems line, longer than 80 columns, is wrapped at spaces, never cut
+    problems = " ".join(lines[5:])
+    assert len(problems) > 80
+    assert problems == "problems (events per category): " + ", ".join(f"{k} {v}" for k, v in data["problems"].items())

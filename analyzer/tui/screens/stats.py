@@ -1,5 +1,6 @@
-"""The statistics screen (``S``): per command and per device, the ACK latency
-histogram, and the device map, refreshed once a second."""
+"""The statistics screen (``S``): the summary and the per-command and per-device
+tables of ``gimbalscope stats``, in its words, the ACK latency histogram, and the
+device map, refreshed once a second."""
 
 from __future__ import annotations
 
@@ -12,30 +13,10 @@ from textual.containers import VerticalScroll
 from textual.screen import Screen
 from textual.widgets import Footer, Static
 
-from dissectors.event import NO_ACK, NO_RESULT, OK, ST_NAK, ST_NIC
-
+from ...listeners.stats import counts_table, summary
 from ...output import fmt_seconds
 from ..model import CaptureModel
 from .back import BACK
-
-
-def _ms(v: float | None) -> str:
-    return fmt_seconds(v) if v is not None else "-"
-
-
-def counts_table(title: str, rows: dict) -> Table:
-    t = Table(title=title, title_justify="left", expand=False, header_style="bold")
-    for col in ("", "commands", "ok", "NAK", "NIC", "no ACK", "no result", "checksum", "retx",
-                "ACK min", "median", "p95", "max"):
-        t.add_column(col, justify="left" if not col else "right")
-    for key, c in sorted(rows.items()):
-        lat = c.ack_latency
-        t.add_row(key, str(c.commands), str(c.status.get(OK, 0)), str(c.status.get(ST_NAK, 0)),
-                  str(c.status.get(ST_NIC, 0)), str(c.status.get(NO_ACK, 0)), str(c.status.get(NO_RESULT, 0)),
-                  str(c.checksum_errors), str(c.retransmissions),
-                  _ms(lat.min if lat.n else None), _ms(lat.quantile(0.5)), _ms(lat.quantile(0.95)),
-                  _ms(lat.max if lat.n else None))
-    return t
 
 
 def histogram(model: CaptureModel, width: int = 50) -> Text:
@@ -96,13 +77,10 @@ class StatsScreen(Screen):
     def refresh_stats(self) -> None:
         m = self.model
         d = m.stats.to_dict()
-        s = d["status"]
-        self.query_one("#summary", Static).update(Text(
-            f"{d['events']:,} events, {d['commands']:,} commands: {s[OK]:,} ok, {s[ST_NAK]} NAK, {s[ST_NIC]} NIC, "
-            f"{s[NO_ACK]} no ACK, {s[NO_RESULT]} no result; {d['checksum_errors']} checksum errors, "
-            f"{d['noise']['events']} noise runs ({d['noise']['bytes']} bytes), {d['retransmissions']} retransmissions",
-            style="bold"))
-        self.query_one("#by-command", Static).update(counts_table("Per command", m.stats.by_command))
-        self.query_one("#by-device", Static).update(counts_table("Per device", m.stats.by_device))
+        # the words and columns of `gimbalscope stats` (analyzer/listeners/stats.py)
+        self.query_one("#summary", Static).update(Text("\n".join(summary(d))))
+        self.query_one("#by-command", Static).update(counts_table("command", d["by_command"], "per command"))
+        self.query_one("#by-device", Static).update(
+            counts_table("device", d["by_device"], "per device (group.port.device)"))
         self.query_one("#histogram", Static).update(histogram(m))
         self.query_one("#devices", Static).update(device_map(m))
