@@ -3,10 +3,15 @@ run by DuckDB embedded, with the views ``events``, ``transactions`` and
 ``findings`` (the tables ``export`` writes; statuses and kinds per spec
 §1.4.2-1.4.3 and docs/decoding.md).
 
-The result streams in batches (memory stays flat whatever its size): a table
-on a terminal, CSV when standard output is a file or a pipe (what spreadsheets
-and ``cut`` read), or JSON Lines (``--format jsonl``: dates and times as ISO
-8601 text, lists as arrays, the same shape ``decode --format jsonl`` gives).
+The result streams in batches (memory stays flat whatever its size): on a
+terminal a table, or a record at a time (a column and its value a line, like
+psql's ``\\x``) when the columns are wider than the terminal; CSV when standard
+output is a file or a pipe (what spreadsheets and ``cut`` read), or JSON Lines
+(``--format jsonl``: dates and times as ISO 8601 text, lists as arrays, the same
+shape ``decode --format jsonl`` gives).
+
+The SQL is exactly one statement (DuckDB's parser counts them), and DuckDB's
+messages are said whole on one line (analyzer/dataset/query.py).
 """
 
 from __future__ import annotations
@@ -20,9 +25,11 @@ import sys
 
 from ..errors import DatasetError
 from ..output import dumps
+from ..words import counted
 
 BATCH = 10_000       # rows fetched at a time
-TABLE_ROWS = 10_000  # a terminal table shows at most this many rows (the rest is counted)
+TABLE_ROWS = 10_000  # a terminal shows at most this many rows (the rest is counted)
+TERMINAL = ("table", "vertical")
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -32,46 +39,43 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("dataset", metavar="DIR", help="the dataset folder")
     p.add_argument("sql", metavar="SQL", help="one SQL statement, e.g. \"SELECT device, count(*) FROM events "
                                               "GROUP BY device\"")
-    p.add_argument("--format", choices=("table", "csv", "jsonl"), default=None,
-                   help="table on a terminal; csv when standard output is not one (default)")
+    p.add_argument("--format", choices=("table", "vertical", "csv", "jsonl"), default=None,
+                   help="on a terminal (default): a table, or a record at a time (vertical: a column and its "
+                        "value a line) when the columns are wider than the terminal; csv when standard output "
+                        "is not a terminal (default); jsonl: JSON Lines")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    fmt = args.format or ("table" if sys.stdout.isatty() else "csv")
     # imported here: pyarrow and DuckDB take a tenth of a second to load, which
     # every other command would pay for at start (the parser registers them all)
-    from ..dataset.query import connect
+    from ..dataset.query import connect, duckdb_message, one_statement
 
+    sql = one_statement(args.sql)
     con = connect(args.dataset)
     try:
-        cur = con.execute(args.sql)
+        cur = con.execute(sql)
     except Exception as e:   # duckdb.Error and its kinds: the SQL's fault, said in DuckDB's words
-        raise DatasetError(f"query: {_first_line(e)}") from None
+        raise DatasetError(f"query: {duckdb_message(e)}") from None
     if cur.description is None:   # a statement with no result (CREATE VIEW ...)
         return 0
     names = [d[0] for d in cur.description]
-    batches = _batches(cur)
-    if fmt == "csv":
+    batches = _batches(cur, duckdb_message)
+    if args.format == "csv" or (args.format is None and not sys.stdout.isatty()):
         _csv(names, batches)
-    elif fmt == "jsonl":
+    elif args.format == "jsonl":
         _jsonl(names, batches)
     else:
-        _table(names, batches)
+        _terminal(names, batches, args.format)
     return 0
 
 
-def _first_line(e: Exception) -> str:
-    text = str(e).strip().splitlines()
-    return text[0] if text else type(e).__name__
-
-
-def _batches(cur):
+def _batches(cur, message):
     while True:
         try:
             rows = cur.fetchmany(BATCH)
         except Exception as e:   # an error found while running (a cast that fails on a row)
-            raise DatasetError(f"query: {_first_line(e)}") from None
+            raise DatasetError(f"query: {message(e)}") from None
         if not rows:
             return
         yield rows
@@ -120,20 +124,55 @@ def _csv(names, batches) -> None:
         w.writerows([_csv_cell(v) for v in row] for row in rows)
 
 
-def _table(names, batches) -> None:
-    from rich.console import Console
-    from rich.table import Table
-
-    table = Table(*names, show_lines=False)
-    shown = more = 0
+def _shown(batches) -> tuple[list[list[str]], int]:
+    """The first TABLE_ROWS rows as text, and how many more there are."""
+    shown: list[list[str]] = []
+    more = 0
     for rows in batches:
         for row in rows:
-            if shown < TABLE_ROWS:
-                table.add_row(*("" if v is None else str(_csv_cell(v)) for v in row))
-                shown += 1
+            if len(shown) < TABLE_ROWS:
+                shown.append(["" if v is None else str(_csv_cell(v)) for v in row])
             else:
                 more += 1
+    return shown, more
+
+
+def _terminal(names, batches, fmt: str | None) -> None:
+    """A table, or a record at a time: ``fmt`` says which, or (None) the table when
+    its columns fit the terminal side by side, each as wide as its widest value."""
+    from rich.console import Console
+    from rich.table import Table
+    from rich.text import Text
+
+    from ..formats.fit_width import FitLines, table_width
+
+    rows, more = _shown(batches)
     console = Console(highlight=False)
-    console.print(table)
-    console.print(f"{shown + more:,} row{'' if shown + more == 1 else 's'}"
-                  + (f" ({more:,} not shown: --format csv or jsonl gives them all)" if more else ""))
+    vertical = fmt == "vertical" or (fmt is None and table_width(names, rows) > console.width)
+    if vertical:
+        _vertical(console, names, rows)
+    else:
+        table = Table()
+        for name in names:
+            table.add_column(Text(name))
+        for row in rows:
+            table.add_row(*map(Text, row))   # Text: a value is never markup
+        console.print(table)
+    said = counted(len(rows) + more, "row")
+    if more:
+        said += f" ({more:,} not shown: --format csv or jsonl gives them all)"
+    if vertical and fmt is None:
+        said += " (a record at a time: the columns are wider than the terminal; --format table or csv for a table)"
+    console.print(FitLines(said))
+
+
+def _vertical(console, names, rows) -> None:
+    """Each record as psql's \\x shows it: a rule naming it, then a column and its
+    value a line, the names aligned; a long value wraps under itself."""
+    from rich.rule import Rule
+
+    from ..formats.fit_width import FitFields
+
+    for n, row in enumerate(rows, 1):
+        console.print(Rule(f"record {n:,}", align="left", style="dim"))
+        console.print(FitFields(list(zip(names, row))))

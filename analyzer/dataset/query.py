@@ -2,11 +2,13 @@
 with the views ``events``, ``transactions`` and ``findings``, each over its
 table's Hive-partitioned Parquet files (``date`` read from the path as a DATE).
 A table with no file yet is an empty view of its schema, so every query runs on
-any export."""
+any export. A query is exactly one statement, counted by DuckDB's own parser, and
+DuckDB's messages are said whole, on one line."""
 
 from __future__ import annotations
 
 import os
+import re
 
 from ..errors import DatasetError
 from ..formats.parquet_schema import PARTITION, TABLES
@@ -62,3 +64,47 @@ def connect(root: str):
             con.register(f"_{table}_empty", empty)
             con.execute(f"CREATE VIEW {table} AS SELECT * FROM _{table}_empty")
     return con
+
+
+def one_statement(sql: str) -> str:
+    """``sql`` when it is exactly one statement (a trailing ``;`` is fine), as DuckDB
+    parses it: a ``;`` inside a string or a comment separates nothing. Refuses, in
+    one line, none, several, or SQL DuckDB cannot parse."""
+    import duckdb
+
+    try:
+        statements = duckdb.extract_statements(sql)
+    except duckdb.Error as e:
+        raise DatasetError(f"query: {duckdb_message(e)}") from None
+    if not statements:
+        raise DatasetError("query: no SQL statement given")
+    if len(statements) > 1:
+        raise DatasetError(f"query: {len(statements)} SQL statements given; a query runs exactly one "
+                           "(run each on its own)")
+    return sql
+
+
+_WHERE = re.compile(r"LINE (\d+): ")
+
+
+def duckdb_message(e: Exception) -> str:
+    """DuckDB's message for people, whole, on one line: its lines joined (``Did you
+    mean "events"?`` included), and the place it points at with ``LINE n:`` and carets
+    under an excerpt of the statement said as ``(at line n: "text")``."""
+    text = str(e).strip()
+    if not text:
+        return type(e).__name__
+    lines = text.splitlines()
+    said, where = [], ""
+    for i, line in enumerate(lines):
+        m = _WHERE.match(line)
+        if m is None:
+            if line.strip():
+                said.append(line.strip())
+            continue
+        carets = lines[i + 1] if i + 1 < len(lines) else ""
+        start, end = carets.find("^"), carets.rfind("^") + 1
+        pointed = line[start:end].strip() if 0 <= start < len(line) else ""
+        where = f' (at line {m.group(1)}: "{pointed}")' if pointed else f" (at line {m.group(1)})"
+        break   # the carets' line and nothing after it is for a terminal, not for one line
+    return " ".join(said) + where

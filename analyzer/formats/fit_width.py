@@ -13,7 +13,8 @@ fewer tables, headers of several words are stacked a word a line (``ACK`` over
 title is a line of its own (a Rich table title is padded to the table's width).
 
 Rich wraps a long line at a space and keeps the space at the end of the line;
-``FitLines`` wraps with Rich and drops it.
+``FitLines`` wraps with Rich and drops it. ``FitFields`` shows names and values a
+pair a line (``query``'s records), a long value wrapped under itself.
 """
 
 from __future__ import annotations
@@ -121,6 +122,36 @@ class FitTable:
         parts, stacked = self.layout(options.max_width)
         widest = min(max(self.natural_width(columns, stacked) for columns in parts), options.max_width)
         return Measurement(widest, widest)
+
+
+class FitFields:
+    """Names and their values, a pair a line: the values aligned after the longest
+    name, a long one wrapped at the width under itself (a hanging indent), and no
+    line ending in spaces (an empty value leaves the name alone)."""
+
+    ROOM = 10   # the least a value is given, however long the names
+
+    def __init__(self, pairs: Sequence[tuple[str, str]], name_style: str = "bold") -> None:
+        self.pairs = list(pairs)
+        self.name_style = name_style
+
+    def __rich_console__(self, console: Console, options: ConsoleOptions) -> RenderResult:
+        indent = max((cell_len(name) for name, _ in self.pairs), default=0) + 2
+        room = max(options.max_width - indent, self.ROOM)
+        for name, value in self.pairs:
+            for n, part in enumerate(Text(value).wrap(console, room) if value else [Text()]):
+                head = Text.assemble((name, self.name_style), " " * (indent - cell_len(name))) if n == 0 \
+                    else Text(" " * indent)
+                line = head + part
+                line.rstrip()
+                yield line
+
+
+def table_width(headers: Sequence[str], rows: Sequence[Sequence[str]]) -> int:
+    """The width of a Rich table of these columns (its default box and padding)
+    with no column shrunk and nothing wrapped: whether it fits side by side."""
+    widths = [max((cell_len(cell) for cell in column), default=0) for column in zip(headers, *rows)]
+    return sum(widths) + _frame(len(headers))
 
 
 @cache

@@ -14,6 +14,9 @@ import io
 import json
 import os
 import re
+import shutil
+import subprocess
+import sys
 
 import pytest
 
@@ -181,3 +184,102 @@ def test_duckdb_and_polars_give_the_same_counts(tmp_path):
     same("events", ["status"])
     same("events", ["date", "device"])
     same("transactions", ["status"])
+
+
+# ------------------------------------------------------------ on a terminal; one statement; DuckDB's words
+ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+
+
+def on_terminal(*args, columns: int = 80) -> tuple[int, str]:
+    """The command with standard output on a pseudo-terminal ``columns`` wide:
+    (exit code, what the terminal shows, without colours)."""
+    master, slave = os.openpty()
+    exe = shutil.which("gimbalscope")
+    cmd = [exe] if exe else [sys.executable, "-m", "analyzer"]
+    proc = subprocess.Popen(cmd + [str(a) for a in args], cwd=ROOT, stdin=subprocess.DEVNULL, stdout=slave,
+                            stderr=subprocess.DEVNULL, env={**os.environ, "COLUMNS": str(columns)})
+    os.close(slave)
+    seen = b""
+    while True:
+        try:
+            data = os.read(master, 1 << 16)
+        except OSError:        # EIO: every writer has closed it
+            break
+        if not data:
+            break
+        seen += data
+    code = proc.wait(timeout=120)
+    os.close(master)
+    return code, ANSI.sub("", seen.decode()).replace("\r\n", "\n")
+
+
+def records(text: str) -> list[dict[str, str]]:
+    """What a vertical display shows: a dict per record of column → value."""
+    out: list[dict[str, str]] = []
+    name = ""
+    for line in text.splitlines():
+        if re.match(r"\d[\d,]* rows?\b", line):
+            break                       # the count: the records are above it
+        if line.startswith("record ") and "─" in line:
+            out.append({})
+        elif line.startswith(" "):      # a long value wrapped under itself
+            out[-1][name] += line.strip()
+        elif out:
+            name, _, value = line.partition(" ")
+            out[-1][name] = value.strip()
+    return out
+
+
+def test_records_shown_a_column_a_line_when_the_columns_do_not_fit(fleet):
+    code, text = on_terminal("query", fleet, "SELECT * FROM events WHERE kind = 'nak'", columns=80)
+    assert code == 0
+    assert all(len(line) <= 80 for line in text.splitlines())
+    got = records(text)
+    # day_one: 1.1.2 NAKs HO, the fleet's only NAK
+    assert len(got) == 1
+    assert (got[0]["kind"], got[0]["device"], got[0]["date"], got[0]["line"]) == ("nak", "1.1.2", "2026-03-02", "B")
+    assert float(got[0]["latency"]) == pytest.approx(0.005, abs=1e-5)   # 5 ms after HO's last byte
+    # a value longer than the room after the names, wrapped under itself
+    assert got[0]["capture"] == str(fleet.parent / "mon.log")
+    assert any(line.startswith(" ") for line in text.splitlines())   # the path, too long for its room
+    assert " ".join(text.split("\n1 row ")[1].split()) == (
+        "(a record at a time: the columns are wider than the terminal; --format table or csv for a table)")
+
+
+def test_a_result_that_fits_stays_a_table(fleet):
+    code, text = on_terminal("query", fleet, "SELECT device, count(*) AS n FROM transactions GROUP BY ALL "
+                                             "ORDER BY device", columns=80)
+    assert code == 0 and "┃ device ┃ n ┃" in text and "record 1" not in text
+    # day one: 1.1.1 D?, P?, QZ and 1.1.2 HO; day two: 1.1.1 P? and 1.1.2 HO twice
+    assert "│ 1.1.1  │ 4 │" in text and "│ 1.1.2  │ 3 │" in text
+
+
+def test_vertical_on_request_and_piped_ends_no_line_in_spaces(fleet):
+    r = run_cli("query", fleet, "SELECT device, kind FROM events WHERE kind = 'nic'", "--format", "vertical")
+    assert r.returncode == 0, r.stderr
+    assert records(r.stdout) == [{"device": "1.1.1", "kind": "nic"}]   # 1.1.1 NICs QZ
+    assert all(line == line.rstrip() for line in r.stdout.splitlines())
+    assert "a record at a time" not in r.stdout      # asked for: nothing to explain
+
+
+def test_exactly_one_statement_as_duckdb_parses_it(fleet):
+    r = run_cli("query", fleet, "SELECT 1; SELECT 2")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.splitlines() == [
+        "gimbalscope: error: query: 2 SQL statements given; a query runs exactly one (run each on its own)"]
+    r = run_cli("query", fleet, ";")
+    assert r.returncode == 2 and r.stderr.splitlines() == ["gimbalscope: error: query: no SQL statement given"]
+    # a ; in a string or a comment, or one at the end, separates nothing
+    r = run_cli("query", fleet, "SELECT 'a;b' AS s; -- and; more")
+    assert r.returncode == 0 and r.stdout.splitlines() == ["s", "a;b"]
+
+
+def test_duckdb_messages_are_said_whole_on_one_line(fleet):
+    r = run_cli("query", fleet, "SELECT * FROM event")
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.splitlines() == [('gimbalscope: error: query: Catalog Error: Table with name event does not '
+                                      'exist! Did you mean "events"? (at line 1: "event")')]
+    r = run_cli("query", fleet, "SELECT device,\n  nope FROM events")
+    assert r.returncode == 2 and len(r.stderr.splitlines()) == 1
+    assert r.stderr.startswith('gimbalscope: error: query: Binder Error: Referenced column "nope" not found')
+    assert "Candidate bindings" in r.stderr and r.stderr.rstrip().endswith('(at line 2: "nope")')

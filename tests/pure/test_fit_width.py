@@ -7,7 +7,7 @@ import io
 import pytest
 from rich.console import Console
 
-from analyzer.formats.fit_width import FitLines, FitTable
+from analyzer.formats.fit_width import FitFields, FitLines, FitTable
 from tests.text_tables import assert_fits, cells, headers, read_tables
 
 GROUPS = [["commands", "ok", "nak", "nic", "no_ack", "no_result", "pending"],
@@ -86,3 +86,15 @@ def test_lines_wrap_without_trailing_spaces():
     assert_fits(text, 80)
     assert " ".join(text.split()) == line + " short"
     assert text.splitlines()[-1] == "short"
+
+
+def test_fields_wrap_a_long_value_under_itself():
+    pairs = [("capture", "/a/long/path/" + "x" * 70 + "/mon.log"), ("latency", ""), ("kind", "nak")]
+    text = draw(FitFields(pairs), 40)
+    assert_fits(text, 40)
+    lines = text.splitlines()
+    # names padded to the longest (7) and two spaces: values start at column 9
+    assert lines[0].startswith("capture  /a/long/path/")
+    assert all(line.startswith(" " * 9) and line[9] != " " for line in lines[1:-2])
+    assert "".join(line[9:] for line in lines[:-2]) == pairs[0][1]
+    assert lines[-2:] == ["latency", "kind     nak"]
