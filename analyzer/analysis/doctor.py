@@ -356,7 +356,8 @@ class WiringDoctor:
 
     def _wiring(self) -> list[Finding]:
         """Swapped lines, a garbled line, nothing of this protocol (analysis/signs.py)."""
-        return self.signs.findings(self.invocation.swap_fix(), self.invocation.baud_fix())
+        how = self.invocation
+        return self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
 
     def _echo(self) -> list[Finding]:
         if len(self.echoes) < 3:

@@ -155,8 +155,8 @@ _kind(WRONG_BAUD, ERROR,
       "{baud_fix}",           # Invocation.baud_fix
       hides=_WIRE_CONSEQUENCES)
 _kind(NOT_THIS_PROTOCOL, ERROR,
-      "bytes on every line and under 5% of them decode: not a tap of these gimbals' lines (or every line read "
-      "at the wrong rate)",
+      "a file's bytes, on every line, under 5% of them decoding: not a tap of these gimbals' lines (or every "
+      "line recorded at the wrong rate; on ports this is `wrong_baud`)",
       "almost nothing decodes: not traffic of this protocol, or read at the wrong rate",
       "{bytes} bytes, {share:.0%} in valid frames or answers",
       "check the input is a tap of the gimbals' serial lines (a raw dump, socat log or recording); if it is, "

@@ -143,10 +143,11 @@ class WiringSigns:
         return False
 
     # --------------------------------------------------------------- findings
-    def findings(self, swap_fix: str, baud_fix: str) -> list[Finding]:
+    def findings(self, swap_fix: str, baud_fix: str, live: bool = False) -> list[Finding]:
         """The error-level findings the signs show; ``swap_fix`` and ``baud_fix``
-        say how to fix them where the traffic is read (doctor.Invocation)."""
-        return self.swapped(swap_fix) + self.garbled(baud_fix)
+        say how to fix them where the traffic is read (doctor.Invocation), ``live``
+        whether it is read off ports."""
+        return self.swapped(swap_fix) + self.garbled(baud_fix, live)
 
     def swapped(self, swap_fix: str) -> list[Finding]:
         if not self.two_lines:
@@ -158,15 +159,18 @@ class WiringSigns:
         return [FINDINGS[LINES_SWAPPED].found("A,B", evidence, answer_bytes=a, command_frames=b,
                                               answered=self.ok_transactions, swap_fix=swap_fix)]
 
-    def garbled(self, baud_fix: str) -> list[Finding]:
-        """Lines that carry bytes of which almost none decode: every such line far
-        below (nothing of the protocol anywhere) is one finding about the input;
-        otherwise each garbled line is a wrong baud rate."""
-        judged = {name: line for name, line in self.lines.items() if line.bytes >= MIN_BYTES}
-        bad = {name: line for name, line in judged.items() if line.share < GARBLED}
+    def garbled(self, baud_fix: str, live: bool = False) -> list[Finding]:
+        """Lines that carry bytes of which almost none decode: in a file, every such
+        line far below (nothing of the protocol anywhere) is one finding about the
+        input; otherwise each garbled line is a wrong baud rate. A port carries
+        serial traffic by nature: what fails to decode there is read at the wrong
+        rate (``doctor --scan-baud`` finds it)."""
+        carrying = {name: line for name, line in self.lines.items() if line.bytes}
+        bad = {name: line for name, line in carrying.items() if line.bytes >= MIN_BYTES and line.share < GARBLED}
         if not bad:
             return []
-        if len(bad) == len(judged) and all(line.share < UNRECOGNISED for line in bad.values()):
+        # nothing of the protocol on any line, and every line has said enough
+        if not live and len(bad) == len(carrying) and all(line.share < UNRECOGNISED for line in bad.values()):
             total = sum(line.bytes for line in bad.values())
             good = sum(line.good_bytes for line in bad.values())
             evidence = sorted(n for line in bad.values() for n in line.errors.evidence())

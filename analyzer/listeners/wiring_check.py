@@ -42,7 +42,7 @@ class WiringCheck(Listener):
             return
         info = self.runner.info
         how = Invocation(info.inputs, info.live, info.command)
-        self.findings = self.signs.findings(how.swap_fix(), how.baud_fix())
+        self.findings = self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
         for f in self.findings:
             text = warning_text(f)
             self.warnings.append(text)

@@ -106,7 +106,8 @@ def test_quiet_silences_warnings_only(tmp_path):
     assert loud.returncode == 0 and "gimbalscope: warning:" in loud.stderr
     for cmd in ("decode", "stats", "doctor"):
         quiet = run_cli(cmd, damaged, "-q")
-        assert quiet.returncode == 0 and "warning:" not in quiet.stderr, cmd
+        # the doctor's status is its findings': the sample's line B is noisy, a warning
+        assert quiet.returncode == (1 if cmd == "doctor" else 0) and "warning:" not in quiet.stderr, cmd
     converted = run_cli("convert", damaged, "-o", tmp_path / "out.mcap", "--quiet")
     # what it wrote is no warning: still said, alone
     said = converted.stderr.splitlines()
