@@ -48,14 +48,14 @@ def test_the_fleet_stack_is_an_extra_and_the_tests_pull_in_every_extra():
     assert pulled == set(extras) - {"test"}
 
 
-@pytest.mark.parametrize("args", [
-    ("decode", BUS),
-    ("stats", SOCAT_LOG),
-    ("doctor", CTL, DEV),
+@pytest.mark.parametrize("args, status", [
+    (("decode", BUS), 0),
+    (("stats", SOCAT_LOG), 0),
+    (("doctor", CTL, DEV), 1),      # the sample's line A is noisy: a warning
 ])
-def test_the_base_install_decodes_without_the_fleet_stack(args):
+def test_the_base_install_decodes_without_the_fleet_stack(args, status):
     r = without(FLEET, *args)
-    assert r.returncode == 0, r.stderr
+    assert r.returncode == status, r.stderr
     assert r.stdout.strip()
     assert "fleet" not in r.stderr
 
