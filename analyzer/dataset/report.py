@@ -27,11 +27,12 @@ STATUSES = ("ok", "nak", "nic", "no_ack", "no_result", "pending")
 ERRORS = ("nak", "nic", "no_ack", "no_result")   # a command that did not get what it asked for
 
 # The columns of a device's periods, in the text report and the HTML page alike: a
-# count or rate by its key in the JSON (``to_dict``), a latency as ``ACK p50`` for
-# ``ack_p50_ms``; the counts as ``stats`` names them. In groups kept side by side
-# when a table is split to fit the terminal.
+# count or rate by its key in the JSON (``to_dict``); a latency as ``stats`` and the
+# TUI name it (``ACK median`` for ``ack_p50_ms``: one name for one quantity wherever
+# it shows); the counts as ``stats`` names them. In groups kept side by side when a
+# table is split to fit the terminal.
 PERIOD_COLUMNS = (("commands", *STATUSES), ("error_rate", "nak_rate"),
-                  ("ACK p50", "ACK p95", "result p50", "result p95"))
+                  ("ACK median", "ACK p95", "result median", "result p95"))
 
 # A period counts toward a trend only with this many commands: a handful of
 # commands give percentiles and rates that are mostly noise.

@@ -147,10 +147,10 @@ def test_the_page_renders_in_a_real_browser(fleet, tmp_path):
 
 
 # ------------------------------------------------------------ the text fits; one name a column
-# named as the JSON names the values (the latencies: ack_p50_ms is "ACK p50"), the
+# named as the JSON names the values (the latencies as stats names them: ack_p50_ms is "ACK median"), the
 # counts as `stats` names them
 COLUMNS = ["commands", "ok", "nak", "nic", "no_ack", "no_result", "pending", "error_rate", "nak_rate",
-           "ACK p50", "ACK p95", "result p50", "result p95"]
+           "ACK median", "ACK p95", "result median", "result p95"]
 
 
 @pytest.mark.parametrize("columns", [80, None])
@@ -184,3 +184,16 @@ def test_the_page_names_the_columns_as_the_text_does(fleet, tmp_path):
         "25", "21", "4", "0", "0", "0", "0", "16.0%", "16.0%", "22.0 ms", "22.0 ms", "", ""]) + "</tr>"
     assert last in html
     assert "<p>2 devices, 200 commands, per day.</p>" in html   # 25 commands a day, 4 days, 2 devices
+
+
+def test_report_and_stats_name_a_quantity_alike():
+    """One name a column: the counts and latencies the report shares with stats (and
+    the TUI's statistics screen, which draws stats's tables) read the same."""
+    from analyzer.analysis.stats import COUNT_COLUMNS, LATENCY_COLUMNS
+    from analyzer.dataset.report import PERIOD_COLUMNS
+    stats_names = {name for group in COUNT_COLUMNS for name in group} | {
+        label for group in LATENCY_COLUMNS for label, *_ in group}
+    report_names = [name for group in PERIOD_COLUMNS for name in group]
+    shared = [n for n in report_names if n not in ("error_rate", "nak_rate")]   # rates: the report's own
+    assert set(shared) <= stats_names, set(shared) - stats_names
+    assert {"ACK median", "ACK p95", "result median"} <= set(shared)
