@@ -30,6 +30,20 @@ def run_cli(*args, input=None, timeout=60):
                           timeout=timeout, cwd=ROOT)
 
 
+def drain(master: int) -> bytes:
+    """Everything a pseudo-terminal's other side writes, until every writer has closed it."""
+    seen = b""
+    while True:
+        try:
+            data = os.read(master, 1 << 16)
+        except OSError:        # EIO: every writer has closed it
+            break
+        if not data:
+            break
+        seen += data
+    return seen
+
+
 @pytest.fixture
 def socat_bin():
     path = shutil.which("socat")

@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from tests.conftest import ROOT, run_cli
+from tests.conftest import ROOT, drain, run_cli
 
 SOCAT = os.path.join(ROOT, "captures", "demo-socat.log")
 NOW = {"GIMBALSCOPE_PROGRESS_DELAY": "0"}
@@ -30,15 +30,7 @@ def run_on_terminal(*args, stdout_too: bool = False, stdin=subprocess.DEVNULL, e
                             stdout=slave if stdout_too else subprocess.PIPE, stderr=slave,
                             env={**os.environ, **env, "COLUMNS": "120"})
     os.close(slave)
-    seen = b""
-    while True:
-        try:
-            data = os.read(master, 1 << 16)
-        except OSError:        # EIO: every writer has closed it
-            break
-        if not data:
-            break
-        seen += data
+    seen = drain(master)
     out = proc.stdout.read().decode() if proc.stdout else ""
     code = proc.wait(timeout=60)
     os.close(master)

@@ -21,7 +21,7 @@ import sys
 import pytest
 
 from analyzer.dataset.query import connect
-from tests.conftest import ROOT, SOCAT_LOG, BUS, frame, run_cli
+from tests.conftest import BUS, ROOT, SOCAT_LOG, drain, frame, run_cli
 
 BYTE = 10 / 9600          # seconds per byte at 9600 baud, 8N1
 ACK, NAK, NIC = b"\x06", b"\x15", b"?"
@@ -199,15 +199,7 @@ def on_terminal(*args, columns: int = 80) -> tuple[int, str]:
     proc = subprocess.Popen(cmd + [str(a) for a in args], cwd=ROOT, stdin=subprocess.DEVNULL, stdout=slave,
                             stderr=subprocess.DEVNULL, env={**os.environ, "COLUMNS": str(columns)})
     os.close(slave)
-    seen = b""
-    while True:
-        try:
-            data = os.read(master, 1 << 16)
-        except OSError:        # EIO: every writer has closed it
-            break
-        if not data:
-            break
-        seen += data
+    seen = drain(master)
     code = proc.wait(timeout=120)
     os.close(master)
     return code, ANSI.sub("", seen.decode()).replace("\r\n", "\n")
