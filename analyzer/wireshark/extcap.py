@@ -123,6 +123,12 @@ def capture(args: argparse.Namespace) -> int:
         raise ExtcapError(f"{args.fifo}: cannot open the capture FIFO: {e.strerror or e}") from None
     try:
         return _tap(args, fifo)
+    except ExtcapError as e:
+        # said before the FIFO closes: dumpcap ends the capture when it sees the
+        # FIFO's end, with whatever this program has said on stderr by then (said
+        # after, tshark printed an empty "tshark: " on a busy machine)
+        _say(e)
+        return 1
     finally:
         try:
             fifo.close()
@@ -176,6 +182,11 @@ def _tap(args: argparse.Namespace, fifo) -> int:
     return 0
 
 
+def _say(e: ExtcapError) -> None:
+    """The one line Wireshark shows for a failed capture (it reads the program's stderr)."""
+    print(f"gimbalscope: {e}", file=sys.stderr, flush=True)
+
+
 def main(argv: list[str] | None = None) -> int:
     args, _unknown = parser().parse_known_args(argv)   # newer Wireshark may pass more
     try:
@@ -193,7 +204,7 @@ def main(argv: list[str] | None = None) -> int:
             raise ExtcapError("run by Wireshark: expected --extcap-interfaces, --extcap-dlts, "
                               "--extcap-config or --capture")
     except ExtcapError as e:
-        print(f"gimbalscope: {e}", file=sys.stderr)
+        _say(e)
         return 1
     except KeyboardInterrupt:
         return 0
