@@ -1,7 +1,11 @@
 """The TUI's capture thread: runs the tap runner (live tap, replay, or file) with
 the doctor, any recording, and ``Feed``, the listener that delivers batches to the
 screen at most every ``interval`` seconds, so recording never waits for the
-screen and the screen is never flooded with one message per event.
+screen and the screen is never flooded with one message per event. A file's
+batches also say how far its input has been read (``READS``, the meter the CLI's
+progress bar reads), for the status bar's load progress; an input with no size
+(a pipe), which the meter cannot measure, is measured by its traffic's bytes
+(``StreamFeed``).
 
 No Textual here: ``deliver`` is any callable (the app posts a message with it).
 
@@ -23,6 +27,7 @@ from dissectors.event import Event
 from ..listeners import DoctorListener
 from ..outfile import show
 from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
+from ..sources.meter import READS, ReadMeter
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import RecordingError
 
@@ -59,6 +64,8 @@ class FeedBatch:
     done: bool = False
     error: str | None = None
     settings: str = ""               # the link's serial settings now (the rate follows rate changes)
+    read: int = 0                    # a file: bytes of its input read so far (a pipe: of its traffic); live: 0
+    total: int | None = None         # a file: its input's size; None when it has none (a pipe) or live
 
 
 class Feed(Listener):
@@ -68,7 +75,8 @@ class Feed(Listener):
     (requests to the runner)."""
 
     def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener, *,
-                 interval: float | None = None, recorder: McapWriter | None = None) -> None:
+                 interval: float | None = None, recorder: McapWriter | None = None,
+                 meter: ReadMeter = READS) -> None:
         self.runner = runner
         self.deliver = deliver
         self.doctor = doctor
@@ -82,6 +90,7 @@ class Feed(Listener):
         self._warnings: list[str] = []
         self._findings: list | None = None
         self.recorder = recorder             # --record: made (and checked) before the screen opens
+        self.meter = meter                   # how far the input files have been read: asked once a batch
         self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
         self._thread = threading.Thread(target=self._run, daemon=True, name="gimbalscope-feed")
 
@@ -183,13 +192,37 @@ class Feed(Listener):
         findings, self._findings = self._findings, None
         self.deliver(FeedBatch(events, [] if done else self.runner.unsettled(), self._status(),
                                self.runner.skew, path, size, warnings, findings, done, error,
-                               self.runner.serial_settings))
+                               self.runner.serial_settings, *self._read()))
+
+    def _read(self) -> tuple[int, int | None]:
+        """Bytes of the input read so far, of its size (None: it has none)."""
+        total = self.meter.total()
+        return (self.meter.done(), total) if total else (0, None)
+
+
+class StreamFeed(Feed):
+    """A file's feed whose input has no size (a pipe, a FIFO): what has been read
+    is counted by the bytes of traffic it held (decompressed, and a socat log's
+    data without its text), chunk by chunk. Only for such inputs: a file read flat
+    out gives up to a million chunks a second."""
+
+    def on_chunk(self, chunk, offset: int) -> None:
+        st = self.lines.get(chunk.line)
+        if st is not None:
+            st.bytes += len(chunk.data)
+
+    def _read(self) -> tuple[int, int | None]:
+        return sum(st.bytes for st in self.lines.values()), None
 
 
 class LiveFeed(Feed):
     """A live tap's feed: it also counts each line's bytes for the status line's
     rate. A file's feed does not hear chunks at all (a file read flat out gives a
-    million a second, and the rate of reading a file says nothing)."""
+    million a second, and the rate of reading a file says nothing); nor does it
+    say how much of an input has been read (a live tap reads no file)."""
+
+    def _read(self) -> tuple[int, int | None]:
+        return 0, None
 
     def on_chunk(self, chunk, offset: int) -> None:
         st = self.lines.get(chunk.line)
@@ -204,3 +237,12 @@ class LiveFeed(Feed):
                 win[-1][1] += n
             else:
                 win.append([now, n])
+
+
+def feed_class(runner: TapRunner, meter: ReadMeter = READS) -> type[Feed]:
+    """The feed a runner needs: a live tap's, a file's, or (an input with no size)
+    one that counts the traffic's bytes, as the meter cannot tell how much of a
+    pipe has been read."""
+    if runner.live:
+        return LiveFeed
+    return Feed if meter.total() else StreamFeed

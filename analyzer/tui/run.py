@@ -21,7 +21,7 @@ from ..listeners import DoctorListener
 from ..runner import Listener, TapRunner
 from ..writers.mcap import McapWriter
 from .app import GimbalscopeApp
-from .feed import Feed, LiveFeed
+from .feed import Feed, feed_class
 from .model import CaptureModel
 
 # The capture thread decodes flat out while a file loads; with the interpreter's
@@ -109,7 +109,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         doctor = DoctorListener(tui=True)
         # ``listeners`` beside the recorder: both hear the doctor's notes after the same events
         runner = TapRunner(capture, [l for l in (recorder, *listeners, doctor) if l is not None], info=info)
-        feed = (LiveFeed if runner.live else Feed)(runner, deliver, doctor, recorder=recorder)
+        feed = feed_class(runner)(runner, deliver, doctor, recorder=recorder)
         runner.add_listener(feed)   # last: it reads the doctor's findings of each step
         return feed
 

@@ -58,7 +58,7 @@ class FindingsScreen(Screen):
             if f.fix:
                 node.add_leaf(Text("try: " + f.fix, style="green"))
             if f.evidence:
-                ev = node.add(Text(f"evidence ({len(f.evidence)} events)", style="dim"), expand=True)
+                ev = node.add(Text(f"evidence ({len(f.evidence):,} events)", style="dim"), expand=True)
                 for n in f.evidence:
                     ev.add_leaf(Text(f"#{n}", style="underline cyan"), data=n)
         tree.root.expand()

@@ -1,9 +1,11 @@
-"""The status bar: ports and their state, settings, bytes/s per line, skew,
-the recording and its size, elapsed time (line 1); events, errors, checksum
+"""The status bar: a file and how much of it has loaded (bytes read of its
+size), or ports and their state, bytes/s per line; settings, skew, the
+recording and its size, elapsed time (line 1); events, errors, checksum
 errors, the doctor's findings, the filter, replay position and speed, follow
 state or "+N new", a running scan's progress or the feed's last warning
 (line 2). It only shows: it reads the model and what the app hands it, and
-has no messages of its own."""
+has no messages of its own. Counts have thousands separators (8,671), as
+everywhere on the TUI."""
 
 from __future__ import annotations
 
@@ -66,8 +68,11 @@ class StatusBar(Static):
         """Line 1: where the events come from."""
         m, b, live = self.model, self.last, self.mode == "live"
         line = Text()
-        if b is not None and not live:
+        if not live:
             line.append(self.source_name + "  ")
+            load = self._load()
+            if load:
+                line.append(load + "  ", style="dim" if m.done else "bold")
         elif b is not None:
             for st in b.lines:
                 line.append(f"{st.line} ", style="bold")
@@ -87,6 +92,23 @@ class StatusBar(Static):
                         style="dim")
         return line
 
+    def _load(self) -> str:
+        """A file: how much of it has been read, from the feed's batches: bytes
+        of its size while it loads, then its size. A pipe has no size: the bytes
+        of traffic read so far, no share. A replay says nothing once loaded (its
+        position is on line 2); a capture that stopped on an error, how far it got."""
+        b, done = self.last, self.model.done
+        if done and self.mode == "replay":
+            return ""
+        word = "loaded" if done else "loading"
+        if b is None:
+            return word
+        if not b.total:
+            return f"{word} · {_size(b.read)} of traffic" if b.read else word
+        if done and not b.error:
+            return f"{word} {_size(b.total)}"
+        return f"{word} {100 * b.read // b.total}% · {_size(b.read)} of {_size(b.total)}"
+
     def _events(self) -> Text:
         """Line 2: what the events are, and what the screen is doing."""
         m = self.model
@@ -94,11 +116,11 @@ class StatusBar(Static):
         errors = m.error_count
         line.append(_plural(m.shown + len(m.unsettled), "event"), style="bold")
         line.append(f"  {_plural(errors, 'error')}", style=SEVERITY_BADGE[ERROR] if errors else "")
-        line.append(f"  {m.stats.checksum_errors} checksum")
+        line.append(f"  {m.stats.checksum_errors:,} checksum")
         problems = [f for f in m.findings if f.severity != INFO]
         if problems:
             worst = ERROR if any(f.severity == ERROR for f in problems) else WARNING
-            line.append(f"  ⚠ {len(problems)} finding{'s' if len(problems) != 1 else ''} (w): {problems[0].title}",
+            line.append(f"  ⚠ {_plural(len(problems), 'finding')} (w): {problems[0].title}",
                         style=SEVERITY_BADGE[worst])
         if m.filter_text:
             line.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")
@@ -112,8 +134,6 @@ class StatusBar(Static):
             line.append(f"  +{m.new_while_away:,} new (End follows)", style="bold yellow")
         if m.done and self.mode == "live":
             line.append("  capture ended", style="red")
-        elif m.done and self.mode != "replay":
-            line.append("  loaded", style="dim")
         if self.scan:
             line.append(f"  {self.scan}", style="bold cyan")
         elif self.messages:
