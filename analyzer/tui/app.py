@@ -82,7 +82,7 @@ class GimbalscopeApp(App):
         self._feed_factory = feed_factory
         self.feed: Feed | None = None
         self.mode = mode                 # live, replay, view
-        self._keymap = keymap or {}
+        self.keymap = keymap or {}       # binding id -> keys (--keymap), as the help screen shows them
         self.last: FeedBatch | None = None
         self.main = CaptureScreen(model, mode=mode, source=source, settings=settings, record_path=record_path)
         self.status_bar = self.main.status_bar
@@ -117,8 +117,8 @@ class GimbalscopeApp(App):
         return self.main
 
     def on_mount(self) -> None:
-        if self._keymap:
-            self.set_keymap(self._keymap)
+        if self.keymap:
+            self.set_keymap(self.keymap)
         # the main screen composes in its own turn: the capture starts once it has
         # (a callback waits in the screen's queue until it has mounted)
         self.main.call_later(self._start_feed)

@@ -3,6 +3,7 @@ follow mode, replay controls, the record toggle. Captures are real: a socat-log
 file, and a live tap over pseudo-terminals opened with pyserial."""
 
 import asyncio
+import io
 import os
 import time
 import tty
@@ -83,6 +84,69 @@ def test_view_keys_errors_pairs_filter(tmp_path):
             await pilot.press("slash", "ctrl+u", "up")
             assert app.query_one("#filter").value == 'kind == "ack"'
             await pilot.press("escape")
+        stop_feed(app)
+
+    run(drive())
+
+
+def notices(app) -> list[str]:
+    """Every notification the app gives from now on."""
+    said: list[str] = []
+    notify = app.notify
+    app.notify = lambda message, *a, **k: (said.append(message), notify(message, *a, **k))[1]
+    return said
+
+
+def test_pair_key_says_when_the_partner_is_filtered_out(tmp_path):
+    app, _expected = view_of_fixture(tmp_path)
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await all_loaded(pilot, app)
+            said = notices(app)
+            await pilot.press("slash", *'kind == "ack"', "enter")
+            assert selected(app) == 2                    # the ACK of #1, which the filter hides
+            await pilot.press("p")
+            assert selected(app) == 2                    # the cursor stays
+            assert said[-1] == "#1, the partner, is filtered out (/ changes the filter)"
+            await pilot.press("colon", *"6", "enter")   # the go-to prompt's word for the same
+            assert said[-1] == "#6 is filtered out: at the nearest shown event" and selected(app) == 7
+            await pilot.press("slash", "ctrl+u", "enter")   # no filter: p goes there
+            await pilot.press("p")
+            assert selected(app) == 6 and len(said) == 2
+        stop_feed(app)
+
+    run(drive())
+
+
+def help_text(app) -> str:
+    """The help screen's key table as plain text."""
+    from rich.console import Console
+    from textual.widgets import Static
+
+    console = Console(width=120, record=True, file=io.StringIO())
+    console.print(app.screen.query(Static).first().content)
+    return console.export_text()
+
+
+def test_help_shows_keys_as_typed_and_as_the_keymap_binds_them(tmp_path):
+    from analyzer.tui.screens.help import HelpScreen
+
+    app, _expected = view_of_fixture(tmp_path, keymap={"app.next_error": "x"})
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await all_loaded(pilot, app)
+            await pilot.press("question_mark")
+            assert isinstance(app.screen, HelpScreen)
+            rows = {line.split("│")[3].strip(): line.split("│")[1].strip()
+                    for line in help_text(app).splitlines() if line.count("│") == 4}
+            assert rows["app.seek_forward"] == ">" and rows["app.seek_back"] == "<"
+            assert rows["app.seek_forward_1"] == "." and rows["app.seek_back_1"] == ","
+            assert rows["app.next_mark"] == "'" and rows["app.filter"] == "/" and rows["app.help"] == "?"
+            assert rows["app.goto"] == "^g or :" and rows["app.quit"] == "q or ^c"   # as the footer shows ctrl
+            assert rows["app.next_error"] == "x"                                  # the keymap's key
+            assert "greater_than_sign" not in help_text(app) and "full_stop" not in help_text(app)
         stop_feed(app)
 
     run(drive())

@@ -22,6 +22,12 @@ from ..widgets.prompt import Prompt
 BACKGROUND_ROWS = 50_000
 
 
+def filtered_out(number: int, which: str = "") -> str:
+    """What the go-to prompt and the pair key say of an event the filter hides:
+    "#6 is filtered out", "#6, the partner, is filtered out"."""
+    return f"#{number}, {which}, is filtered out" if which else f"#{number} is filtered out"
+
+
 class CaptureScreen(Screen):
     def __init__(self, model: CaptureModel, *, mode: str, source: str, settings: str = "",
                  record_path: str | None = None) -> None:
@@ -148,13 +154,22 @@ class CaptureScreen(Screen):
         if to == "error":
             self.go(nav.next_error(here, forward=forward), "later error (E goes back)" if forward else "earlier error")
         elif to == "pair":
-            self.go(nav.partner(here), "paired event")
+            self._go_partner(nav.partner(here))
         elif to == "device":
             self.go(nav.same_device(here, forward=forward), "other event of this device")
         elif to == "mark":
             self.go(nav.next_mark(here), "marks (m marks a row)")
         elif to == "hit":
             self._search(self.search_bar.text, here, forward)
+
+    def _go_partner(self, partner: int | None) -> None:
+        """To the paired event; one the filter hides is said, and the cursor
+        stays (the nearest shown event is often the one the cursor is on)."""
+        if partner is not None and self.model.row_of(partner) is None:
+            self.app.bell()
+            self.notify(f"{filtered_out(partner, 'the partner')} (/ changes the filter)", timeout=2)
+            return
+        self.go(partner, "paired event")
 
     # ----------------------------------------------------------------- bars
     def open_bar(self, name: str) -> None:
@@ -215,7 +230,7 @@ class CaptureScreen(Screen):
             return
         self.go(number)
         if model.row_of(number) is None:
-            self.notify(f"#{number} is filtered out: at the nearest shown event", timeout=2)
+            self.notify(f"{filtered_out(number)}: at the nearest shown event", timeout=2)
 
     # ---------------------------------------------------------- background
     def _background(self, what: str, work, done) -> None:

@@ -1,11 +1,14 @@
 """The help screen (``?``): every key with what it does and its id (for
-``--keymap``), and the row colours."""
+``--keymap``), and the row colours. Keys show as typed and as the footer shows
+them (``>``, ``.``, ``^c``: Textual's ``App.get_key_display``), a rebound one
+with the keys the keymap gave it."""
 
 from __future__ import annotations
 
 from rich.table import Table
 from rich.text import Text
 from textual.app import ComposeResult
+from textual.binding import Binding
 from textual.containers import VerticalScroll
 from textual.screen import Screen
 from textual.widgets import Footer, Static
@@ -21,6 +24,11 @@ class HelpScreen(Screen):
         super().__init__()
         self._app = app
 
+    def keys_of(self, binding: Binding) -> str:
+        """The binding's keys (the keymap's, if it rebinds the id) as typed: "q or ^c"."""
+        keys = self._app.keymap.get(binding.id, binding.key) if binding.id else binding.key
+        return " or ".join(self._app.get_key_display(Binding(key.strip(), "")) for key in keys.split(","))
+
     def compose(self) -> ComposeResult:
         from ..widgets import EventList
 
@@ -29,7 +37,7 @@ class HelpScreen(Screen):
         t.add_column("does")
         t.add_column("id", style="dim")
         for b in list(EventList.BINDINGS) + list(type(self._app).BINDINGS):
-            t.add_row(b.key, b.description, b.id or "")
+            t.add_row(self.keys_of(b), b.description, b.id or "")
         rules = Text("\nRow colours: ", style="bold")
         for name, row in LEGEND:
             rules.append(f" {name} ", style=ROW_STYLE[row])
