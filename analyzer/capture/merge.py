@@ -65,7 +65,7 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
     rates = cap.rates
     follower = rates.follower if rates is not None else None
     watch_all = rates is not None and rates.watch_all
-    tap, clock, swap, skip = cap.on_chunk, cap.clock, cap.swap_lines, cap.undecoded_bytes.skip
+    tap, clock, skip = cap.on_chunk, cap.clock, cap.undecoded_bytes.skip
     release_every = merge.release_every
     since_release = 0
     # one clock: a chunk read later started no earlier than the other line's
@@ -80,7 +80,7 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
                 continue
             merge.idle(deframers, t)
         else:
-            if swap:
+            if cap.swap_lines:   # read a chunk: the TUI's swap key sets it while a live tap runs
                 # its own type: a live tap's backlog stays undecoded on the other line too
                 chunk = type(chunk)(SWAP[chunk.line], data, t)
             line = chunk.line

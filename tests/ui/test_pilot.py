@@ -7,6 +7,7 @@ import io
 import os
 import time
 import tty
+from collections import Counter
 
 import analyzer
 from analyzer.analysis.findings import LINES_SWAPPED
@@ -347,8 +348,14 @@ def test_findings_panel_links_to_evidence_and_swap_key_fixes_swapped_lines():
             assert selected(app) == target and not app.model.follow
             await pilot.press("x")                   # swap: line A is read as line B
             start = len(app.model.events)
-            await settle(pilot, app, lambda a: sum(1 for e in a.model.events[start:]
-                                                   if e.kind == "command" and e.status == "ok") >= 5)
+            # commands to the gimbals come on line A now, and are answered: not the
+            # gimbals' answers to the controller (0.1.1) taken for commands on A, as
+            # when the swap did not reach the running capture
+            await settle(pilot, app, lambda a: sum(1 for e in a.model.events[start:] if e.kind == "command"
+                                                   and e.line == "A" and e.dst in scenario.DEVICES
+                                                   and e.status == "ok") >= 5,
+                         what=lambda a: Counter((e.line, e.kind, e.dst and e.dst[0])
+                                                for e in a.model.events[start:]).most_common(6))
             assert app.feed.runner.swapped
             # the doctor starts again on the new wiring: the swap finding goes, and no
             # wiring error is left. (Timing warnings are not asserted: the simulated
