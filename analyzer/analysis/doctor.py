@@ -41,7 +41,7 @@ from ..words import counted
 from .findings import (
     CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK, DEVICE_MAP, ECHO,
     FINDINGS, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, Finding, unexplained)
-from .signs import MAX_EVIDENCE as _MAX_EVIDENCE, LineTally, Tally as _Tally, WiringSigns
+from .signs import GARBLED, MAX_EVIDENCE as _MAX_EVIDENCE, MIN_BYTES, LineTally, Tally as _Tally, WiringSigns
 from .stats import Latency
 
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
@@ -415,7 +415,7 @@ class WiringDoctor:
 
     def _noisy_line(self, name: str, line: LineTally) -> Finding | None:
         errors = line.error_count
-        if errors < 3 or line.bytes < 100 or line.good_bytes / line.bytes < 0.3:
+        if errors < 3 or line.bytes < MIN_BYTES or line.share < GARBLED:
             return None   # too little to say; garbled lines are wrong_baud
         if line.bad_frames / max(line.frames, 1) < 0.01 and line.noise_runs < 3:
             return None

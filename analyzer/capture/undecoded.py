@@ -10,6 +10,7 @@ from dissectors import Deframer
 from dissectors.event import Event
 
 from ..lines import Chunk
+from ..words import counted
 
 UNDECODED_EVERY = 10.0   # capture seconds between updates of the undecoded count
 
@@ -46,22 +47,18 @@ class UndecodedBytes:
         said = self._said
         if not total or (not final and said is not None and (t is None or t - said < UNDECODED_EVERY)):
             return
-        per_line = ", ".join(f"line {line}: {_bytes(n)}" for line, n in sorted(self.by_line.items()))
+        per_line = ", ".join(f"line {line}: {counted(n, 'byte')}" for line, n in sorted(self.by_line.items()))
         if final:
             why = []
             if total > self._at_stop:
                 why.append(f"{total - self._at_stop:,} while decoding was behind the line")
             if self._at_stop:
                 why.append(f"{self._at_stop:,} still waiting when the capture stopped")
-            self.warn(f"{_bytes(total)} not decoded ({'; '.join(why)}; {per_line}); a recording keeps "
+            self.warn(f"{counted(total, 'byte')} not decoded ({'; '.join(why)}; {per_line}); a recording keeps "
                       f"every byte read: decode it to see them")
         elif said is None:
             self.warn(f"decoding fell behind the line: bytes are passed over (a recording still keeps them) "
                       f"until it catches up (so far {per_line})")
         else:
-            self.warn(f"decoding still behind: {_bytes(total)} not decoded so far ({per_line})")
+            self.warn(f"decoding still behind: {counted(total, 'byte')} not decoded so far ({per_line})")
         self._said = t if t is not None else (said or 0.0)
-
-
-def _bytes(n: int) -> str:
-    return f"{n:,} byte{'' if n == 1 else 's'}"

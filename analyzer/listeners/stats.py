@@ -56,7 +56,7 @@ def _noise_kinds(data: dict) -> str:
     parts = []
     for cat, n in kinds.items():
         one, many = _NOISE_NAMES.get(cat, (cat, cat))
-        parts.append(f"{n:,} {one if n == 1 else many}")
+        parts.append(counted(n, one, many))
     return " (" + ", ".join(parts) + ")"
 
 

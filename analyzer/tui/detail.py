@@ -12,6 +12,7 @@ from dissectors.dissect import field_spans
 from dissectors.event import ACK, COMMAND, NAK, NIC, RESULT, Event, format_address
 
 from ..output import fmt_seconds
+from ..words import counted
 
 
 @dataclass
@@ -30,7 +31,7 @@ def detail(ev: Event, answers_of: Callable[[int], list[int]], event: Callable[[i
     nodes: list[DetailNode] = []
     n = len(ev.raw)
     head = DetailNode(f"#{ev.number} {ev.kind} on line {ev.line}, bytes {ev.offset}–{ev.offset + n - 1}"
-                      f" of the line ({n:,} byte{'' if n == 1 else 's'})")
+                      f" of the line ({counted(n, 'byte')})")
     if ev.t is not None:
         head.children.append(DetailNode(f"time {ev.t:.6f} s → {ev.t_end:.6f} s"))
     if ev.dst is not None:

@@ -44,8 +44,7 @@ from ..words import counted
 def wrote(counts: dict[str, int], name: str) -> str:
     """What a writer says it wrote, one line, as the other commands word their
     outputs: ``wrote 1,024 events to out.jsonl`` (``1 event``)."""
-    said = (counted(n, noun[:-1], noun) if noun.endswith("s") else counted(n, noun, noun)
-            for noun, n in counts.items())
+    said = (counted(n, noun[:-1] if noun.endswith("s") else noun, noun) for noun, n in counts.items())
     return f"wrote {', '.join(said)} to {name}"
 
 

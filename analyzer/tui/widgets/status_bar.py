@@ -16,6 +16,7 @@ from rich.text import Text
 from textual.widgets import Static
 
 from ...styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
+from ...words import counted
 from ..feed import FeedBatch
 from ..model import CaptureModel
 
@@ -26,10 +27,6 @@ def _size(n: float) -> str:
             return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
         n /= 1000
     return ""
-
-
-def _plural(n: int, word: str) -> str:
-    return f"{n:,} {word}{'' if n == 1 else 's'}"
 
 
 class StatusBar(Static):
@@ -114,13 +111,13 @@ class StatusBar(Static):
         m = self.model
         line = Text()
         errors = m.error_count
-        line.append(_plural(m.shown + len(m.unsettled), "event"), style="bold")
-        line.append(f"  {_plural(errors, 'error')}", style=SEVERITY_BADGE[ERROR] if errors else "")
+        line.append(counted(m.shown + len(m.unsettled), "event"), style="bold")
+        line.append(f"  {counted(errors, 'error')}", style=SEVERITY_BADGE[ERROR] if errors else "")
         line.append(f"  {m.stats.checksum_errors:,} checksum")
         problems = [f for f in m.findings if f.severity != INFO]
         if problems:
             worst = ERROR if any(f.severity == ERROR for f in problems) else WARNING
-            line.append(f"  ⚠ {_plural(len(problems), 'finding')} (w): {problems[0].title}",
+            line.append(f"  ⚠ {counted(len(problems), 'finding')} (w): {problems[0].title}",
                         style=SEVERITY_BADGE[worst])
         if m.filter_text:
             line.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")
