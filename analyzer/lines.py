@@ -8,7 +8,10 @@ recorders write them as the raw topics, so they live at the bottom.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
+
+if TYPE_CHECKING:
+    from dissectors.problems import Problem
 
 LINE_A = "A"    # controller → device
 LINE_B = "B"    # device → controller
@@ -26,3 +29,14 @@ class Chunk(NamedTuple):
     # None for every ordinary chunk, read as a class attribute (no per-chunk cost).
     undecoded = None
 
+
+
+class LineFault(NamedTuple):
+    """An error the receiver itself saw on a line (a framing or parity error, a
+    break, an overrun: ``dissectors.problems.LINE`` and its cases), told by a
+    source that sees below the bytes (a logic capture's software UART, a USB
+    adapter's line status). The capture attaches it to the event holding the byte
+    at ``offset`` (analyzer/capture/faults.py)."""
+    line: str        # the line as the source reads it (before any swap)
+    offset: int      # byte offset on that line of the byte concerned (a break: the next byte)
+    problem: "Problem"

@@ -99,6 +99,16 @@ TRUNCATED = _info("TRUNCATED", "truncated frame", ERROR,
                   "a frame cut short by a silence, the end of the capture or bytes not decoded")
 NOISE = _info("NOISE", "noise", WARNING, "bytes outside any frame")
 
+# ---------------------------------------------------------------- the line itself (a UART's own errors)
+# What a receiver saw below the bytes: a software UART over a logic capture
+# (analyzer/physical/uart.py), or a USB adapter's line status (analyzer/sources/usb.py).
+LINE = _info("LINE", "line error", ERROR,
+             "the receiver saw a framing or parity error, a break or an overrun on these bytes")
+LINE_FRAMING = _case(LINE, "LINE_FRAMING", ERROR, "a byte's stop bit was not at the idle level (framing error)")
+LINE_PARITY = _case(LINE, "LINE_PARITY", ERROR, "a byte's parity bit does not hold")
+LINE_BREAK = _case(LINE, "LINE_BREAK", ERROR, "the line was held at the active level for longer than a byte (break)")
+LINE_OVERRUN = _case(LINE, "LINE_OVERRUN", ERROR, "the receiver lost bytes: its buffer overran")
+
 # ---------------------------------------------------------------- payloads (dissection)
 MALFORMED = _info("MALFORMED", "malformed payload", ERROR,
                   "a known command or result whose payload does not fit its layout")

@@ -42,6 +42,7 @@ from ..extras import missing_extra
 from ..lines import LINE_AB, Chunk
 from ..sources import Source
 from .collector import fewer_collections
+from .faults import with_faults
 from .merge import SWAP, merged
 from .options import Options
 from .rates import RateFollowing, inserted
@@ -207,7 +208,10 @@ class Capture:
             strip = self.echo.strip if self.echo is not None else None
             origin = self.origin
             clock = self.clock
-            for batch in self._wire_order():
+            wire = self._wire_order()
+            if self.source.faults is not None:   # a source that sees the line's own errors
+                wire = with_faults(wire, self.source.faults, lambda: self.swap_lines)
+            for batch in wire:
                 if batch and strip is not None:
                     batch = strip(batch)
                 out = push_many(batch) if batch else []

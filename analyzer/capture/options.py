@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from dissectors.wire import LineSettings, byte_time
 
 from ..analysis.pairing import Timeouts
-from ..sources import ReadSettings
+from ..sources import InstrumentSettings, ReadSettings
 
 
 @dataclass
@@ -26,6 +26,12 @@ class Options:
     follow_rate: bool = True              # follow ACKed rate-set commands (docs/time.md, "Rate changes")
     tz: str | None = None                 # the zone of a socat log's stamps (None: this machine's)
     start_time: float | None = None       # epoch of a raw dump's first byte (None: from its mtime)
+    # instruments (docs/instruments.md): the channel of each line ({"A": "TX"}), a
+    # USB capture's adapter and device, a bare sample stream's rate
+    channels: dict[str, str] | None = None
+    adapter: str | None = None
+    usb_device: str | None = None
+    samplerate: float | None = None
     # the options the user gave (flags, keywords): they win over what a recording
     # says of itself (docs/time.md, "Recordings"); the rest may be taken from it
     explicit: frozenset[str] = frozenset()
@@ -47,7 +53,20 @@ class Options:
     @property
     def read_settings(self) -> ReadSettings:
         """What a reader needs to open its inputs (the byte time at the starting rate)."""
-        return ReadSettings(self.byte_time, tz=self.tz, start_time=self.start_time)
+        return ReadSettings(self.byte_time, tz=self.tz, start_time=self.start_time, instrument=self.instrument)
+
+    @property
+    def instrument(self) -> InstrumentSettings:
+        """How to read an instrument's capture: the serial settings given
+        explicitly are the software UART's; the others it finds out."""
+        given = self.explicit
+        return InstrumentSettings(
+            channels=tuple(sorted((self.channels or {}).items())),
+            baud=self.baud if "baud" in given else None,
+            data_bits=self.data_bits if "data_bits" in given else None,
+            parity=self.parity if "parity" in given else None,
+            stop_bits=self.stop_bits if "stop_bits" in given else None,
+            adapter=self.adapter, usb_device=self.usb_device, samplerate=self.samplerate)
 
     def line_settings(self, lines: tuple[str, ...]) -> dict[str, LineSettings]:
         """Each line's settings at the start: one object per line, which the capture

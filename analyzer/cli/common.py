@@ -100,7 +100,43 @@ def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
                         "decoding and a live tap follow an ACKed change)")
     if files:
         add_time_args(p)
+        add_instrument_args(p)
     _pairing_args(p.add_argument_group("pairing"))
+
+
+def channels(text: str) -> dict[str, str]:
+    """``--channels A=TX,B=RX``: the logic channel (a name or number as the file
+    gives it) of each line; ``A=D0`` alone is a single-line capture."""
+    out: dict[str, str] = {}
+    for part in text.split(","):
+        line, sep, name = part.partition("=")
+        line = line.strip().upper()
+        if not sep or line not in ("A", "B", "AB") or not name.strip() or line in out:
+            raise argparse.ArgumentTypeError(
+                f"{text!r}: expected A=CHANNEL,B=CHANNEL (a channel's name or number), e.g. A=TX,B=RX")
+        out[line] = name.strip()
+    if "AB" in out and len(out) > 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: AB (one line carrying both directions) goes alone")
+    return out
+
+
+def usb_device(text: str) -> str:
+    """``--usb-device 3.7``: bus 3, device 7 (as lsusb and the listing say)."""
+    bus, sep, dev = text.partition(".")
+    if not (sep and bus.isdigit() and dev.isdigit()):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected BUS.DEVICE, e.g. 3.7")
+    return f"{int(bus)}.{int(dev)}"
+
+
+def add_instrument_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("instruments: logic analysers and USB captures (docs/instruments.md)")
+    g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
+                   help="the logic channels of line A and line B, by name or number (default: the first two "
+                        "that toggle); A=CH alone: a single line carrying both directions")
+    g.add_argument("--adapter", choices=("ftdi", "cp210x", "ch34x"),
+                   help="a USB capture's serial adapter (default: from the enumeration or the traffic)")
+    g.add_argument("--usb-device", type=usb_device, metavar="BUS.DEV",
+                   help="which serial adapter of a USB capture that holds several")
 
 
 def add_time_args(p: argparse.ArgumentParser) -> None:
@@ -176,6 +212,8 @@ def options_from(args: argparse.Namespace) -> Options:
                    stop_bits=value["stop_bits"], frame_gap=value["frame_gap"], timeouts=timeouts,
                    swap_lines=value["swap_lines"], follow_rate=value["follow_rate"],
                    tz=getattr(args, "tz", None), start_time=getattr(args, "start_time", None),
+                   channels=getattr(args, "channels", None), adapter=getattr(args, "adapter", None),
+                   usb_device=getattr(args, "usb_device", None), samplerate=getattr(args, "samplerate", None),
                    explicit=frozenset(given))
 
 

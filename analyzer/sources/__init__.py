@@ -6,7 +6,7 @@ from __future__ import annotations
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from . import registry
-from .base import Reader, ReadSettings, Source
+from .base import InstrumentSettings, Reader, ReadSettings, Source
 from .files import STDIN, Input, open_input
 from .rawdump import RawDumpSource
 from .registry import formats
@@ -37,6 +37,6 @@ def detect(paths: list[str], settings: ReadSettings | float) -> Source:
         raise
 
 
-__all__ = ["CaptureError", "Chunk", "Input", "LINE_A", "LINE_AB", "LINE_B", "RawDumpSource", "Reader", "ReadSettings",
+__all__ = ["CaptureError", "Chunk", "Input", "InstrumentSettings", "LINE_A", "LINE_AB", "LINE_B", "RawDumpSource", "Reader", "ReadSettings",
            "Source",
            "SocatLogSource", "detect", "formats", "open_input", "registry"]

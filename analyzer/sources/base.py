@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Callable, Iterator
 
 from dissectors.wire import LineSettings
 
-from ..lines import LINE_A, LINE_B, Chunk
+from ..lines import LINE_A, LINE_B, Chunk, LineFault
 
 if TYPE_CHECKING:
     from .files import Input
@@ -40,6 +40,10 @@ class Source(ABC):
     clocks: int = 0
     start_time: float | None = None    # epoch seconds of t = 0, when known
     description: str = ""
+    # the line's own errors (framing, parity, break, overrun) as the source reads
+    # them, for a source that sees below the bytes; None: it cannot see them.
+    # Told before the chunk holding the byte (analyzer/capture/faults.py).
+    faults: list[LineFault] | None = None
 
     def __init__(self) -> None:
         self._warn: Callable[[str], None] = _ignore
@@ -111,6 +115,21 @@ class Source(ABC):
 
 
 @dataclass(frozen=True)
+class InstrumentSettings:
+    """How to read an instrument's capture (docs/instruments.md): a logic
+    analyser's channels and UART settings, a USB capture's adapter and device.
+    ``None`` everywhere is "find it out from the capture"."""
+    channels: tuple[tuple[str, str], ...] = ()   # (("A", "TX"), ("B", "3")): the channel of each line
+    baud: int | None = None          # given: the software UART's rate, not measured
+    data_bits: int | None = None     # given: not detected
+    parity: str | None = None
+    stop_bits: float | None = None
+    adapter: str | None = None       # a USB capture's adapter: "ftdi", "cp210x" or "ch34x"
+    usb_device: str | None = None    # "BUS.DEV": which device of a USB capture
+    samplerate: float | None = None  # samples a second of a bare sample stream (live --samples)
+
+
+@dataclass(frozen=True)
 class ReadSettings:
     """What a reader needs to know to open its inputs (docs/time.md): the byte time
     at the start rate, the zone of a socat log's local timestamps (None: this
@@ -119,6 +138,7 @@ class ReadSettings:
     byte_time: float
     tz: str | None = None
     start_time: float | None = None
+    instrument: InstrumentSettings = InstrumentSettings()
 
     @classmethod
     def of(cls, settings: "ReadSettings | float") -> "ReadSettings":

@@ -266,6 +266,51 @@ def test_the_table():
     assert set(re.findall(r"`([^`]+)`", listed)) == {i.text for i in problems.TABLE if i.parent is None}
 
 
+def test_line_faults_land_on_the_event_holding_their_byte():
+    # a command (byte offsets 0-14 on line A), then its ACK on line B: the
+    # receiver's errors are told at byte offsets, as a logic capture's UART or a
+    # USB adapter's line status tells them (analyzer/capture/faults.py)
+    from analyzer.capture.faults import with_faults
+    from analyzer.lines import LineFault
+
+    command = cmd(b"P?")
+    a, b = Deframer("A", byte_time=BT), Deframer("B", byte_time=BT)
+    faults = [LineFault("A", 3, problems.LINE_FRAMING.problem("stop bit low")),
+              LineFault("B", 0, problems.LINE_PARITY.problem("parity bit wrong"))]
+    batches = [a.feed(command, 0.0) + a.finish(), b.feed(ACK, 0.02) + b.finish()]
+    later = [LineFault("A", len(command) + 1, problems.LINE_BREAK.problem("held low 3 bytes")),
+             LineFault("A", len(command) + 1, problems.LINE_OVERRUN.problem("lost bytes"))]
+    noise = Deframer("A", byte_time=BT)
+    noise.feed(command, 0.0)
+    batches.append(noise.feed(b"\x00\x00", 0.5) + noise.finish())
+
+    def source_reading():   # faults are told before the chunk holding their byte
+        yield batches[0]
+        yield batches[1]
+        faults.extend(later)
+        yield batches[2]
+
+    out = [ev for batch in with_faults(source_reading(), faults, lambda: False) for ev in batch]
+    assert_all_have_ids(out)
+    command_ev, ack_ev, noise_ev = out
+    only(command_ev, problems.LINE_FRAMING)
+    only(ack_ev, problems.LINE_PARITY)
+    assert ids(noise_ev) == [problems.NOISE, problems.LINE_BREAK, problems.LINE_OVERRUN]
+    SEEN.update({problems.LINE_BREAK, problems.LINE_OVERRUN})
+    assert command_ev.problems == ["line error: stop bit low"]
+
+
+def test_line_faults_follow_a_swap_of_the_lines():
+    from analyzer.capture.faults import with_faults
+    from analyzer.lines import LineFault
+
+    a = Deframer("A", byte_time=BT)   # read as line A: wired as line B
+    batch = a.feed(cmd(b"P?"), 0.0) + a.finish()
+    faults = [LineFault("B", 0, problems.LINE_FRAMING.problem("x"))]
+    (ev,) = [ev for b in with_faults(iter([batch]), faults, lambda: True) for ev in b]
+    assert ids(ev) == [problems.LINE_FRAMING]
+
+
 def test_every_id_is_produced_somewhere():
     # run every scenario of this file again (in whatever order or selection pytest
     # ran them): together they must produce every id of the table
@@ -277,5 +322,5 @@ def test_every_id_is_produced_somewhere():
         scenario()
     for payload, info in PAYLOADS:
         test_payload_problems(payload, info)
-    categories_only = {problems.UNANSWERED, problems.NO_RESULT}   # always made as a sub-case
+    categories_only = {problems.UNANSWERED, problems.NO_RESULT, problems.LINE}   # always made as a sub-case
     assert SEEN == set(problems.TABLE) - categories_only
