@@ -1,0 +1,99 @@
+"""A line's bit time, idle level and character format, measured from its edges
+(docs/instruments.md, "The software UART").
+
+Every interval between two edges of a UART line is a whole number of bits (the
+sender's clock drifts a fraction of a bit over a character at most). The bit
+time is the longest that leaves nearly every interval within a quarter bit of a
+whole number of bits (shorter ones fit too: half the bit time makes every
+interval an even number), refined over intervals of one to three bits, whose
+count of bits cannot be mistaken, then over all of up to ten. A clock a few per
+cent off is then measured to a tenth of a per cent from a few dozen characters.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+# §1.5.1's rates, and the common ones above them: a measured rate is named against
+# the nearest (what devices are set to), when it is within NEAR of it
+STANDARD_RATES = (300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 38400, 57600, 115200, 230400, 460800,
+                  921600, 1000000, 2000000)
+NEAR = 0.08           # a rate further than 8 % from every standard one is taken as set that way
+FIT = 0.25            # an interval fits a bit time within a quarter bit
+ENOUGH_EDGES = 48     # edges measured before decoding starts (about three characters)
+MIN_EDGES = 6         # fewer: no rate can be measured (--baud decodes such a line)
+
+
+class Measured(NamedTuple):
+    bit: float        # ticks a bit
+    fit: float        # the share of intervals a whole number of bits long
+    intervals: int    # how many were measured
+
+
+def measure_bit(ticks: np.ndarray) -> Measured | None:
+    """The bit time of a line from its edges (ticks), or None when they do not
+    show one (too few, or no bit time fits)."""
+    if ticks.size < MIN_EDGES:
+        return None
+    d = np.diff(ticks).astype(np.float64)
+    d = d[d > 0]
+    if d.size < MIN_EDGES - 1:
+        return None
+    # candidates: the short intervals (one bit is among the commonest in any
+    # traffic), largest first; glitches are short and rare, and fail the fit
+    q = np.quantile(d, np.linspace(0.0, 0.5, 41))
+    for c in sorted(set(q.tolist()), reverse=True):
+        if c <= 0:
+            continue
+        inside = d[d < 12.5 * c]         # within a character; longer is idle
+        if inside.size < max(MIN_EDGES - 1, d.size // 4):
+            continue
+        r = inside / c
+        k = np.rint(r)
+        fits = (np.abs(r - k) < FIT) & (k >= 1)
+        if fits.mean() < 0.8 or np.count_nonzero(k[fits] == 1) < max(2, inside.size // 50):
+            continue
+        bit = _refine(inside[fits], c)
+        if bit is None:
+            continue
+        return Measured(bit, float(fits.mean()), int(inside.size))
+    return None
+
+
+def _refine(fitting: np.ndarray, c: float) -> float | None:
+    short = fitting[np.rint(fitting / c) <= 3]
+    if short.size == 0:
+        return None
+    bit = short.sum() / np.rint(short / c).sum()
+    for _ in range(2):
+        k = np.rint(fitting / bit)
+        ok = (k >= 1) & (k <= 10) & (np.abs(fitting / bit - k) < FIT)
+        if not ok.any():
+            break
+        bit = fitting[ok].sum() / k[ok].sum()
+    return float(bit)
+
+
+def nominal_rate(rate: float) -> int | None:
+    """The standard rate ``rate`` (bit/s) is nearest to, within NEAR; None if none is."""
+    best = min(STANDARD_RATES, key=lambda r: abs(rate - r) / r)
+    return best if abs(rate - best) / best <= NEAR else None
+
+
+def idle_level(ticks: np.ndarray, level: int, end: int, bit: float) -> int:
+    """The level a line rests at: the one it holds through its silences (stretches
+    longer than a character); with none, the one it holds longest."""
+    if ticks.size == 0:
+        return level
+    bounds = np.concatenate(([ticks[0]], ticks, [max(end, int(ticks[-1]))]))
+    spans = np.diff(bounds)[1:]                # the time at the level after each edge
+    after = (level ^ 1 ^ (np.arange(ticks.size) & 1)).astype(np.int8)   # the level after edge i
+    long = spans > 12 * bit
+    if long.any():
+        high = int(spans[long & (after == 1)].sum())
+        low = int(spans[long & (after == 0)].sum())
+        return 1 if high >= low else 0
+    high = int(spans[after == 1].sum())
+    return 1 if high * 2 >= int(spans.sum()) else 0
