@@ -28,7 +28,7 @@ LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("the capture and its runner", ("analyzer.capture", "analyzer.runner")),
     ("writers", ("analyzer.writers",)),
     ("listeners", ("analyzer.listeners",)),
-    ("jobs: the fleet dataset, Wireshark", ("analyzer.dataset", "analyzer.wireshark")),
+    ("jobs: the fleet dataset, Wireshark, sigrok", ("analyzer.dataset", "analyzer.wireshark", "analyzer.sigrok")),
     ("the terminal UI", ("analyzer.tui",)),
     ("the command line", ("analyzer.cli",)),
     ("the package's face", ("analyzer", "analyzer.__main__")),
