@@ -18,7 +18,8 @@ from ..sources import CaptureError
 from ..sources.meter import READS
 from ..version import __version__
 from . import (
-    convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, report, sim, stats, view, wireshark)
+    convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, report, sigrok, sim, stats, view,
+    wireshark)
 from .common import UsageError, set_quiet
 
 EXIT_INPUT = 2
@@ -57,6 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
     recover.register(sub)
     foxglove.register(sub)
     wireshark.register(sub)
+    sigrok.register(sub)
     return p
 
 
