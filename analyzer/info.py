@@ -196,6 +196,9 @@ def recorded_options(options, source, name: str):
     recording, or one saying the metadata is missing or garbled (then the options
     given and the defaults stand). Sources without metadata (logs, dumps, ports)
     get ``options`` back unchanged."""
+    if hasattr(source, "measured_settings"):   # a logic capture: the rate and format measured
+        measured = {k: v for k, v in source.measured_settings().items() if k not in options.explicit}
+        return dataclasses.replace(options, **measured), []
     if not hasattr(source, "metadata"):
         return options, []
     meta = source.metadata

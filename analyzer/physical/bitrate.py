@@ -53,7 +53,7 @@ def measure_bit(ticks: np.ndarray) -> Measured | None:
         r = inside / c
         k = np.rint(r)
         fits = (np.abs(r - k) < FIT) & (k >= 1)
-        if fits.mean() < 0.8 or np.count_nonzero(k[fits] == 1) < max(2, inside.size // 50):
+        if fits.mean() < 0.7 or np.count_nonzero(k[fits] == 1) < max(2, inside.size // 50):
             continue
         bit = _refine(inside[fits], c)
         if bit is None:
@@ -82,18 +82,20 @@ def nominal_rate(rate: float) -> int | None:
     return best if abs(rate - best) / best <= NEAR else None
 
 
-def idle_level(ticks: np.ndarray, level: int, end: int, bit: float) -> int:
-    """The level a line rests at: the one it holds through its silences (stretches
-    longer than a character); with none, the one it holds longest."""
+def idle_level(ticks: np.ndarray, level: int, end: int, bit: float, begin: int = 0) -> tuple[int, bool]:
+    """The level a line rests at, and whether it is sure: the one it holds through
+    its silences (stretches longer than a character, the one before the first
+    edge from ``begin`` on too); with none (a line sending back to back), the
+    one it holds longest, unsure."""
     if ticks.size == 0:
-        return level
-    bounds = np.concatenate(([ticks[0]], ticks, [max(end, int(ticks[-1]))]))
-    spans = np.diff(bounds)[1:]                # the time at the level after each edge
-    after = (level ^ 1 ^ (np.arange(ticks.size) & 1)).astype(np.int8)   # the level after edge i
+        return level, False
+    bounds = np.concatenate(([min(begin, int(ticks[0]))], ticks, [max(end, int(ticks[-1]))]))
+    spans = np.diff(bounds)                    # the time at the level before edge 0, then after each edge
+    after = (level ^ (np.arange(ticks.size + 1) & 1)).astype(np.int8)
     long = spans > 12 * bit
     if long.any():
         high = int(spans[long & (after == 1)].sum())
         low = int(spans[long & (after == 0)].sum())
-        return 1 if high >= low else 0
+        return (1 if high >= low else 0), True
     high = int(spans[after == 1].sum())
-    return 1 if high * 2 >= int(spans.sum()) else 0
+    return (1 if high * 2 >= int(spans.sum()) else 0), False

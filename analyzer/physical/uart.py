@@ -87,18 +87,20 @@ class SoftUart:
         if not self.started:
             if self.ticks.size < ENOUGH_EDGES:
                 return []
-            if not self._start():
+            if not self.measure():
                 return []
-        return self._decode(final=False)
+        return self.decode()
 
     def finish(self) -> list[Char]:
         """The end of the line: what can still be read."""
-        if not self.started and not self._start():
+        if not self.started and not self.measure():
             return []
-        return self._decode(final=True)
+        return self.decode()
 
     # ------------------------------------------------------------------ measuring
-    def _start(self) -> bool:
+    def measure(self) -> bool:
+        """Measure the rate (unless given), the idle level and the format (unless
+        given) on the edges so far; False when they show no rate."""
         r = self.report
         m = measure_bit(self.ticks)
         if m is not None:
@@ -111,33 +113,43 @@ class SoftUart:
         else:
             r.given = True
             r.nominal = round(self.rate / self.bit)
-        self.idle = idle_level(self.ticks, self.level, self.end, self.bit)
+        self.idle, self.fmt = self._idle_and_format()
         r.inverted = self.idle == 0
-        if not self.fmt_given:
-            self.fmt = self._detect_format()
-            r.format_found = True
+        r.format_found = not self.fmt_given
         r.data_bits, r.parity = self.fmt.data_bits, self.fmt.parity
         self._filter_glitches()
         self.started = True
         return True
 
-    def _detect_format(self) -> LineFormat:
-        """The candidate that reads the first characters with the fewest errors
-        (the first, 8N1, on a tie); then 7-bit characters whose eighth bit is
-        always a parity bit or always 1."""
-        best, fewest, chars = CANDIDATES[0], None, []
-        for fmt in CANDIDATES:
-            got = self._read(self.ticks, self.level, fmt, self.bit, self.end, probe=True)[0]
-            errors = sum(1 for c in got if c.fault is not None)
-            if fewest is None or errors < fewest:
-                best, fewest, chars = fmt, errors, got
+    def _idle_and_format(self) -> tuple[int, LineFormat]:
+        """The idle level and the format that read the first characters with the
+        fewest errors (ties: the level the line rests at, then the first format:
+        8N1); a level the line clearly rests at through its silences is kept
+        unless the other reads far better. Then 7-bit and shorter characters
+        whose top bits are always 1 (a stop bit read as data)."""
+        rests, sure = idle_level(self.ticks, self.level, self.end, self.bit)
+        formats = (self.fmt,) if self.fmt_given else CANDIDATES
+        best = None
+        for idle in (rests, 1 - rests):
+            self.idle = idle
+            for rank, fmt in enumerate(formats):
+                got = self._read(self.ticks, self.level, fmt, self.bit, self.end, probe=True)[0]
+                errors = sum(1 for c in got if c.fault is not None)
+                if idle != rests and sure:
+                    errors = errors * 2 + 2
+                elif not sure:   # a line starts and ends a capture idle, most often
+                    errors += 2 * ((idle != self.level) + (idle != self._level_at(self.ticks.size)))
+                key = (errors, idle != rests, rank)
+                if best is None or key < best[0]:
+                    best = (key, idle, fmt, got)
+        _, idle, fmt, chars = best
         values = [c.value for c in chars if c.value is not None]
-        if best == CANDIDATES[0] and len(values) >= 12:
+        if not self.fmt_given and fmt == CANDIDATES[0] and len(values) >= 12:
             for width in (5, 6, 7):
                 top = 0xFF & ~((1 << width) - 1)
                 if all(v & top == top for v in values):
-                    return LineFormat(width, "N")
-        return best
+                    return idle, LineFormat(width, "N")
+        return idle, fmt
 
     def _filter_glitches(self) -> None:
         """Drop pulses shorter than a quarter bit, both edges (the level goes back),
@@ -163,7 +175,8 @@ class SoftUart:
         self._clean_upto = self.ticks.size
 
     # ------------------------------------------------------------------ decoding
-    def _decode(self, final: bool) -> list[Char]:
+    def decode(self) -> list[Char]:
+        """Every character complete in the edges so far."""
         self._filter_glitches()
         out: list[Char] = []
         while True:
@@ -246,7 +259,7 @@ class SoftUart:
         used, the level before the first edge left)."""
         idle, active = self.idle, 1 - self.idle
         n = fmt.bits
-        span = (n - 0.5) * bit                 # start edge to the middle of the (first) stop bit
+        span = (n + 0.5) * bit                 # start edge to the middle of the (first) stop bit
         if ticks.size == 0:
             return [], 0, level
         after = level ^ 1 ^ (np.arange(ticks.size) & 1)     # the level after each edge

@@ -14,7 +14,7 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 from __future__ import annotations
 
 from ..errors import CaptureError
-from . import pcapngfile, rawdump, socatlog
+from . import pcapngfile, rawdump, sigrok, socatlog
 from .base import Reader, ReadSettings, Source
 from .files import Input
 
@@ -69,6 +69,7 @@ MCAP = Reader(
 READERS: list[Reader] = [
     MCAP,               # magic bytes
     pcapngfile.READER,  # magic bytes: gimbalscope's own pcapng (an export, a Wireshark capture through the extcap)
+    sigrok.READER,      # a zip whose first member is sigrok's version or metadata
     socatlog.READER,    # text whose first line is a socat chunk header
     rawdump.READER,     # any bytes: the fallback, last
 ]

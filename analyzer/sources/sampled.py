@@ -1,0 +1,271 @@
+"""Logic captures as a source: the channels of a ``Waveform`` (a sigrok session,
+a VCD file, a Saleae export, a sample stream) read by a software UART each
+(analyzer/physical/uart.py), their characters merged in wire order into chunks
+(docs/instruments.md).
+
+Which channels: ``--channels A=NAME,B=NAME`` (names or numbers as the file gives
+them; ``AB=NAME`` or ``A=NAME`` alone: one line carrying both directions), or
+else the first two that toggle (the first one alone if only one does). The
+source looks at the capture's first blocks to choose, and to measure each
+line's rate and format before the capture decodes (the options' rate is then
+the nominal rate measured, unless ``--baud`` was given: ``measured_settings``).
+
+Times come from the samples: a chunk is a run of characters sent back to back,
+its time the first start bit's edge. The receiver's errors go to ``faults``;
+each line's ``LineReport`` (``physical``) feeds the wiring doctor.
+"""
+
+from __future__ import annotations
+
+import heapq
+from typing import Iterator
+
+from ..errors import CaptureError
+from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
+from ..physical.bitrate import nominal_rate
+from ..physical.edges import NO_EDGES, Block, Edges, Waveform
+from ..physical.report import LineReport
+from ..physical.uart import Char, LineFormat, SoftUart
+from .base import ReadSettings, Source
+
+MIN_SAMPLES_A_BIT = 4
+LOOK_AHEAD_EDGES = 400       # edges looked at on the busiest channel before choosing channels
+LOOK_AHEAD_BLOCKS = 64       # ... or this many blocks, whichever first
+
+
+class SampledSource(Source):
+    timed = True
+    clocks = 1                   # one analyser samples every channel
+    sampled = True               # read by a software UART (the doctor's waveform rules apply)
+
+    def __init__(self, waveform: Waveform, settings: ReadSettings, description: str) -> None:
+        super().__init__()
+        self.waveform = waveform
+        self.name = waveform.name
+        self.description = description
+        self.on_close(waveform.close)
+        self.faults = []
+        inst = settings.instrument
+        self._blocks = waveform.blocks()
+        self._ahead: list[Block] = []
+        self._ended = False
+        self._look_ahead()
+        self.channel_of = self._choose(dict(inst.channels))
+        self.lines = tuple(self.channel_of)
+        rate = waveform.samplerate
+        bit = rate / inst.baud if inst.baud else None
+        fmt = None
+        if inst.data_bits is not None or inst.parity is not None or inst.stop_bits is not None:
+            fmt = LineFormat(inst.data_bits or 8, inst.parity or "N", inst.stop_bits or 1)
+        self.physical: dict[str, LineReport] = {}
+        self._uarts: dict[str, SoftUart] = {}
+        for line, ch in self.channel_of.items():
+            report = LineReport(line, waveform.channels[ch], samplerate=rate, sampled=waveform.sampled)
+            self.physical[line] = report
+            self._uarts[line] = SoftUart(report, bit, fmt)
+        self.start_time = settings.start_time if settings.start_time is not None else waveform.start_time
+        self._pending: dict[str, list[Char]] = {line: [] for line in self.lines}
+        self._sent: dict[str, int] = {}      # bytes yielded on each line (the faults' offsets)
+        self._measure()
+
+    # ------------------------------------------------------------------ opening
+    def _next_block(self) -> Block | None:
+        if self._ahead:
+            return self._ahead.pop(0)
+        if self._ended:
+            return None
+        try:
+            return next(self._blocks)
+        except StopIteration:
+            self._ended = True
+            return None
+
+    def _look_ahead(self) -> None:
+        """Read the first blocks (kept, to be decoded): enough to see which channels
+        toggle and to measure their rates."""
+        edges: dict[int, int] = {}
+        while len(self._ahead) < LOOK_AHEAD_BLOCKS:
+            try:
+                block = next(self._blocks)
+            except StopIteration:
+                self._ended = True
+                break
+            self._ahead.append(block)
+            for ch, e in block.edges.items():
+                edges[ch] = edges.get(ch, 0) + int(e.ticks.size)
+            if sorted(edges.values(), reverse=True)[1:2] >= [LOOK_AHEAD_EDGES]:
+                break
+        self._seen = edges
+
+    def _choose(self, given: dict[str, str]) -> dict[str, int]:
+        """line → channel index."""
+        w = self.waveform
+        if given:
+            chosen = {LINE_AB if line == LINE_A and len(given) == 1 else line: self._channel(name)
+                      for line, name in given.items()}
+            if set(chosen) == {LINE_B}:
+                raise CaptureError(f"{self.name}: --channels names line B alone: give line A too "
+                                   f"(or A=CHANNEL for one line carrying both directions)")
+            for line, ch in chosen.items():
+                if not self._seen.get(ch):
+                    self.warn_later(f"{self.name}: channel {w.channels[ch]} (line {line}) never toggles in the "
+                                    f"first {self._looked()}: is the probe on the wire?")
+            return dict(sorted(chosen.items()))
+        toggling = [ch for ch in range(len(w.channels)) if self._seen.get(ch)]
+        if not toggling:
+            raise CaptureError(f"{self.name}: no channel toggles in the first {self._looked()} "
+                               f"(channels: {self._listing()}): nothing was sent, or the probes are not on the wires")
+        if len(toggling) == 1:
+            return {LINE_AB: toggling[0]}
+        if len(toggling) > 2:
+            self.warn_later(f"{self.name}: {len(toggling)} channels toggle; lines A and B are "
+                            f"{w.channels[toggling[0]]} and {w.channels[toggling[1]]} (--channels A=NAME,B=NAME "
+                            f"chooses others)")
+        return {LINE_A: toggling[0], LINE_B: toggling[1]}
+
+    def _channel(self, name: str) -> int:
+        w = self.waveform
+        for names in (w.channels, w.numbers):
+            if name in names:
+                return names.index(name)
+        low = name.lower()
+        for names in (w.channels, w.numbers):
+            found = [i for i, n in enumerate(names) if n.lower() == low]
+            if found:
+                return found[0]
+        raise CaptureError(f"{self.name}: no channel {name!r}; the channels are {self._listing()}")
+
+    def _listing(self) -> str:
+        w = self.waveform
+        out = []
+        for i, name in enumerate(w.channels):
+            number = w.numbers[i] if i < len(w.numbers) else ""
+            out.append(f"{name} ({number})" if number and number != name else name)
+        return ", ".join(out) or "none"
+
+    def _looked(self) -> str:
+        end = self._ahead[-1].end if self._ahead else 0
+        secs = end / self.waveform.samplerate if self.waveform.samplerate else 0.0
+        return f"{secs:.3g} s" if not self._ended else "capture"
+
+    def _measure(self) -> None:
+        """Give every UART the blocks looked at (it measures its rate on them), and
+        refuse a capture sampled too slowly to read."""
+        for block in self._ahead:
+            self._feed(block)
+        self._ahead = []
+        for line, uart in self._uarts.items():
+            if not uart.started and uart.ticks.size and uart.measure():
+                self._pending[line] += uart.decode()
+            self._check_rate(line, uart)
+            if not uart.started and uart.report.toggles:
+                self.warn_later(f"{self.name}: line {line} ({uart.report.channel}): its {uart.report.edges} edges "
+                                "show no bit rate; give it with --baud")
+
+    def _feed(self, block: Block) -> None:
+        for line, uart in self._uarts.items():
+            e = block.edges.get(self.channel_of[line])
+            self._pending[line] += uart.feed(e if e is not None else Edges(NO_EDGES, uart.level), block.end)
+
+    def _check_rate(self, line: str, uart: SoftUart) -> None:
+        w = self.waveform
+        if not w.sampled:
+            return
+        report = uart.report
+        baud = report.nominal
+        if baud is None and uart.ticks.size > 2:
+            shortest = int(min(b - a for a, b in zip(uart.ticks.tolist(), uart.ticks.tolist()[1:])) or 1)
+            baud = nominal_rate(w.samplerate / shortest) or round(w.samplerate / shortest)
+            if w.samplerate / baud >= MIN_SAMPLES_A_BIT:
+                return
+        if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
+            raise CaptureError(
+                f"{self.name}: sampled at {_hz(w.samplerate)}, under {MIN_SAMPLES_A_BIT} samples a bit at "
+                f"{baud:,} bit/s (line {line}): capture at {_hz(MIN_SAMPLES_A_BIT * baud)} or more")
+
+    def measured_settings(self) -> dict:
+        """The serial settings the capture decodes with, as measured (the first
+        line's): the options take them unless given (analyzer/info.py)."""
+        for report in self.physical.values():
+            if report.nominal:
+                return {"baud": int(report.nominal), "data_bits": report.data_bits, "parity": report.parity,
+                        "stop_bits": report.stop_bits}
+        return {}
+
+    # ------------------------------------------------------------------ reading
+    def chunks(self) -> Iterator[Chunk]:
+        rate = self.waveform.samplerate
+        uarts = self._uarts
+        # the characters read while looking ahead come first
+        yield from self._release(self._watermark(), rate)
+        while True:
+            block = self._next_block()
+            if block is None:
+                break
+            self._feed(block)
+            out = list(self._release(self._watermark(), rate))
+            if out:
+                yield from out
+            else:
+                yield Chunk(self.lines[0], b"", block.end / rate)   # time passed: timeouts expire
+        for line, uart in uarts.items():
+            self._pending[line] += uart.finish()
+        yield from self._release(None, rate)
+        if self.waveform.problem:
+            self.warn(self.waveform.problem)
+
+    def _watermark(self) -> float | None:
+        """Characters starting before this tick are all known, on every line."""
+        marks = []
+        for uart in self._uarts.values():
+            marks.append(int(uart.ticks[0]) if uart.ticks.size else uart.end)
+        return min(marks) if marks else None
+
+    def _release(self, upto: float | None, rate: float) -> Iterator[Chunk]:
+        """The pending characters before ``upto`` (all: None), in wire order, as
+        chunks: a run of one line's characters back to back is one chunk."""
+        ready = []
+        for line, chars in self._pending.items():
+            n = len(chars) if upto is None else _count_before(chars, upto)
+            if n:
+                ready.append([(c.tick, line, c) for c in chars[:n]])
+                self._pending[line] = chars[n:]
+        if not ready:
+            return
+        run_line, run_start, run_bytes, last = None, 0, bytearray(), 0
+        sent = self._sent
+        for tick, line, c in heapq.merge(*ready):
+            uart = self._uarts[line]
+            char_ticks = (uart.fmt.bits + 1) * uart.bit
+            if run_line is not None and (line != run_line or tick - last > 1.5 * char_ticks):
+                yield Chunk(run_line, bytes(run_bytes), run_start / rate)
+                run_line = None
+            if c.fault is not None:
+                self.faults.append(LineFault(line, sent.get(line, 0), c.fault))
+            if c.value is None:        # a break: no byte, its fault goes on the next one
+                continue
+            if run_line is None:
+                run_line, run_start, run_bytes = line, tick, bytearray()
+            run_bytes.append(c.value)
+            sent[line] = sent.get(line, 0) + 1
+            last = tick
+        if run_line is not None:
+            yield Chunk(run_line, bytes(run_bytes), run_start / rate)
+
+
+def _count_before(chars: list[Char], upto: float) -> int:
+    lo, hi = 0, len(chars)
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if chars[mid].tick < upto:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+def _hz(rate: float) -> str:
+    for unit, scale in (("GHz", 1e9), ("MHz", 1e6), ("kHz", 1e3)):
+        if rate >= scale:
+            return f"{rate / scale:g} {unit}"
+    return f"{rate:g} Hz"

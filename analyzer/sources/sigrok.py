@@ -1,0 +1,219 @@
+"""sigrok sessions (``.sr``): what PulseView and ``sigrok-cli -o cap.sr`` save
+(docs/instruments.md, "sigrok and PulseView").
+
+A session is a zip: ``version`` ("1" or "2"), ``metadata`` (an ini text: a
+``[device 1]`` section with ``samplerate``, ``unitsize``, ``total probes`` and
+``probeN=name`` for the logic channels, N counting from 1 and skipping unused
+probes), and the samples, ``unitsize`` bytes each with probe N at bit N-1: one
+member ``logic-1`` (version 1) or chunks ``logic-1-1``, ``logic-1-2``, …
+(version 2). Old files indent lines and put spaces around ``=``; both are read.
+
+The chunks are read in order and streamed (a capture of minutes at MHz rates is
+hundreds of megabytes of samples). A damaged zip is read as far as its members
+go: a file cut short (no central directory) is walked by its local headers, and
+what came before the damage is decoded, the damage said in one line.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+import zipfile
+import zlib
+from typing import BinaryIO, Iterator
+
+from ..errors import CaptureError
+from ..physical.edges import PackedSamples
+from .base import Reader, ReadSettings, Source
+from .files import BLOCK, Input
+
+LOCAL = b"PK\x03\x04"
+_RATE = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*([kKmMgG]?)(?:Hz|hz|HZ)?\s*$")
+_SCALE = {"": 1.0, "k": 1e3, "m": 1e6, "g": 1e9}
+
+
+def parse_samplerate(text: str) -> float:
+    """``"625 kHz"``, ``"1.5 MHz"``, ``"250 Hz"``, ``"1000000"`` → samples a second."""
+    m = _RATE.match(text)
+    if not m:
+        raise ValueError(text)
+    return float(m.group(1)) * _SCALE[m.group(2).lower()]
+
+
+def parse_metadata(text: str) -> dict[str, dict[str, str]]:
+    """Sections of the ini text, keys and values stripped (indented lines and
+    ``key = value`` of old sessions too)."""
+    sections: dict[str, dict[str, str]] = {}
+    current: dict[str, str] = sections.setdefault("", {})
+    for raw in text.splitlines():
+        line = raw.strip()
+        if not line or line.startswith(("#", ";")):
+            continue
+        if line.startswith("[") and line.endswith("]"):
+            current = sections.setdefault(line[1:-1].strip(), {})
+            continue
+        key, sep, value = line.partition("=")
+        if sep:
+            current[key.strip()] = value.strip()
+    return sections
+
+
+class SigrokSession(PackedSamples):
+    """A session's logic channels as packed samples."""
+
+    def __init__(self, inp: Input) -> None:
+        self.input = inp
+        self.members = _Members(inp)
+        meta_text = self.members.read("metadata")
+        if meta_text is None:
+            raise CaptureError(f"{inp.name}: a zip without sigrok's metadata: not a sigrok session")
+        meta = parse_metadata(meta_text.decode("utf-8", "replace"))
+        device = next((s for name, s in meta.items() if name.startswith("device") and "capturefile" in s), None)
+        if device is None:
+            raise CaptureError(f"{inp.name}: the sigrok metadata names no capture file ([device 1] capturefile=)")
+        try:
+            rate = parse_samplerate(device.get("samplerate", ""))
+        except ValueError:
+            raise CaptureError(f"{inp.name}: the sigrok metadata's sample rate {device.get('samplerate')!r} "
+                               "is not a rate (e.g. 1 MHz)") from None
+        if rate <= 0:
+            raise CaptureError(f"{inp.name}: the sigrok metadata gives no sample rate")
+        unitsize = int(device.get("unitsize", "1") or 1)
+        if unitsize not in (1, 2, 4):
+            raise CaptureError(f"{inp.name}: unitsize {unitsize} (1, 2 or 4 bytes a sample are read)")
+        probes = sorted((int(k[5:]), v) for k, v in device.items() if re.fullmatch(r"probe\d+", k))
+        if not probes:
+            raise CaptureError(f"{inp.name}: the session has no logic channels")
+        too_high = [n for n, _ in probes if n > unitsize * 8]
+        if too_high:
+            raise CaptureError(f"{inp.name}: probe{too_high[0]} is beyond the {unitsize * 8} bits of a sample")
+        capturefile = device["capturefile"]
+        super().__init__(self._samples(capturefile), unitsize, [name for _, name in probes], rate,
+                         bits=[n - 1 for n, _ in probes], name=inp.name)
+        self.numbers = [str(n - 1) for n, _ in probes]   # sigrok-cli numbers channels from 0
+        self.version = (self.members.read("version") or b"?").strip().decode("ascii", "replace")
+
+    def _samples(self, capturefile: str) -> Iterator[bytes]:
+        names = self.members.names
+        parts = sorted((int(n[len(capturefile) + 1:]), n) for n in names
+                       if n.startswith(capturefile + "-") and n[len(capturefile) + 1:].isdigit())
+        order = [n for _, n in parts] or ([capturefile] if capturefile in names else [])
+        if not order:
+            self.problem = f"{self.name}: no samples ({capturefile} is not in the session)"
+            return
+        for name in order:
+            try:
+                yield from self.members.stream(name)
+            except (zipfile.BadZipFile, zlib.error, EOFError, OSError, struct.error) as e:
+                self.problem = f"{self.name}: {name} is damaged ({e}): read up to there"
+                return
+        if self.members.problem:
+            self.problem = self.members.problem
+
+    def close(self) -> None:
+        self.input.close()
+
+
+class _Members:
+    """The zip's members by name: through its central directory, or, in a file cut
+    short, by walking its local headers."""
+
+    def __init__(self, inp: Input) -> None:
+        self.inp = inp
+        self.problem: str | None = None
+        path, _temp = inp.as_regular_file()
+        self.path = path
+        try:
+            self.zip: zipfile.ZipFile | None = zipfile.ZipFile(path)
+            self.names = self.zip.namelist()
+            self.local: dict[str, tuple[int, int, int]] = {}
+        except zipfile.BadZipFile:
+            self.zip = None
+            self.local = _walk_local_headers(path)
+            self.names = list(self.local)
+            self.problem = f"{inp.name}: the zip is cut short or damaged (no central directory): read up to there"
+        except OSError as e:
+            raise CaptureError(f"{inp.name}: cannot read: {e.strerror or e}") from None
+
+    def read(self, name: str) -> bytes | None:
+        if name not in self.names:
+            return None
+        try:
+            return b"".join(self.stream(name))
+        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, struct.error) as e:
+            raise CaptureError(f"{self.inp.name}: {name} is damaged ({e})") from None
+
+    def stream(self, name: str) -> Iterator[bytes]:
+        if self.zip is not None:
+            with self.zip.open(name) as f:
+                while True:
+                    data = f.read(BLOCK * 4)
+                    if not data:
+                        return
+                    yield data
+        at, size, method = self.local[name]
+        with open(self.path, "rb") as f:
+            f.seek(at)
+            yield from _inflate(f, size, method)
+
+
+def _walk_local_headers(path: str) -> dict[str, tuple[int, int, int]]:
+    """name → (data offset, compressed size, method) of every member whose local
+    header is whole."""
+    found: dict[str, tuple[int, int, int]] = {}
+    with open(path, "rb") as f:
+        at = 0
+        while True:
+            f.seek(at)
+            head = f.read(30)
+            if len(head) < 30 or not head.startswith(LOCAL):
+                return found
+            flags, method, size, name_len, extra_len = (struct.unpack_from("<H", head, 6)[0],
+                                                        struct.unpack_from("<H", head, 8)[0],
+                                                        struct.unpack_from("<I", head, 18)[0],
+                                                        *struct.unpack_from("<HH", head, 26))
+            name = f.read(name_len).decode("utf-8", "replace")
+            data_at = at + 30 + name_len + extra_len
+            if flags & 0x08:     # sizes after the data: read to the end of what is there
+                found[name] = (data_at, -1, method)
+                return found
+            found[name] = (data_at, size, method)
+            at = data_at + size
+
+
+def _inflate(f: BinaryIO, size: int, method: int) -> Iterator[bytes]:
+    left = size if size >= 0 else 1 << 62
+    d = zlib.decompressobj(-15) if method == 8 else None
+    while left > 0:
+        data = f.read(min(BLOCK * 4, left))
+        if not data:
+            return
+        left -= len(data)
+        out = d.decompress(data) if d is not None else data
+        if out:
+            yield out
+        if d is not None and d.eof:
+            return
+
+
+def open_sigrok(inputs: list[Input], settings: ReadSettings) -> Source:
+    from .sampled import SampledSource
+    session = SigrokSession(inputs[0])
+    return SampledSource(session, settings, inputs[0].describe(f"sigrok session (version {session.version}, "
+                                                               f"{len(session.channels)} channels)"))
+
+
+def _looks_like_session(head: bytes) -> bool:
+    """A zip whose first member is sigrok's ``version`` or ``metadata``."""
+    if not head.startswith(LOCAL) or len(head) < 30:
+        return False
+    name_len = struct.unpack_from("<H", head, 26)[0]
+    return head[30:30 + name_len] in (b"version", b"metadata")
+
+
+READER = Reader(
+    "sigrok session", open_sigrok, looks=_looks_like_session,
+    crowded="a sigrok session holds its channels; give it on its own",
+    suffixes=(".sr",), misnamed="not a sigrok session (a .sr file is a zip starting with sigrok's version "
+                                "and metadata)",
+)
