@@ -31,13 +31,12 @@ from typing import BinaryIO, Iterator
 
 from ..errors import CaptureError
 from ..formats import pdu
+from ..formats.pcapng_blocks import EPB as _EPB, IDB as _IDB, MAGIC, SHB as _SHB
+from ..formats.pcapng_blocks import blocks as _blocks, options as _options, ts_scale as _scale
 from ..lines import LINE_A, LINE_B, Chunk
 from .base import Reader, ReadSettings, Source
 from .files import Input
 
-MAGIC = b"\x0a\x0d\x0d\x0a"
-_BOM = 0x1A2B3C4D
-_SHB, _IDB, _EPB = 0x0A0D0D0A, 1, 6
 _LINES = {LINE_A: LINE_A, LINE_B: LINE_B, "AB": "AB"}
 
 
@@ -53,25 +52,6 @@ class _Interface:
         """A timestamp in integer nanoseconds: times stay exact (an epoch in float
         seconds holds only about a quarter of a microsecond)."""
         return ticks if self.scale == 1e-9 else round(ticks * self.scale * 1e9)
-
-
-def _options(body: bytes, endian: str) -> dict[int, bytes]:
-    out: dict[int, bytes] = {}
-    at = 0
-    while at + 4 <= len(body):
-        code, length = struct.unpack_from(endian + "HH", body, at)
-        if code == 0:
-            break
-        out.setdefault(code, body[at + 4:at + 4 + length])
-        at += 4 + length + (-length % 4)
-    return out
-
-
-def _scale(tsresol: bytes | None) -> float:
-    if not tsresol:
-        return 1e-6
-    v = tsresol[0]
-    return 2.0 ** -(v & 0x7F) if v & 0x80 else 10.0 ** -v
 
 
 class PcapngSource(Source):
@@ -189,29 +169,6 @@ class PcapngSource(Source):
 
 def _quiet(_msg: str) -> None:
     pass
-
-
-def _blocks(f: BinaryIO, name: str, warn) -> Iterator[tuple[int, str, bytes]]:
-    """Every block of the stream ``f``; a cut at the end is said, not raised."""
-    endian = "<"
-    while True:
-        head = f.read(12)
-        if not head:
-            return
-        if len(head) < 12:
-            warn(f"{name}: the file ends inside a block (cut short?): read up to there")
-            return
-        kind = struct.unpack_from("<I", head, 0)[0]
-        if kind == _SHB:
-            endian = "<" if struct.unpack_from("<I", head, 8)[0] == _BOM else ">"
-        kind, total = struct.unpack_from(endian + "II", head, 0)
-        if total < 12 or total % 4:
-            raise CaptureError(f"{name}: a pcapng block of length {total}: the file is damaged")
-        rest = f.read(total - 12)
-        if len(rest) < total - 12:
-            warn(f"{name}: the file ends inside a block (cut short?): read up to there")
-            return
-        yield kind, endian, head[8:] + rest[:-4]
 
 
 def open_pcapng(inputs: list[Input], settings: ReadSettings) -> PcapngSource:

@@ -14,7 +14,7 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 from __future__ import annotations
 
 from ..errors import CaptureError
-from . import pcapngfile, rawdump, sigrok, socatlog
+from . import pcapngfile, rawdump, sigrok, socatlog, usb
 from .base import Reader, ReadSettings, Source
 from .files import Input
 
@@ -68,6 +68,7 @@ MCAP = Reader(
 # inputs reads them all.
 READERS: list[Reader] = [
     MCAP,               # magic bytes
+    usb.READER,         # a pcap or pcapng of USB link types (usbmon, USBPcap): before gimbalscope's own pcapng
     pcapngfile.READER,  # magic bytes: gimbalscope's own pcapng (an export, a Wireshark capture through the extcap)
     sigrok.READER,      # a zip whose first member is sigrok's version or metadata
     socatlog.READER,    # text whose first line is a socat chunk header
