@@ -22,7 +22,7 @@ STANDARD_RATES = (300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 38400, 57600, 
                   921600, 1000000, 2000000)
 NEAR = 0.08           # a rate further than 8 % from every standard one is taken as set that way
 FIT = 0.25            # an interval fits a bit time within a quarter bit
-ENOUGH_EDGES = 48     # edges measured before decoding starts (about three characters)
+ENOUGH_EDGES = 48     # edges before decoding starts (about three characters); twice this are measured
 MIN_EDGES = 6         # fewer: no rate can be measured (--baud decodes such a line)
 
 

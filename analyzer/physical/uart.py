@@ -102,7 +102,7 @@ class SoftUart:
         """Measure the rate (unless given), the idle level and the format (unless
         given) on the edges so far; False when they show no rate."""
         r = self.report
-        m = measure_bit(self.ticks)
+        m = measure_bit(self.ticks[:ENOUGH_EDGES * 2])   # the start: a later change of rate is followed apart
         if m is not None:
             r.measured = self.rate / m.bit
         if self.bit is None:
