@@ -133,6 +133,13 @@ class TapRunner:
         return f"{self._capture.baud} {o.data_bits}{o.parity}{o.stop_bits:g}"
 
     @property
+    def physical(self) -> dict | None:
+        """A logic capture's lines as its software UART measures them (line →
+        ``analyzer.physical.report.LineReport``, kept up to date while reading);
+        None for captures of bytes."""
+        return getattr(self._capture.source, "physical", None)
+
+    @property
     def swapped(self) -> bool:
         """The lines are read the other way round (``--swap-lines``, the TUI's key)."""
         return self._capture.swap_lines

@@ -39,8 +39,9 @@ from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 from ..styles import ERROR, INFO, WARNING   # the severities every view colours
 from ..words import counted
 from .findings import (
-    CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK, DEVICE_MAP, ECHO,
-    FINDINGS, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, Finding, unexplained)
+    CLOCK_OFF, CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK,
+    DEVICE_MAP, ECHO, FINDINGS, FRAMING_ERRORS, GLITCHES, LINE_INVERTED, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE,
+    SILENT_DEVICE, SLOW_ANSWERS, TWO_DRIVERS, Finding, unexplained)
 from .signs import GARBLED, MAX_EVIDENCE as _MAX_EVIDENCE, MIN_BYTES, LineTally, Tally as _Tally, WiringSigns
 from .stats import Latency
 
@@ -184,6 +185,9 @@ class WiringDoctor:
         self._first_seen: dict[tuple[str, str], tuple[float | None, int]] = {}   # (time, events seen)
         # the link's latest rate change: (rate event, the rate-set command's number, its device)
         self.rate_change: tuple[Event, int | None, str | None] | None = None
+        # a logic capture's lines as its software UART measured them (analyzer/physical/report.py),
+        # kept up to date by the source: the waveform rules read them
+        self.physical: dict | None = None
 
     # ------------------------------------------------------------------ input
     def add(self, ev: Event) -> None:
@@ -329,7 +333,7 @@ class WiringDoctor:
     # --------------------------------------------------------------- findings
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
-        rules = (self._wiring, self._echo, self._silent_after_rate, self._silent, self._noisy,
+        rules = (self._waveform, self._wiring, self._echo, self._silent_after_rate, self._silent, self._noisy,
                  self._controller, self._slow, self._device_map)
         # root causes first: what they explain is not raised with them (the table's ``hides``)
         out = unexplained(rule() for rule in rules)
@@ -358,6 +362,13 @@ class WiringDoctor:
         """Swapped lines, a garbled line, nothing of this protocol (analysis/signs.py)."""
         how = self.invocation
         return self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
+
+    def _waveform(self) -> list[Finding]:
+        """What a logic analyser's capture shows below the bytes, line by line."""
+        out: list[Finding] = []
+        for name, r in (self.physical or {}).items():
+            out += _waveform_findings(name, r)
+        return out
 
     def _echo(self) -> list[Finding]:
         if len(self.echoes) < 3:
@@ -530,6 +541,48 @@ class WiringDoctor:
             parts.append(kind.phrase("untracked", commands=counted(len(self.other_addresses), "command")))
         return [kind.found("map", [], devices=counted(len(self.devices), "device address", "device addresses"),
                            past=past, per_device="\n".join(parts))]
+
+
+CLOCK_WARNING, CLOCK_ERROR = 2.0, 4.0     # per cent off the nominal rate (findings table, clock_off)
+
+
+def _waveform_findings(name: str, r) -> list[Finding]:
+    """The waveform's findings about one line (``r``: a LineReport)."""
+    out: list[Finding] = []
+    chars = counted(r.characters, "character")
+    if r.inverted and r.characters:
+        out.append(FINDINGS[LINE_INVERTED].found(name, [], line=name, channel=f"channel {r.channel}",
+                                                 characters=r.characters))
+    pct = r.error_pct
+    if pct is not None and not r.given and r.characters >= 4 and abs(pct) >= CLOCK_WARNING:
+        f = FINDINGS[CLOCK_OFF].found(name, [], line=name, rate=r.measured, pct=abs(pct),
+                                      way="fast" if pct > 0 else "slow", baud=r.nominal, characters=chars)
+        if abs(pct) >= CLOCK_ERROR:
+            f.severity = ERROR
+        out.append(f)
+    errors = r.framing_errors + r.parity_errors + r.breaks
+    if errors:
+        kind = FINDINGS[FRAMING_ERRORS]
+        parts = [counted(r.framing_errors, "framing error")] if r.framing_errors else []
+        if r.parity_errors:
+            parts.append(counted(r.parity_errors, "parity error"))
+        if r.breaks:
+            parts.append(counted(r.breaks, "break"))
+        most = r.framing_errors + r.parity_errors > max(r.characters, 1) / 4
+        first = f"{r.first_error:.6f} s" if r.first_error is not None else "a break"
+        f = kind.found(name, [], line=name, errors=", ".join(parts), characters=r.characters, first=first,
+                       check=kind.phrase("check_rate", format=r.format) if most else kind.phrase("check_line"))
+        if errors < 3 and not most:
+            f.severity = WARNING
+        out.append(f)
+    if r.glitches >= 2:
+        bit_us = 1e6 / r.measured if r.measured else 0.0
+        out.append(FINDINGS[GLITCHES].found(name, [], line=name, glitches=r.glitches, limit_us=bit_us / 4,
+                                            edges=r.edges))
+    if r.off_grid >= 3 and r.off_grid >= r.characters / 100:
+        out.append(FINDINGS[TWO_DRIVERS].found(name, [], line=name, off_grid=r.off_grid,
+                                               characters=r.characters))
+    return out
 
 
 def one_line(f: Finding) -> str:

@@ -47,6 +47,12 @@ CONTROLLER_NO_RETRY = "controller_no_retry"
 CONTROLLER_IX_TIMEOUT = "controller_ix_timeout"
 SLOW_ANSWERS = "slow_answers"
 DEVICE_MAP = "device_map"
+# the waveform (a logic analyser's capture: analyzer/physical)
+LINE_INVERTED = "line_inverted"
+CLOCK_OFF = "clock_off"
+FRAMING_ERRORS = "framing_errors"
+GLITCHES = "glitches"
+TWO_DRIVERS = "two_drivers"
 
 # what the controller is seen doing: all of it follows from a link that is broken
 CONTROLLER = (CONTROLLER_NO_WAIT, CONTROLLER_FAST_RETRY, CONTROLLER_NO_RETRY, CONTROLLER_IX_TIMEOUT)
@@ -162,6 +168,49 @@ _kind(NOT_THIS_PROTOCOL, ERROR,
       "check the input is a tap of the gimbals' serial lines (a raw dump, socat log or recording); if it is, "
       "{baud_fix}",
       hides=(WRONG_BAUD, LINES_SWAPPED, *_WIRE_CONSEQUENCES))
+# ---------------------------------------------------------------- the waveform
+# Only a logic analyser's capture shows these: the software UART measured them
+# (analyzer/physical/report.py). Each is about one line.
+_kind(LINE_INVERTED, WARNING,
+      "a line that rests low: read at RS-232 polarity (no transceiver between it and a logic-level input), or "
+      "an RS-485 pair's wires crossed; decoded inverted all the same",
+      "line {line} is inverted: it rests low ({channel})",
+      "its {characters} characters read with the levels inverted",
+      "a logic-level UART cannot read it: if the probe is on the RS-232 side of a transceiver that is how it "
+      "should look; otherwise put a transceiver (MAX232) between them, or swap the RS-485 pair's A and B")
+_kind(CLOCK_OFF, WARNING,
+      "a line's measured bit rate 2 % or more from the nominal one (an error from 4 %: a receiver samples "
+      "the last bits of a character at their edges)",
+      "line {line} runs at {rate:,.0f} bit/s, {pct:.1f} % {way}",
+      "nominal {baud} bit/s, measured over {characters} characters; UARTs tolerate about 2 % each, 4-5 % "
+      "between two ends, and errors grow with the character's length",
+      "the sender's clock is off: check its crystal or clock divisor (a rate its clock cannot make exactly), "
+      "or set both ends to a rate it makes better",
+      hides=(NOISY_LINK,), hides_subject=False)
+_kind(FRAMING_ERRORS, ERROR,
+      "characters whose stop bit is not at the idle level, breaks (a line held active), parity errors",
+      "line {line}: {errors} in {characters} characters",
+      "first at {first}",
+      "{check}",
+      phrases={"check_rate": "a wrong rate or format gives framing errors on most characters: check both ends' "
+                             "settings ({format} read here)",
+               "check_line": "a few framing errors are a disturbed line: check the cable, its shield and ground; "
+                             "a break is a sender holding the line (a reset, a driver left on)"},
+      hides=(NOISY_LINK,))
+_kind(GLITCHES, WARNING,
+      "pulses shorter than a quarter bit on a line (removed before decoding, as a receiver's filter would)",
+      "line {line}: {glitches} glitches (pulses under a quarter bit)",
+      "{glitches} pulses under {limit_us:.1f} µs among {edges} edges",
+      "interference or ringing: check the cable's shield and ground, its length and termination (RS-485: "
+      "120 Ω at both ends)")
+_kind(TWO_DRIVERS, ERROR,
+      "characters whose edges fall off the bit grid: two senders driving one line at once (RS-485 bus "
+      "contention, a driver left enabled)",
+      "line {line}: two senders at once",
+      "{off_grid} of {characters} characters have edges off the bit grid",
+      "on a shared (RS-485) line only one device may drive at a time: check that each releases the bus after "
+      "sending (its driver-enable timing), and that no two devices answer to the same address",
+      hides=(NOISY_LINK, FRAMING_ERRORS))
 _kind(DEAD_LINK, ERROR,
       "commands, and no device answers at all (line B silent, or garbled)",
       "no device answers at all",

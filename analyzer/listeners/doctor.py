@@ -36,6 +36,7 @@ class DoctorListener(Listener):
         info = runner.info
         self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
                                    Invocation(info.inputs, info.live, info.command, self.tui))
+        self.doctor.physical = runner.physical
         self._told.clear()
         self._next: float | None = None
         self._next_event = UNTIMED_CHECK_EVERY

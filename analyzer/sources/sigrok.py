@@ -24,6 +24,7 @@ from typing import BinaryIO, Iterator
 
 from ..errors import CaptureError
 from ..physical.edges import PackedSamples
+from ..words import counted
 from .base import Reader, ReadSettings, Source
 from .files import BLOCK, Input
 
@@ -199,8 +200,8 @@ def _inflate(f: BinaryIO, size: int, method: int) -> Iterator[bytes]:
 def open_sigrok(inputs: list[Input], settings: ReadSettings) -> Source:
     from .sampled import SampledSource
     session = SigrokSession(inputs[0])
-    return SampledSource(session, settings, inputs[0].describe(f"sigrok session (version {session.version}, "
-                                                               f"{len(session.channels)} channels)"))
+    return SampledSource(session, settings, inputs[0].describe(
+        f"sigrok session (version {session.version}, {counted(len(session.channels), 'channel')})"))
 
 
 def _looks_like_session(head: bytes) -> bool:

@@ -70,6 +70,7 @@ class ParquetDatasetWriter(Listener):
         info = runner.info
         self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
                                    Invocation(info.inputs, info.live, info.command, False))
+        self.doctor.physical = runner.physical
 
     def on_events(self, events: list[Event]) -> None:
         if not events:

@@ -228,3 +228,60 @@ def test_the_glitch_dumps_read_the_characters_sent():
     cap = analyzer.open(os.path.join(DUMPS, "glitch_0x4f_0x4b_0x0a.sr"), channels={"A": "TX"})
     assert our_bytes(cap)["AB"] == b"OK\n"
     assert cap.source.physical["AB"].glitches >= 1
+
+
+# ------------------------------------------------------------------ the doctor from the waveform
+def doctor_json(path, *args):
+    import json
+    r = run_cli("doctor", path, "--format", "json", *args)
+    return r.returncode, json.loads(r.stdout)
+
+
+def codes(report) -> dict[str, dict]:
+    return {(f["code"], f["subject"]): f for f in report["findings"]}
+
+
+def test_a_clean_capture_gives_no_warning(tmp_path):
+    status, report = doctor_json(session(tmp_path, *conversation()))
+    assert status == 0
+    assert [f for f in report["findings"] if f["severity"] != "info"] == []
+
+
+def test_the_doctor_names_a_fast_clock(tmp_path):
+    status, report = doctor_json(session(tmp_path, *conversation(baud_a=9888)))
+    f = codes(report)[("clock_off", "A")]
+    assert f["severity"] == "warning" and status == 1
+    assert f["title"] == "line A runs at 9,888 bit/s, 3.0 % fast"
+    status, report = doctor_json(session(tmp_path, *conversation(baud_b=9100), name="slow"))
+    f = codes(report)[("clock_off", "B")]
+    assert f["severity"] == "error" and status == 3
+    assert f["title"] == "line B runs at 9,100 bit/s, 5.2 % slow"
+
+
+def test_the_doctor_names_an_inverted_line_glitches_and_framing_errors(tmp_path):
+    bit = 1 / 9600
+    glitches = [0.002, 0.004, 0.006]
+    a, b = conversation(glitches=glitches)
+    b = uart_levels(back_to_back(ACK, ACK_AT, 9600) + back_to_back(RESULT, RESULT_AT, 9600), RATE, 9600,
+                    DURATION, breaks=[(0.045, 3 * CHAR)])
+    status, report = doctor_json(session(tmp_path, a ^ 1, b))
+    found = codes(report)
+    assert found[("line_inverted", "A")]["severity"] == "warning"
+    assert found[("glitches", "A")]["title"] == "line A: 3 glitches (pulses under a quarter bit)"
+    assert found[("framing_errors", "B")]["title"] == "line B: 1 break in 16 characters"
+    assert status == 1
+    assert bit   # (a tenth of a bit each: tests/waveforms.py's default)
+
+
+def test_two_senders_at_once_on_one_line(tmp_path):
+    # a single line (half duplex): a device starts answering 0.4 bit into the
+    # controller's characters, five times; the line carries the AND of both
+    # (the active level wins, as on a bus)
+    bit = 1 / 9600
+    ctl = back_to_back(COMMAND * 5, 0.005, 9600)
+    dev = [(t + 0.4 * bit, 0x55) for t, _v in ctl[3::9]]
+    line = uart_levels(ctl, RATE, 9600, DURATION) & uart_levels(dev, RATE, 9600, DURATION)
+    status, report = doctor_json(session(tmp_path, line))
+    found = codes(report)
+    assert ("two_drivers", "AB") in found and found[("two_drivers", "AB")]["severity"] == "error"
+    assert status == 3
