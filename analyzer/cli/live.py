@@ -31,7 +31,7 @@ from ..runner import Listener, TapRunner
 from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, options_from, positive_float
+from .common import UsageError, add_filter_arg, add_serial_args, build_filter, channels, options_from, positive_float
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -39,14 +39,38 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Tap one serial port (single-line tap) or two (line A controller→device, "
                                    "line B device→controller). Ports are device names or pyserial URLs "
                                    "(socket://, rfc2217://, loop://). The tap never writes to the line.")
-    p.add_argument("ports", nargs="+", metavar="PORT", help="one or two ports")
+    p.add_argument("ports", nargs="*", metavar="PORT", help="one or two ports")
     add_serial_args(p, files=False)
+    add_samples_args(p)
     p.add_argument("--format", choices=("text", "jsonl"), default="text")
     add_filter_arg(p, "show only matching events (everything is still recorded)")
     add_record_args(p)
     add_foxglove_arg(p)
     add_tui_args(p)
     p.set_defaults(run=run)
+
+
+def add_samples_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("a live logic analyser (docs/instruments.md)")
+    g.add_argument("--samples", metavar="FILE",
+                   help="read logic samples instead of ports: - for standard input (sigrok-cli --continuous "
+                        "-O binary ... | gimbalscope live --samples - --samplerate 1MHz)")
+    g.add_argument("--samplerate", type=samplerate, metavar="RATE", help="the samples' rate, e.g. 1MHz, 500k, 250000")
+    g.add_argument("--unitsize", type=int, choices=(1, 2, 4), default=1,
+                   help="bytes a sample (channel N at bit N; default 1: eight channels)")
+    g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
+                   help="the channels of line A and line B (D0 or 0 …; default: the first two that toggle)")
+
+
+def samplerate(text: str) -> float:
+    from ..sources.sigrok import parse_samplerate
+    try:
+        rate = parse_samplerate(text)
+    except ValueError:
+        rate = 0
+    if rate <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a rate such as 1MHz, 500k or 250000")
+    return rate
 
 
 def add_tui_args(p: argparse.ArgumentParser) -> None:
@@ -214,7 +238,31 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.samples is not None:
+        return run_samples(args)
+    if args.samplerate is not None or args.channels is not None:
+        raise UsageError("--samplerate and --channels are for --samples (a logic analyser's stream)")
+    if not args.ports:
+        raise UsageError("give one or two ports, or --samples - for a logic analyser's stream")
     if len(args.ports) > 2:
         raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
     capture = open_live(args.ports, options_from(args))
+    return tap(capture, args, args.record)
+
+
+def run_samples(args: argparse.Namespace) -> int:
+    """A logic analyser's sample stream, live."""
+    from ..capture import Capture
+    from ..sources.samplestream import open_sample_stream
+
+    if args.ports:
+        raise UsageError("give ports or --samples, not both")
+    if args.samplerate is None:
+        raise UsageError("--samples needs --samplerate: the stream has no header (e.g. --samplerate 1MHz)")
+    options = options_from(args)
+    source = open_sample_stream(args.samples, args.samplerate, args.unitsize, options.read_settings)
+    from ..info import recorded_options
+    options, _said = recorded_options(options, source, args.samples)
+    capture = Capture(source, options)
+    capture.inputs = (args.samples,)
     return tap(capture, args, args.record)

@@ -180,8 +180,8 @@ class SampledSource(Source):
                 return
         if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
             raise CaptureError(
-                f"{self.name}: sampled at {_hz(w.samplerate)}, under {MIN_SAMPLES_A_BIT} samples a bit at "
-                f"{baud:,} bit/s (line {line}): capture at {_hz(MIN_SAMPLES_A_BIT * baud)} or more")
+                f"{self.name}: sampled at {hz(w.samplerate)}, under {MIN_SAMPLES_A_BIT} samples a bit at "
+                f"{baud:,} bit/s (line {line}): capture at {hz(MIN_SAMPLES_A_BIT * baud)} or more")
 
     def measured_settings(self) -> dict:
         """The serial settings the capture decodes with, as measured (the first
@@ -264,7 +264,7 @@ def _count_before(chars: list[Char], upto: float) -> int:
     return lo
 
 
-def _hz(rate: float) -> str:
+def hz(rate: float) -> str:
     for unit, scale in (("GHz", 1e9), ("MHz", 1e6), ("kHz", 1e3)):
         if rate >= scale:
             return f"{rate / scale:g} {unit}"

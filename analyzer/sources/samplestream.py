@@ -1,0 +1,55 @@
+"""A bare stream of logic samples: what ``sigrok-cli --continuous -O binary``
+writes to a pipe, read live (``gimbalscope live --samples - --samplerate 1MHz``;
+docs/instruments.md, "A live logic analyser").
+
+The stream has no header: ``unitsize`` bytes a sample, channel N at bit N, at
+the rate given. It is read as it comes (each read returns what the pipe holds,
+so the view keeps up), and decoded like a sigrok session's samples.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+from typing import Iterator
+
+from ..errors import CaptureError
+from ..physical.edges import PackedSamples
+from .base import ReadSettings
+from .files import STDIN
+from .sampled import SampledSource, hz
+
+READ = 1 << 20   # at most a read; a pipe gives what it holds
+
+
+def _reads(fd: int, name: str) -> Iterator[bytes]:
+    while True:
+        try:
+            data = os.read(fd, READ)
+        except OSError as e:
+            raise CaptureError(f"{name}: cannot read: {e.strerror or e}") from None
+        if not data:
+            return
+        yield data
+
+
+def open_sample_stream(path: str, samplerate: float, unitsize: int, settings: ReadSettings) -> SampledSource:
+    """The source reading samples from ``path`` (``-``: standard input)."""
+    if path == STDIN:
+        fd, name, own = sys.stdin.fileno(), "standard input", False
+    else:
+        try:
+            fd, name, own = os.open(path, os.O_RDONLY), path, True
+        except OSError as e:
+            raise CaptureError(f"{path}: cannot open: {e.strerror or e}") from None
+    names = [f"D{i}" for i in range(unitsize * 8)]
+    waveform = PackedSamples(_reads(fd, name), unitsize, names, samplerate, name=name)
+    waveform.numbers = [str(i) for i in range(unitsize * 8)]
+    waveform.start_time = time.time()
+    if own:
+        waveform.close = lambda: os.close(fd)   # type: ignore[method-assign]
+    source = SampledSource(waveform, settings, f"{name} (logic samples at {hz(samplerate)}, "
+                                               f"{unitsize * 8} channels)")
+    source.live = True
+    return source
