@@ -76,7 +76,7 @@ class FtdiIn:
             status, payload = packet[1], packet[2:]
             here = self.taken + len(out)
             if not payload:
-                self._pending.update(_ftdi_errors(status, None))
+                self._pending.update(kind for kind, _ in _ftdi_errors(status, None))
                 continue
             kinds = _ftdi_errors(status, payload)
             faults += [(here, k) for k in sorted(self._pending - {k for k, _ in kinds})]

@@ -48,10 +48,6 @@ _PROBLEMS = {
 }
 
 
-def _quiet(_msg: str) -> None:
-    pass
-
-
 class USBSerialSource(Source):
     timed = True
     clocks = 1   # the host stamps both directions
@@ -67,20 +63,18 @@ class USBSerialSource(Source):
         self.path = path
         if temporary:
             self.on_close(lambda: _remove(path))
-        found = survey(self._urbs(_quiet))
+        cut: list[str] = []
+        found = survey(self._urbs(cut.append))
+        found.cut = cut[0] if cut else None
         instrument = settings.instrument
         self.choice: Choice = choose(found, self.name, instrument.usb_device, instrument.adapter)
         for note in self.choice.notes:
             self.warn_later(note)
         dev = self.choice.device
         self.description = inp.describe(f"USB capture of {NAMES[self.choice.adapter]} adapter {dev.key}")
-        # t = 0: the capture's first packet, or the first IN byte if it started earlier (back-dated)
-        first_in = dev.in_pipe(self.choice.in_endpoint) if self.choice.in_endpoint is not None else None
-        origin = found.first_ns or 0
-        if first_in is not None and first_in.first_ns is not None:
-            origin = min(origin, first_in.first_ns - round(first_in.first_length * settings.byte_time * 1e9))
-        self._origin_ns = origin
-        self.start_time = origin / 1e9
+        # t = 0: the capture's first packet (IN bytes back-dated before it are put at it)
+        self._origin_ns = found.first_ns or 0
+        self.start_time = self._origin_ns / 1e9
 
     def _urbs(self, warn, counted: bool = False) -> Iterator[usb.Urb]:
         """The capture's URB events; ``counted``: the read the progress meter
@@ -102,7 +96,7 @@ class USBSerialSource(Source):
         origin = self._origin_ns
         sent: dict[int, tuple[int, bytes]] = {}    # OUT data waiting for its completion, by URB id
         asked: dict[int, usb.Setup] = {}           # CP210x requests waiting for theirs
-        a_free = b_free = float("-inf")            # when each line's previous bytes ended
+        a_free = b_free = 0.0                      # when each line's previous bytes ended
         for u in self._urbs(self.warn, counted=True):
             if u.bus != bus or u.device != address:
                 continue

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Iterable
 
 from ..errors import CaptureError
+from ..words import counted
 from ..formats import usb
 from ..formats.usbserial import (FTDI, NAMES, VENDORS, adapter_of_request, ftdi_max_packet, ftdi_payload,
                                  looks_like_ftdi_status)
@@ -31,14 +32,13 @@ class Pipe:
     payload_64: int = 0               # the line bytes, were it FTDI at 64-byte packets ...
     payload_512: int = 0              # ... or at 512
     first_transfer: bytes = b""       # the first IN transfer's head: its modem status tells the packet size
-    first_length: int = 0             # the first transfer's length
     first_ns: int | None = None
 
     def took(self, data: bytes, ns: int, incoming: bool) -> None:
         self.bytes += len(data)
         self.transfers += 1
         if self.first_ns is None:
-            self.first_ns, self.first_length = ns, len(data)
+            self.first_ns = ns
         if not incoming:
             return
         if not self.first_transfer:
@@ -76,8 +76,8 @@ class Device:
             return VENDORS.get(self.ids[0]), "enumeration"
         if self.clue is not None:
             return self.clue, "requests"
-        pipe = self.in_pipe()
-        if pipe is not None and pipe.ftdi_like and pipe.transfers >= 2:
+        pipes = self.ins.values()
+        if pipes and all(p.ftdi_like for p in pipes) and sum(p.transfers for p in pipes) >= 2:
             return FTDI, "traffic"
         return None, ""
 
@@ -116,8 +116,8 @@ class Device:
     def listing(self, adapter: str | None = None) -> str:
         """``3.7 0403:6001 FTDI, 40 bytes out, 22 bytes in``."""
         adapter = adapter if adapter is not None else self.found_adapter()[0]
-        return (f"{self.key} {self.ids_text} {NAMES[adapter]}, {self.bytes_out():,} bytes out, "
-                f"{self.bytes_in(adapter):,} bytes in")
+        return (f"{self.key} {self.ids_text} {NAMES[adapter]}, {counted(self.bytes_out(), 'byte')} out, "
+                f"{counted(self.bytes_in(adapter), 'byte')} in")
 
     def seen(self) -> str:
         """``1.4 046d:c52b (interrupt)``: a device as a capture without serial data shows it."""
@@ -130,6 +130,7 @@ class Survey:
     devices: dict[tuple[int, int], Device] = field(default_factory=dict)
     first_ns: int | None = None
     packets: int = 0
+    cut: str | None = None        # how the file ends early, when it does
 
 
 def survey(urbs: Iterable[usb.Urb]) -> Survey:
@@ -203,8 +204,9 @@ def choose(found: Survey, name: str, usb_device: str | None, adapter: str | None
         serial = _candidates(devices)
         if not serial:
             seen = ", ".join(d.seen() for d in devices) or "none"
+            cut = f"; {found.cut.removeprefix(name + ': ')}" if found.cut else ""
             raise CaptureError(f"{name}: a USB capture with no serial adapter in it (no bulk data to or from "
-                               f"any device); devices seen: {seen}")
+                               f"any device); devices seen: {seen}{cut}")
         if len(serial) > 1:
             raise CaptureError(f"{name}: {len(serial)} serial adapters move data: "
                                f"{'; '.join(d.listing() for d in serial)}: choose one with --usb-device BUS.DEV")
@@ -234,7 +236,7 @@ def _how(dev: Device, name: str, given: str | None) -> Choice:
         notes.append(f"{where} ({dev.ids_text}) is no FTDI, CP210x or CH340: its bytes are read as they are "
                      "(--adapter ftdi|cp210x|ch34x says otherwise)")
     elif given is None and how != "enumeration":
-        notes.append(f"{where}: {_guess_text(dev, adapter, how)} (--adapter ftdi|cp210x|ch34x says otherwise)")
+        notes.append(f"{where}: {_guess_text(dev, adapter, how)}; --adapter ftdi|cp210x|ch34x says otherwise")
     in_ep = _busiest(dev.ins, lambda p: p.bytes - 2 * p.status_only)
     out_ep = _out_of_same_port(dev, in_ep)
     others = sorted({0x80 | n for n, p in dev.ins.items() if n != in_ep and p.bytes > 2 * p.status_only}
@@ -249,8 +251,8 @@ def _how(dev: Device, name: str, given: str | None) -> Choice:
 
 def _guess_text(dev: Device, adapter: str | None, how: str) -> str:
     if how == "traffic":
-        pipe = dev.in_pipe()
-        polls = f", {pipe.status_only:,} of them status alone (idle polls)" if pipe and pipe.status_only else ""
+        idle = sum(p.status_only for p in dev.ins.values())
+        polls = f"; {counted(idle, 'idle poll')} of status alone" if idle else ""
         return (f"no enumeration in the capture; taken as an FTDI adapter from its traffic (two status bytes "
                 f"at the start of every IN transfer{polls})")
     if how == "requests":
