@@ -14,7 +14,7 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 from __future__ import annotations
 
 from ..errors import CaptureError
-from . import pcapngfile, rawdump, sigrok, socatlog, usb
+from . import pcapngfile, rawdump, saleae_binary, saleae_csv, sigrok, socatlog, usb, vcd
 from .base import Reader, ReadSettings, Source
 from .files import Input
 
@@ -71,6 +71,9 @@ READERS: list[Reader] = [
     usb.READER,         # a pcap or pcapng of USB link types (usbmon, USBPcap): before gimbalscope's own pcapng
     pcapngfile.READER,  # magic bytes: gimbalscope's own pcapng (an export, a Wireshark capture through the extcap)
     sigrok.READER,      # a zip whose first member is sigrok's version or metadata
+    vcd.READER,         # text starting with a VCD section ($timescale, $var, …)
+    saleae_csv.READER,  # text whose first line is Time [s],… or the Async Serial table's columns
+    saleae_binary.READER,  # magic bytes <SALEAE>: one file a channel
     socatlog.READER,    # text whose first line is a socat chunk header
     rawdump.READER,     # any bytes: the fallback, last
 ]
