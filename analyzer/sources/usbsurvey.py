@@ -32,13 +32,10 @@ class Pipe:
     payload_64: int = 0               # the line bytes, were it FTDI at 64-byte packets ...
     payload_512: int = 0              # ... or at 512
     first_transfer: bytes = b""       # the first IN transfer's head: its modem status tells the packet size
-    first_ns: int | None = None
 
-    def took(self, data: bytes, ns: int, incoming: bool) -> None:
+    def took(self, data: bytes, incoming: bool) -> None:
         self.bytes += len(data)
         self.transfers += 1
-        if self.first_ns is None:
-            self.first_ns = ns
         if not incoming:
             return
         if not self.first_transfer:
@@ -81,9 +78,8 @@ class Device:
             return FTDI, "traffic"
         return None, ""
 
-    def in_pipe(self, number: int | None = None) -> Pipe | None:
-        if number is not None:
-            return self.ins.get(number)
+    def in_pipe(self) -> Pipe | None:
+        """The IN endpoint that carried the most."""
         return max(self.ins.values(), key=lambda p: (p.bytes - 2 * p.status_only, p.transfers), default=None)
 
     def max_packet(self, number: int) -> int:
@@ -148,9 +144,9 @@ def survey(urbs: Iterable[usb.Urb]) -> Survey:
         dev.transfers.add(u.transfer)
         if u.transfer == usb.BULK:
             if u.incoming and u.completion and u.status == 0 and u.data:
-                dev.ins.setdefault(u.endpoint, Pipe()).took(u.data, u.ns, True)
+                dev.ins.setdefault(u.endpoint, Pipe()).took(u.data, True)
             elif not u.incoming and not u.completion and u.data:
-                dev.outs.setdefault(u.endpoint, Pipe()).took(u.data, u.ns, False)
+                dev.outs.setdefault(u.endpoint, Pipe()).took(u.data, False)
         elif u.transfer == usb.CONTROL:
             if u.setup is not None:
                 setup = usb.setup_of(u.setup)
