@@ -139,6 +139,7 @@ class SaleaeBinary(Waveform):
         for c, p in enumerate(pieces):
             _, level[c], known[c] = next(p)
         edge_level = list(level)
+        last_end = min(known)
         while True:
             for c in range(n):
                 while not done[c] and not any(a.size for a in held[c]):
@@ -159,6 +160,9 @@ class SaleaeBinary(Waveform):
                 edge_level[c] ^= take & 1
                 held[c] = [ticks[take:]] if take < ticks.size else []
             yield Block(end, edges)
+            last_end = end
+        if max(known) > last_end:       # the export's end_time: the levels hold up to there
+            yield Block(max(known), {c: Edges(np.zeros(0, dtype=np.int64), edge_level[c]) for c in range(n)})
         for f in self.files:
             if f.problem and self.problem is None:
                 self.problem = f.problem

@@ -27,10 +27,11 @@ from typing import Iterator
 import numpy as np
 
 from ..errors import CaptureError
-from ..physical.edges import Block, Edges, Waveform
+from ..physical.edges import NO_EDGES, Block, Edges, Waveform
 from .base import Reader, ReadSettings, Source
 from .files import Input
 from .saleae_table import AsyncSerialTable, looks_like_table
+from .vcd import LEVELS_HOLD
 
 TICKS_A_SECOND = 1e9
 BLOCK_BYTES = 4 << 20
@@ -87,6 +88,11 @@ class SaleaeDigitalCsv(Waveform):
                 self.problem = f"{self.name}: line {line + row}: {why}: read up to there"
             if times.size:
                 yield self._block(times, values, levels)
+            if (bad is not None or ended) and last > -np.inf:
+                # no row says when the capture ended: the levels hold a while (vcd.LEVELS_HOLD)
+                hold_end = int(round((last + LEVELS_HOLD) * TICKS_A_SECOND))
+                yield Block(hold_end, {c: Edges(NO_EDGES, max(levels[c], 0) if levels[c] >= 0 else 1)
+                                       for c in range(width)})
             if bad is not None or ended:
                 if ended and self.input.problem and self.problem is None:
                     self.problem = self.input.problem

@@ -31,6 +31,10 @@ from .sigrok import parse_samplerate
 from .vcd_body import BodyScanner
 
 BLOCK_BYTES = 4 << 20        # body read this much at a time
+# A list of transitions need not say when the capture ended: after the last one
+# (or a damaged line) the levels are taken to hold this long, so that the
+# character in flight is read (12 bits at 600 bit/s).
+LEVELS_HOLD = 0.020
 HEADER_LIMIT = 64 << 20      # a header longer than this is not a VCD's
 _TIMESCALE = re.compile(r"^\s*(1|10|100)\s*(s|ms|us|ns|ps|fs)\s*$")
 _UNIT = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12, "fs": 1e-15}
@@ -165,7 +169,12 @@ class ValueChangeDump(Waveform):
                 where = line + body.count(b"\n", 0, at)
                 self.problem = f"{self.name}: line {where}: {why}: read up to there"
             m = _TIME.match(data)
-            end = int(m.group(1)) if m and scanner.bad is None and not ended else scanner.time + 1
+            if m and scanner.bad is None and not ended:
+                end = int(m.group(1))
+            elif scanner.ends_bare and scanner.bad is None:
+                end = scanner.time + 1          # a last #time with no change: the capture's end
+            else:
+                end = scanner.time + 1 + int(LEVELS_HOLD / self.header.unit)
             if ended and self.input.problem and self.problem is None:
                 self.problem = self.input.problem
             yield self._block(times, levels, scanner, end)

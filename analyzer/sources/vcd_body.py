@@ -58,6 +58,7 @@ class BodyScanner:
         self.level = [-1] * channels         # each channel's level (-1: not known yet)
         self.first_level: dict[int, int] = {}   # each channel's first known level: its level from the start
         self.skipping = False                # inside a $comment … $end
+        self.ends_bare = False               # the last token read was a #time (no change after it)
         self.bad: tuple[int, str] | None = None   # (byte offset in the block, why) of what stopped the reading
 
     def scan(self, buf: bytes) -> list[np.ndarray]:
@@ -109,6 +110,8 @@ class BodyScanner:
         out = self._edges(channel, code[values], value_time)
         if tvals.size:
             self.time, self.timed = int(tvals[-1]), True
+        if tix.size or values.size:
+            self.ends_bare = bool(tix.size) and (not values.size or tix[-1] > values[-1])
         return out
 
     # ------------------------------------------------------------------ parts
