@@ -118,6 +118,8 @@ def test_a_vcd_written_by_sigrok_cli_reads_as_the_conversation(tmp_path):
     ours = our_bytes(path)
     assert ours["A"] == COMMAND == sigrok_uart(path, "0")
     assert ours["B"] == ACK + RESULT == sigrok_uart(path, "1")
+    # the same events as the session the VCD was written from
+    assert decode_jsonl(str(tmp_path / "cap.sr"))[0] == rows
 
 
 def write_vcd(path, timescale: str, unit: float, cut_after: int | None = None) -> str:
