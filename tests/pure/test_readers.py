@@ -117,8 +117,13 @@ def test_each_sample_is_picked_by_its_reader(tmp_path, sample, packed):
         assert next(iter(src.chunks())).data   # it reads
 
 
+# every format, most specific first (docs/inputs.md, docs/instruments.md)
+FORMATS = ["MCAP recording", "USB capture (usbmon, USBPcap)", "pcapng (gimbalscope packets)", "sigrok session",
+           "VCD", "Saleae CSV export", "Saleae binary export", "socat -x -v log", "raw dump"]
+
+
 def test_the_fallback_comes_last_and_the_names_are_listed():
-    assert formats() == ["MCAP recording", "pcapng (gimbalscope packets)", "socat -x -v log", "raw dump"]
+    assert formats() == FORMATS
     assert registry.most_inputs() == 2
 
 
@@ -232,7 +237,7 @@ def test_a_registered_reader_that_takes_one_input_refuses_two(tmp_path, toy_regi
 
 def test_the_registry_is_restored_after_the_toy():
     assert TOY not in registry.READERS
-    assert formats() == ["MCAP recording", "pcapng (gimbalscope packets)", "socat -x -v log", "raw dump"]
+    assert formats() == FORMATS
 
 
 def test_a_reader_must_say_how_it_recognises_its_input():
