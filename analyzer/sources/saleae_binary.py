@@ -24,6 +24,7 @@ blocks up to the earliest time every channel is known to.
 
 from __future__ import annotations
 
+import math
 import os
 import struct
 from typing import BinaryIO, Iterator
@@ -38,6 +39,8 @@ from .files import Input
 MAGIC = b"<SALEAE>"
 NANOSECONDS = 1e9
 READ_TIMES = 1 << 18          # transitions read at a time from a file (2 MB)
+TICK_LIMIT = 2.0 ** 62        # a time beyond this many ticks is damage, not a time
+NO_TICKS = np.zeros(0, dtype=np.int64)
 _V0 = struct.Struct("<Iddq")  # initial_state, begin_time, end_time, num_transitions
 _V1 = struct.Struct("<Idddq")  # initial_state, sample_rate, begin_time, end_time, num_transitions
 
@@ -72,7 +75,8 @@ class ChannelFile:
             self.chunk = self._chunk_header()
         except (EOFError, struct.error):
             raise CaptureError(f"{inp.name}: a Saleae binary export cut short in its header") from None
-        self.rate = self.chunk[1]
+        rate = self.chunk[1]
+        self.rate = rate if math.isfinite(rate) and 1 <= rate <= 1e12 else 0.0   # else: no rate given
 
     def _chunk_header(self) -> tuple[int, float, float, float, int]:
         """(initial_state, sample_rate or 0, begin, end, transitions)."""
@@ -85,37 +89,64 @@ class ChannelFile:
 
     def times(self, scale: float) -> Iterator[tuple[np.ndarray, int, int]]:
         """(edge ticks, the level before them, the tick known up to) a piece at
-        a time; a damaged end sets ``problem`` and stops."""
+        a time; a damaged end (cut, or a time that is none or goes back) sets
+        ``problem`` and stops."""
+        name = self.input.name
         state, _rate, begin, end, count = self.chunk
         level = state
-        start_tick = int(round(begin * scale))
-        yield np.zeros(0, dtype=np.int64), level, start_tick
+        last = _tick(begin, scale)
+        if last is None:
+            self.problem = f"{name}: its begin time {begin!r} is not a time: nothing read"
+            return
+        yield NO_TICKS, level, last
+        read = 0
         while True:
             left = count
             while left > 0:
                 n = min(left, READ_TIMES)
                 data = self.f.read(8 * n)
                 got = np.frombuffer(data[:len(data) // 8 * 8], dtype="<f8")
-                ticks = np.rint(got * scale).astype(np.int64)
-                known = int(ticks[-1]) + 1 if ticks.size else start_tick
-                yield ticks, level, known
+                with np.errstate(all="ignore"):
+                    scaled = got * scale
+                    ok = np.isfinite(scaled) & (np.abs(scaled) < TICK_LIMIT)
+                    ticks = np.rint(np.where(ok, scaled, 0)).astype(np.int64)
+                bad = ~ok | (ticks < np.concatenate(([last], ticks[:-1])))
+                first_bad = int(np.argmax(bad)) if bad.any() else None
+                if first_bad is not None:
+                    ticks = ticks[:first_bad]
+                yield ticks, level, int(ticks[-1]) + 1 if ticks.size else last
                 level ^= ticks.size & 1
                 left -= ticks.size
+                read += ticks.size
+                last = int(ticks[-1]) if ticks.size else last
+                if first_bad is not None:
+                    self.problem = (f"{name}: transition {read + 1:,}: {float(got[first_bad])!r} s is not a time after the "
+                                    "one before: read up to there")
+                    return
                 if got.size < n:
-                    self.problem = (f"{self.input.name}: cut short: {count - left:,} of its {count:,} transitions "
-                                    "read: read up to there")
+                    self.problem = f"{name}: cut short: {read:,} of its {count:,} transitions read: read up to there"
                     return
             if self.chunks_left <= 0:
-                yield np.zeros(0, dtype=np.int64), level, int(round(end * scale))
+                stop = _tick(end, scale)
+                yield NO_TICKS, level, max(stop, last + 1) if stop is not None else last + 1
                 return
             try:
                 state, _rate, begin, end, count = self.chunk = self._chunk_header()
             except (EOFError, struct.error):
-                self.problem = f"{self.input.name}: cut short in a chunk header: read up to there"
+                self.problem = f"{name}: cut short in a chunk header: read up to there"
                 return
-            first = int(round(begin * scale))
-            yield (np.array([first], dtype=np.int64) if state != level else np.zeros(0, dtype=np.int64)), level, first + 1
-            level = state
+            first = _tick(begin, scale)
+            if first is None or first < last:
+                self.problem = f"{name}: a chunk begins at {begin!r} s, before the one before ends: read up to there"
+                return
+            yield (np.array([first], dtype=np.int64) if state != level else NO_TICKS), level, first + 1
+            level, last = state, first
+
+
+def _tick(seconds: float, scale: float) -> int | None:
+    """A time from the file as a tick; None if it is none (NaN, infinite, absurd)."""
+    t = seconds * scale
+    return int(round(t)) if math.isfinite(t) and abs(t) < TICK_LIMIT else None
 
 
 class SaleaeBinary(Waveform):
@@ -137,7 +168,11 @@ class SaleaeBinary(Waveform):
         known = [0] * n                                         # each channel known up to this tick
         done = [False] * n
         for c, p in enumerate(pieces):
-            _, level[c], known[c] = next(p)
+            first = next(p, None)
+            if first is None:           # its begin time is damaged: the channel has nothing
+                done[c] = True
+            else:
+                _, level[c], known[c] = first
         edge_level = list(level)
         last_end = min(known)
         while True:

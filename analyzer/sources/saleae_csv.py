@@ -34,6 +34,7 @@ from .saleae_table import AsyncSerialTable, looks_like_table
 from .vcd import LEVELS_HOLD
 
 TICKS_A_SECOND = 1e9
+MAX_SECONDS = 1e9             # a time beyond this (or NaN) is damage: ticks stay within int64
 BLOCK_BYTES = 4 << 20
 BOM = b"\xef\xbb\xbf"
 _TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.I)
@@ -75,9 +76,10 @@ class SaleaeDigitalCsv(Waveform):
                 continue
             body, left = data[:cut], data[cut:]
             times, values, bad = _parse(body, width)
-            back = np.flatnonzero(np.diff(np.concatenate(([last], times))) < 0)
+            with np.errstate(invalid="ignore"):
+                back = np.flatnonzero((np.diff(np.concatenate(([last], times))) < 0) | ~(np.abs(times) < MAX_SECONDS))
             if back.size and (bad is None or back[0] < bad[0]):
-                bad = (int(back[0]), f"time {times[back[0]]!r} goes back")
+                bad = (int(back[0]), f"time {times[back[0]]!r} is not after the one before")
                 times, values = times[:back[0]], values[:back[0]]
             if times.size:
                 last = float(times[-1])
