@@ -76,8 +76,12 @@ class Header:
                 self._variable(body, scope)
             elif word == "$comment":
                 m = _SIGROK_RATE.search(" ".join(body))
-                if m:
-                    self.sampled_at = parse_samplerate(m.group(1))
+                try:
+                    rate = parse_samplerate(m.group(1)) if m else 0.0
+                except ValueError:
+                    rate = 0.0            # a comment is no promise: read the times as they are
+                if rate >= 1:
+                    self.sampled_at = rate
             elif word == "$date":
                 self.date = " ".join(body)
             i = j + 1
