@@ -27,7 +27,7 @@ from __future__ import annotations
 import errno
 import os
 import tempfile
-from typing import BinaryIO, Iterable
+from typing import BinaryIO, Callable, Iterable
 
 from .errors import OutputError, OutputRefused
 
@@ -50,6 +50,18 @@ def reason(e: OSError) -> str:
 
 def write_error(path: str | os.PathLike, e: OSError) -> OutputError:
     return OutputError(f"{show(path)}: cannot write: {reason(e)}")
+
+
+def install_into(install: Callable[[str | None], list[str]], folder: str | None) -> list[str]:
+    """Run an installer (``install(folder)`` writes files into ``folder``, or its
+    tool's own folder for None) and return what it wrote; a folder that is a
+    file, or cannot be written, is one line (OutputRefused)."""
+    if folder is not None and os.path.exists(folder) and not os.path.isdir(folder):
+        raise OutputRefused(f"{show(folder)}: is a file; --dir takes a folder")
+    try:
+        return install(folder)
+    except OSError as e:
+        raise OutputRefused(f"{show(e.filename or folder or '')}: cannot write: {e.strerror or e}") from None
 
 
 def _same_file(a: str | os.PathLike, b: str | os.PathLike) -> bool:

@@ -10,7 +10,7 @@ import argparse
 import os
 import sys
 
-from ..outfile import OutputRefused, show
+from ..outfile import install_into, show
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -29,12 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_install(args: argparse.Namespace) -> int:
     from ..sigrok.install import install
 
-    if args.dir is not None and os.path.exists(args.dir) and not os.path.isdir(args.dir):
-        raise OutputRefused(f"{show(args.dir)}: is a file; --dir takes a folder")
-    try:
-        written = install(args.dir)
-    except OSError as e:
-        raise OutputRefused(f"{show(e.filename or args.dir or '')}: cannot write: {e.strerror or e}") from None
+    written = install_into(install, args.dir)
     folder = os.path.dirname(written[0])
     env = f"SIGROKDECODE_DIR={show(args.dir)} " if args.dir is not None else ""
     print(f"gimbalscope: wrote the sigrok decoder gimbal into {show(folder)}; use it with: "

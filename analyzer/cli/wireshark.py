@@ -11,7 +11,7 @@ import os
 import shutil
 import sys
 
-from ..outfile import OutputRefused, show
+from ..outfile import install_into, show
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -30,12 +30,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run_install(args: argparse.Namespace) -> int:
     from ..wireshark.install import EXTCAP_NAME, LUA_NAME, install, personal_folders
 
-    if args.dir is not None and os.path.exists(args.dir) and not os.path.isdir(args.dir):
-        raise OutputRefused(f"{show(args.dir)}: is a file; --dir takes a folder")
-    try:
-        written = install(args.dir)
-    except OSError as e:
-        raise OutputRefused(f"{show(e.filename or args.dir or '')}: cannot write: {e.strerror or e}") from None
+    written = install_into(install, args.dir)
     for path in written:
         print(f"gimbalscope: wrote {show(path)}", file=sys.stderr)
     if args.dir is not None:

@@ -23,6 +23,7 @@ from dissectors.commands import BAUD_CODES, COMMANDS, ERROR_BITS, STATUS_BITS, C
 from dissectors.dissect import _show, summarize
 from dissectors.fields import Field, Layout
 
+from ..templates import fill
 from ..version import __version__
 from .pd_template import TEMPLATE
 
@@ -84,13 +85,7 @@ def pd_source() -> str:
         "DERIVE_NAMES": ", ".join(f"{fn.__name__!r}: {fn.__name__}" for fn in _derives()),
         "UNITS": repr({name: ft.unit for name, ft in field_types().items() if ft.unit}),
     }
-    text = TEMPLATE
-    for key, value in subs.items():
-        text = text.replace("@@" + key + "@@", value)
-    leftover = re.search(r"@@\w+@@", text)
-    if leftover:
-        raise ValueError(f"template placeholder {leftover.group(0)} not filled")
-    return text
+    return fill(TEMPLATE, subs)
 
 
 def init_source() -> str:

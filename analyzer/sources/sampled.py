@@ -175,7 +175,7 @@ class SampledSource(Source):
         baud = report.nominal
         if baud is None and uart.ticks.size > 2:
             shortest = int(min(b - a for a, b in zip(uart.ticks.tolist(), uart.ticks.tolist()[1:])) or 1)
-            baud = nominal_rate(w.samplerate / shortest) or round(w.samplerate / shortest)
+            baud = nominal_rate(w.samplerate / shortest) or max(1, round(w.samplerate / shortest))
             if w.samplerate / baud >= MIN_SAMPLES_A_BIT:
                 return
         if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:

@@ -30,6 +30,7 @@ from dissectors.commands import BAUD_CODES, COMMANDS, DERIVED, ERROR_BITS, STATU
 from dissectors.fields import Field, Layout
 
 from ..formats import pdu
+from ..templates import fill
 from ..version import __version__
 
 # Names of the dissector's own fields; a decoded field with one of these names is
@@ -248,13 +249,7 @@ def generate() -> str:
         "NO_LAYOUT": str(pdu.NO_LAYOUT),
         "NO_PAYLOAD": str(pdu.NO_PAYLOAD),
     }
-    text = _TEMPLATE
-    for key, value in subs.items():
-        text = text.replace("@@" + key + "@@", value)
-    leftover = re.search(r"@@\w+@@", text)
-    if leftover:
-        raise ValueError(f"template placeholder {leftover.group(0)} not filled")
-    return text
+    return fill(_TEMPLATE, subs)
 
 
 _TEMPLATE = r'''-- gimbal.lua: Wireshark dissector for the gimbal serial protocol (rev 1.9),
