@@ -1,7 +1,7 @@
 """``gimbalscope sigrok install [--dir D]``: the sigrok protocol decoder
 ``gimbal`` (generated from the command table), written into libsigrokdecode's
 per-user decoders folder or into D, for PulseView and sigrok-cli
-(docs/instruments-sigrok-decoder.md).
+(docs/instruments.md, "The sigrok decoder").
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from ..outfile import install_into, show
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sigrok", help="sigrok: install the gimbal protocol decoder for PulseView and sigrok-cli",
-                       description="sigrok interop (docs/instruments-sigrok-decoder.md).")
+                       description="sigrok interop (docs/instruments.md, "The sigrok decoder").")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     i = verbs.add_parser("install", help="write the protocol decoder gimbal (stacks on uart)",
                          description="Write the protocol decoder gimbal (gimbal/__init__.py and gimbal/pd.py) "

@@ -1,3 +1,3 @@
-"""sigrok jobs (docs/instruments-sigrok-decoder.md): the protocol decoder
+"""sigrok jobs (docs/instruments.md, "The sigrok decoder"): the protocol decoder
 ``gimbal`` for PulseView and sigrok-cli, generated from the command table
 (``decoder``), and its installation (``install``)."""

@@ -1,6 +1,6 @@
 """USB captures of the controller PC's own USB-serial adapter (usbmon on Linux,
 USBPcap on Windows; pcap or pcapng) read as the serial line it drives
-(docs/instruments-usb.md).
+(docs/instruments.md, "USB captures").
 
 The host's bulk OUT data is line A (what the controller sends), the bulk IN
 data line B (what the gimbals answer). The adapter's framing of IN data is

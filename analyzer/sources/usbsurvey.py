@@ -1,6 +1,6 @@
 """A first look through a USB capture: which devices it holds, what each is
 (from its enumeration, its vendor requests or its traffic), how much bulk data
-each moved, and which one is the serial adapter to read (docs/instruments-usb.md).
+each moved, and which one is the serial adapter to read (docs/instruments.md, "USB captures").
 
 The reader (analyzer/sources/usb.py) surveys the whole capture before reading
 it, so that a capture of several adapters is refused with the listing before

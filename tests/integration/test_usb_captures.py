@@ -1,5 +1,5 @@
 """USB captures of the controller PC's own USB-serial adapter, read as gimbal
-traffic (docs/instruments-usb.md): synthesised usbmon and USBPcap captures
+traffic (docs/instruments.md, "USB captures"): synthesised usbmon and USBPcap captures
 (tests/usb_captures.py) of an FTDI FT232R and FT2232H, a CP210x and a CH340
 carrying real frames, decoded by the command line; what is expected is worked
 out here from the protocol and the times the captures were written with.
