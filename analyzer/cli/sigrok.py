@@ -15,7 +15,7 @@ from ..outfile import install_into, show
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("sigrok", help="sigrok: install the gimbal protocol decoder for PulseView and sigrok-cli",
-                       description="sigrok interop (docs/instruments.md, "The sigrok decoder").")
+                       description="sigrok interop (docs/instruments.md, 'The sigrok decoder').")
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     i = verbs.add_parser("install", help="write the protocol decoder gimbal (stacks on uart)",
                          description="Write the protocol decoder gimbal (gimbal/__init__.py and gimbal/pd.py) "
