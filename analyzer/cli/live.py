@@ -183,7 +183,8 @@ def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
 
 def wants_tui(args: argparse.Namespace) -> bool:
     """The TUI unless --no-tui, JSON Lines, or output that is not a terminal (a pipe
-    or a file gets the printed events, as grep and jq expect)."""
+    or a file gets the printed events, as grep and jq expect). Standard input must
+    be a terminal too (a logic analyser's piped samples were moved aside for it)."""
     return not args.no_tui and args.format == "text" and sys.stdout.isatty() and sys.stdin.isatty()
 
 
@@ -260,9 +261,31 @@ def run_samples(args: argparse.Namespace) -> int:
     if args.samplerate is None:
         raise UsageError("--samples needs --samplerate: the stream has no header (e.g. --samplerate 1MHz)")
     options = options_from(args)
-    source = open_sample_stream(args.samples, args.samplerate, args.unitsize, options.read_settings)
+    samples = args.samples
+    if samples == "-" and not sys.stdin.isatty() and sys.stdout.isatty() and not args.no_tui \
+            and args.format == "text":
+        # the TUI reads keys from standard input, which carries the samples: keep
+        # the pipe on a descriptor of its own and give the TUI the terminal (as less does)
+        samples = _pipe_aside_terminal_in() or samples
+    source = open_sample_stream(samples, args.samplerate, args.unitsize, options.read_settings,
+                                shown="standard input" if args.samples == "-" else None)
     from ..info import recorded_options
     options, _said = recorded_options(options, source, args.samples)
     capture = Capture(source, options)
     capture.inputs = (args.samples,)
     return tap(capture, args, args.record)
+
+
+def _pipe_aside_terminal_in() -> str | None:
+    """Move the standard input pipe to another descriptor and put the controlling
+    terminal on standard input; the pipe's new name (/dev/fd/N), or None when
+    there is no terminal (then events are printed)."""
+    try:
+        tty = os.open("/dev/tty", os.O_RDONLY)
+    except OSError:
+        return None
+    pipe = os.dup(0)
+    os.dup2(tty, 0)
+    os.close(tty)
+    sys.stdin = open(0, closefd=False)
+    return f"/dev/fd/{pipe}"

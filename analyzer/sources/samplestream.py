@@ -34,13 +34,15 @@ def _reads(fd: int, name: str) -> Iterator[bytes]:
         yield data
 
 
-def open_sample_stream(path: str, samplerate: float, unitsize: int, settings: ReadSettings) -> SampledSource:
-    """The source reading samples from ``path`` (``-``: standard input)."""
+def open_sample_stream(path: str, samplerate: float, unitsize: int, settings: ReadSettings,
+                       shown: str | None = None) -> SampledSource:
+    """The source reading samples from ``path`` (``-``: standard input); ``shown``:
+    its name in messages, if not the path."""
     if path == STDIN:
         fd, name, own = sys.stdin.fileno(), "standard input", False
     else:
         try:
-            fd, name, own = os.open(path, os.O_RDONLY), path, True
+            fd, name, own = os.open(path, os.O_RDONLY), shown or path, True
         except OSError as e:
             raise CaptureError(f"{path}: cannot open: {e.strerror or e}") from None
     names = [f"D{i}" for i in range(unitsize * 8)]
