@@ -33,6 +33,7 @@ from .report import LineReport, RateChange
 
 OFF_GRID = 0.3         # an edge this far (in bits) from a bit boundary is off the grid
 RATE_ERRORS = 4        # framing errors in a row of characters that make the rate be measured again
+MAX_CHANGES = 4        # rate changes followed within one block of edges
 
 
 class Char(NamedTuple):
@@ -179,16 +180,19 @@ class SoftUart:
         """Every character complete in the edges so far."""
         self._filter_glitches()
         out: list[Char] = []
+        changes = 0
         while True:
             end = self.end
             chars, used, level = self._read(self.ticks, self.level, self.fmt, self.bit, end)
-            changed = self._rate_changed(chars)
+            # (a few changes a block at most: noise must not send it measuring forever)
+            changed = self._rate_changed(chars) if changes < MAX_CHANGES else None
             if changed is None:
                 self._commit(chars, out)
                 self.ticks, self.level = self.ticks[used:], level
                 self._clean_upto = max(0, self._clean_upto - used)
                 return out
             keep, new_bit = changed
+            changes += 1
             # the characters before the change stand; read the rest at the new rate
             self._commit(chars[:keep], out)
             start = chars[keep].tick
