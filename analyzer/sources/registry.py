@@ -4,7 +4,8 @@ inputs given (python-can's reader and writer registries, as a list of records).
 Adding a format is a module that declares its ``READER`` (analyzer/sources/base.py,
 ``Reader``) and one line in ``READERS`` below. A format whose module is slow to
 import is declared here instead, with an opener that imports it when called:
-MCAP, whose module loads the mcap package, which detecting other inputs must not.
+MCAP, whose module loads the mcap package, which detecting other inputs must not
+(and the logic analysers' formats, whose readers load numpy).
 
 A reader's ``takes`` lists how many inputs it reads together; ``ANY_COUNT`` is
 any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
@@ -14,7 +15,7 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 from __future__ import annotations
 
 from ..errors import CaptureError
-from . import pcapngfile, rawdump, saleae_binary, saleae_csv, sigrok, socatlog, usb, vcd
+from . import pcapngfile, rawdump, signatures, socatlog, usb
 from .base import Reader, ReadSettings, Source
 from .files import Input
 
@@ -64,16 +65,60 @@ MCAP = Reader(
     suffixes=(".mcap",), misnamed="not an MCAP file (it does not start with the MCAP magic bytes)",
 )
 
+def _open_sigrok(inputs: list[Input], settings: ReadSettings) -> Source:
+    from .sigrok import open_sigrok
+    return open_sigrok(inputs, settings)
+
+
+def _open_vcd(inputs: list[Input], settings: ReadSettings) -> Source:
+    from .vcd import open_vcd
+    return open_vcd(inputs, settings)
+
+
+def _open_saleae_csv(inputs: list[Input], settings: ReadSettings) -> Source:
+    from .saleae_csv import open_saleae_csv
+    return open_saleae_csv(inputs, settings)
+
+
+def _open_saleae_binary(inputs: list[Input], settings: ReadSettings) -> Source:
+    from .saleae_binary import open_saleae_binary
+    return open_saleae_binary(inputs, settings)
+
+
+SIGROK = Reader(  # the logic analysers' formats (docs/instruments.md): readers loaded when opened
+    "sigrok session", _open_sigrok, looks=signatures.looks_like_session,
+    crowded="a sigrok session holds its channels; give it on its own",
+    suffixes=(".sr",), misnamed="not a sigrok session (a .sr file is a zip starting with sigrok's version "
+                                "and metadata)",
+)
+VCD = Reader(
+    "VCD", _open_vcd, looks=signatures.looks_like_vcd,
+    crowded="a VCD holds its channels; give it on its own",
+    suffixes=(".vcd",), misnamed="not a VCD (a .vcd file starts with a $date, $version, $timescale, $scope "
+                                 "or $var section)",
+)
+# One reader for both CSV exports: a .csv file is claimed by its name, and must then be one of them.
+SALEAE_CSV = Reader(
+    "Saleae CSV export", _open_saleae_csv, looks=signatures.looks_like_export,
+    crowded="a Saleae CSV export holds its channels; give it on its own",
+    suffixes=(".csv",), misnamed="not a Saleae Logic 2 export (a digital CSV starts Time [s],<channels>; "
+                                 "an Async Serial data table name,type,start_time,duration,data)",
+)
+SALEAE_BINARY = Reader(
+    "Saleae binary export", _open_saleae_binary, magic=signatures.MAGIC, takes=(1, 2), vet=signatures.vet_binary,
+    crowded="Saleae binary exports are one file a channel: give one or two (line A, line B)",
+)
+
 # Tried in order, most specific first: the first reader that recognises any of the
 # inputs reads them all.
 READERS: list[Reader] = [
     MCAP,               # magic bytes
     usb.READER,         # a pcap or pcapng of USB link types (usbmon, USBPcap): before gimbalscope's own pcapng
     pcapngfile.READER,  # magic bytes: gimbalscope's own pcapng (an export, a Wireshark capture through the extcap)
-    sigrok.READER,      # a zip whose first member is sigrok's version or metadata
-    vcd.READER,         # text starting with a VCD section ($timescale, $var, …)
-    saleae_csv.READER,  # text whose first line is Time [s],… or the Async Serial table's columns
-    saleae_binary.READER,  # magic bytes <SALEAE>: one file a channel
+    SIGROK,             # a zip whose first member is sigrok's version or metadata
+    VCD,                # text starting with a VCD section ($timescale, $var, …)
+    SALEAE_CSV,         # text whose first line is Time [s],… or the Async Serial table's columns
+    SALEAE_BINARY,      # magic bytes <SALEAE>: one file a channel
     socatlog.READER,    # text whose first line is a socat chunk header
     rawdump.READER,     # any bytes: the fallback, last
 ]

@@ -33,10 +33,10 @@ import numpy as np
 
 from ..errors import CaptureError
 from ..physical.edges import Block, Edges, Waveform
-from .base import Reader, ReadSettings, Source
+from .base import ReadSettings, Source
 from .files import Input
+from .signatures import MAGIC
 
-MAGIC = b"<SALEAE>"
 NANOSECONDS = 1e9
 READ_TIMES = 1 << 18          # transitions read at a time from a file (2 MB)
 TICK_LIMIT = 2.0 ** 62        # a time beyond this many ticks is damage, not a time
@@ -212,16 +212,3 @@ def open_saleae_binary(inputs: list[Input], settings: ReadSettings) -> Source:
     wave = SaleaeBinary(inputs)
     kind = f"Saleae binary export, version {wave.files[0].version}"
     return SampledSource(wave, settings, " + ".join(i.describe(kind) for i in inputs))
-
-
-def _vet(inp: Input) -> None:
-    """Given with others, every input is a channel's export."""
-    if not inp.head.startswith(MAGIC):
-        raise CaptureError(f"{inp.name}: not a Saleae binary export; several inputs must all be channels "
-                           "exported together (digital_0.bin digital_1.bin)")
-
-
-READER = Reader(
-    "Saleae binary export", open_saleae_binary, magic=MAGIC, takes=(1, 2), vet=_vet,
-    crowded="Saleae binary exports are one file a channel: give one or two (line A, line B)",
-)

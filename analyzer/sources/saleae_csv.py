@@ -28,16 +28,15 @@ import numpy as np
 
 from ..errors import CaptureError
 from ..physical.edges import NO_EDGES, Block, Edges, Waveform
-from .base import Reader, ReadSettings, Source
+from .base import ReadSettings, Source
 from .files import Input
-from .saleae_table import AsyncSerialTable, looks_like_table
+from .saleae_table import AsyncSerialTable
+from .signatures import BOM, looks_like_table
 from .vcd import LEVELS_HOLD
 
 TICKS_A_SECOND = 1e9
 MAX_SECONDS = 1e9             # a time beyond this (or NaN) is damage: ticks stay within int64
 BLOCK_BYTES = 4 << 20
-BOM = b"\xef\xbb\xbf"
-_TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.I)
 _NUMBERED = re.compile(r"^Channel (\d+)$", re.I)
 _LEVEL = {"0": 0, "1": 1, "X": -1, "x": -1}
 
@@ -159,23 +158,3 @@ def open_saleae_csv(inputs: list[Input], settings: ReadSettings) -> Source:
     from .sampled import SampledSource
     wave = SaleaeDigitalCsv(inputs[0])
     return SampledSource(wave, settings, inputs[0].describe(f"Saleae digital CSV, {len(wave.channels)} channels"))
-
-
-def _looks_like_digital_csv(head: bytes) -> bool:
-    """``Time [s],…`` on the first line (Logic 1 wrote ``Time[s]``)."""
-    if head.startswith(BOM):
-        head = head[len(BOM):]
-    return _TIME_COLUMN.match(head) is not None
-
-
-def _looks_like_export(head: bytes) -> bool:
-    return _looks_like_digital_csv(head) or looks_like_table(head)
-
-
-# One reader for both CSV exports: a .csv file is claimed by its name, and must then be one of them.
-READER = Reader(
-    "Saleae CSV export", open_saleae_csv, looks=_looks_like_export,
-    crowded="a Saleae CSV export holds its channels; give it on its own",
-    suffixes=(".csv",), misnamed="not a Saleae Logic 2 export (a digital CSV starts Time [s],<channels>; "
-                                 "an Async Serial data table name,type,start_time,duration,data)",
-)

@@ -30,8 +30,8 @@ from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
 from ..physical.bitrate import nominal_rate
 from .base import ReadSettings, Source
 from .files import Input
+from .signatures import COLUMNS
 
-COLUMNS = ("name", "type", "start_time", "duration", "data")
 LOOK_AHEAD_ROWS = 4096        # rows read before choosing the lines (the analyzers' names)
 _ESCAPES = {"\\0": 0, "\\a": 7, "\\b": 8, "\\t": 9, "\\n": 10, "\\v": 11, "\\f": 12, "\\r": 13,
             "\\\\": 92, "\\'": 39, '\\"': 34, "\\e": 27}
@@ -209,10 +209,3 @@ def _is_number(text: str) -> bool:
 
 def open_table(inputs: list[Input], settings: ReadSettings) -> Source:
     return AsyncSerialTable(inputs[0], settings)
-
-
-def looks_like_table(head: bytes) -> bool:
-    """A first line naming the data table's columns."""
-    first = head.split(b"\n", 1)[0].decode("utf-8-sig", "replace").lower()
-    names = {c.strip().strip('"') for c in first.split(",")}
-    return all(c in names for c in COLUMNS)

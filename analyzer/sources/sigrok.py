@@ -25,10 +25,10 @@ from typing import BinaryIO, Iterator
 from ..errors import CaptureError
 from ..physical.edges import PackedSamples
 from ..words import counted
-from .base import Reader, ReadSettings, Source
+from .base import ReadSettings, Source
 from .files import BLOCK, Input
+from .signatures import LOCAL
 
-LOCAL = b"PK\x03\x04"
 _RATE = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*([kKmMgG]?)(?:Hz|hz|HZ)?\s*$")
 _SCALE = {"": 1.0, "k": 1e3, "m": 1e6, "g": 1e9}
 
@@ -202,19 +202,3 @@ def open_sigrok(inputs: list[Input], settings: ReadSettings) -> Source:
     session = SigrokSession(inputs[0])
     return SampledSource(session, settings, inputs[0].describe(
         f"sigrok session (version {session.version}, {counted(len(session.channels), 'channel')})"))
-
-
-def _looks_like_session(head: bytes) -> bool:
-    """A zip whose first member is sigrok's ``version`` or ``metadata``."""
-    if not head.startswith(LOCAL) or len(head) < 30:
-        return False
-    name_len = struct.unpack_from("<H", head, 26)[0]
-    return head[30:30 + name_len] in (b"version", b"metadata")
-
-
-READER = Reader(
-    "sigrok session", open_sigrok, looks=_looks_like_session,
-    crowded="a sigrok session holds its channels; give it on its own",
-    suffixes=(".sr",), misnamed="not a sigrok session (a .sr file is a zip starting with sigrok's version "
-                                "and metadata)",
-)

@@ -25,7 +25,7 @@ import numpy as np
 
 from ..errors import CaptureError
 from ..physical.edges import Block, Edges, Waveform
-from .base import Reader, ReadSettings, Source
+from .base import ReadSettings, Source
 from .files import Input
 from .sigrok import parse_samplerate
 from .vcd_body import BodyScanner
@@ -41,7 +41,6 @@ _UNIT = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12, "fs": 1e-15}
 _TIME = re.compile(rb"#([0-9]{1,18})\s")
 _SIGROK_RATE = re.compile(r"Acquisition with \d+/\d+ channels at ([0-9.]+\s*[kKmMgG]?Hz)")
 NOT_CHANNELS = {"real", "realtime", "event", "string", "parameter"}
-STARTS = (b"$date", b"$version", b"$timescale", b"$comment", b"$scope", b"$var", b"$enddefinitions")
 
 
 class Header:
@@ -220,17 +219,3 @@ def open_vcd(inputs: list[Input], settings: ReadSettings) -> Source:
     for note in dump.notes:
         source.warn_later(note)
     return source
-
-
-def _looks_like_vcd(head: bytes) -> bool:
-    """Text starting with a VCD section keyword, a ``$end`` closing it."""
-    start = head.lstrip()
-    return start.startswith(STARTS) and b"$end" in start[:4096]
-
-
-READER = Reader(
-    "VCD", open_vcd, looks=_looks_like_vcd,
-    crowded="a VCD holds its channels; give it on its own",
-    suffixes=(".vcd",), misnamed="not a VCD (a .vcd file starts with a $date, $version, $timescale, $scope "
-                                 "or $var section)",
-)

@@ -1,0 +1,62 @@
+"""How the logic analysers' formats are recognised from an input's head: the
+checks the readers registry runs (registry.py declares these formats, with
+openers that import their readers only when a file is one: the readers need
+numpy, which detecting any other input, and starting every command, must not
+load). The readers themselves: sigrok.py, vcd.py, saleae_csv.py (with
+saleae_table.py), saleae_binary.py.
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+
+from ..errors import CaptureError
+from .files import Input
+
+LOCAL = b"PK\x03\x04"          # a zip's local file header: a sigrok session
+# a VCD starts with one of its sections
+STARTS = (b"$date", b"$version", b"$timescale", b"$comment", b"$scope", b"$var", b"$enddefinitions")
+BOM = b"\xef\xbb\xbf"
+_TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.I)   # a Saleae digital CSV
+COLUMNS = ("name", "type", "start_time", "duration", "data")      # a Saleae Async Serial data table
+MAGIC = b"<SALEAE>"            # a Saleae binary export
+
+
+def looks_like_session(head: bytes) -> bool:
+    """A zip whose first member is sigrok's ``version`` or ``metadata``."""
+    if not head.startswith(LOCAL) or len(head) < 30:
+        return False
+    name_len = struct.unpack_from("<H", head, 26)[0]
+    return head[30:30 + name_len] in (b"version", b"metadata")
+
+
+def looks_like_vcd(head: bytes) -> bool:
+    """Text starting with a VCD section keyword, a ``$end`` closing it."""
+    start = head.lstrip()
+    return start.startswith(STARTS) and b"$end" in start[:4096]
+
+
+def looks_like_digital_csv(head: bytes) -> bool:
+    """``Time [s],…`` on the first line (Logic 1 wrote ``Time[s]``)."""
+    if head.startswith(BOM):
+        head = head[len(BOM):]
+    return _TIME_COLUMN.match(head) is not None
+
+
+def looks_like_table(head: bytes) -> bool:
+    """A first line naming the Async Serial data table's columns."""
+    first = head.split(b"\n", 1)[0].decode("utf-8-sig", "replace").lower()
+    names = {c.strip().strip('"') for c in first.split(",")}
+    return all(c in names for c in COLUMNS)
+
+
+def looks_like_export(head: bytes) -> bool:
+    return looks_like_digital_csv(head) or looks_like_table(head)
+
+
+def vet_binary(inp: Input) -> None:
+    """Given with others, every input is a channel's export."""
+    if not inp.head.startswith(MAGIC):
+        raise CaptureError(f"{inp.name}: not a Saleae binary export; several inputs must all be channels "
+                           "exported together (digital_0.bin digital_1.bin)")
