@@ -82,6 +82,12 @@ def nominal_rate(rate: float) -> int | None:
     return best if abs(rate - best) / best <= NEAR else None
 
 
+def named_rate(rate: float) -> int:
+    """The rate a line is said to run at: the standard rate ``rate`` is near
+    (``nominal_rate``), else ``rate`` itself, rounded (a rate set that way)."""
+    return nominal_rate(rate) or max(1, round(rate))
+
+
 def idle_level(ticks: np.ndarray, level: int, end: int, bit: float, begin: int = 0) -> tuple[int, bool]:
     """The level a line rests at, and whether it is sure: the one it holds through
     its silences (stretches longer than a character, the one before the first

@@ -21,7 +21,6 @@ class LineReport:
     line: str                           # "A", "B" or "AB"
     channel: str                        # the channel as the file names it
     samplerate: float = 0.0
-    sampled: bool = True                # ticks are samples (not a transition list's time unit)
     measured: float | None = None       # bit/s, from the edges (None: too few)
     nominal: int | None = None          # the standard rate it is nearest, or the --baud given
     given: bool = False                 # the rate was given (--baud), not measured
@@ -29,7 +28,6 @@ class LineReport:
     data_bits: int = 8
     parity: str = "N"
     stop_bits: float = 1
-    format_found: bool = False          # the format was detected, not given
     edges: int = 0
     characters: int = 0
     framing_errors: int = 0
@@ -37,9 +35,12 @@ class LineReport:
     breaks: int = 0
     glitches: int = 0                   # pulses shorter than a quarter bit (removed before decoding)
     off_grid: int = 0                   # characters with an edge off the bit grid: two senders at once
-    toggles: bool = False
     first_error: float | None = None    # capture seconds of the first framing or parity error
     rate_changes: list[RateChange] = field(default_factory=list)
+
+    @property
+    def toggles(self) -> bool:
+        return self.edges > 0
 
     @property
     def error_pct(self) -> float | None:

@@ -27,7 +27,7 @@ import numpy as np
 
 from dissectors.problems import LINE_BREAK, LINE_FRAMING, LINE_PARITY, Problem
 
-from .bitrate import ENOUGH_EDGES, idle_level, measure_bit, nominal_rate
+from .bitrate import ENOUGH_EDGES, idle_level, measure_bit, named_rate
 from .edges import NO_EDGES, Edges
 from .report import LineReport, RateChange
 
@@ -83,8 +83,6 @@ class SoftUart:
             self.ticks = np.concatenate((self.ticks, edges.ticks))
         self.end = end
         self.report.edges += int(edges.ticks.size)
-        if edges.ticks.size:
-            self.report.toggles = True
         if not self.started:
             if self.ticks.size < ENOUGH_EDGES:
                 return []
@@ -110,13 +108,12 @@ class SoftUart:
             if m is None:
                 return False
             self.bit = m.bit
-            r.nominal = nominal_rate(r.measured) or round(r.measured)
+            r.nominal = named_rate(r.measured)
         else:
             r.given = True
             r.nominal = round(self.rate / self.bit)
         self.idle, self.fmt = self._idle_and_format()
         r.inverted = self.idle == 0
-        r.format_found = not self.fmt_given
         r.data_bits, r.parity = self.fmt.data_bits, self.fmt.parity
         self._filter_glitches()
         self.started = True
@@ -204,12 +201,12 @@ class SoftUart:
             r.rate_changes.append(RateChange(start / self.rate, self.rate / self.bit, self.rate / new_bit))
             self.bit = new_bit
             r.measured = self.rate / new_bit
-            r.nominal = nominal_rate(r.measured) or round(r.measured)
+            r.nominal = named_rate(r.measured)
             self._filter_glitches()
 
     def _level_at(self, index: int) -> int:
         """The level before edge ``index`` of the pending edges."""
-        return self.level if index == 0 else self.level ^ 1 ^ ((index - 1) & 1)
+        return self.level ^ (index & 1)   # each edge flips it
 
     def _commit(self, chars: list[Char], out: list[Char]) -> None:
         r = self.report

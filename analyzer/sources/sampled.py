@@ -18,17 +18,22 @@ each line's ``LineReport`` (``physical``) feeds the wiring doctor.
 from __future__ import annotations
 
 import heapq
+from bisect import bisect_left
+from operator import attrgetter
 from typing import Iterator
+
+import numpy as np
 
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
-from ..physical.bitrate import nominal_rate
+from ..physical.bitrate import named_rate
 from ..physical.edges import NO_EDGES, Block, Edges, Waveform
 from ..physical.report import LineReport
 from ..physical.uart import Char, LineFormat, SoftUart
 from .base import ReadSettings, Source
 
 MIN_SAMPLES_A_BIT = 4
+_tick = attrgetter("tick")
 LOOK_AHEAD_EDGES = 400       # edges looked at on the busiest channel before choosing channels
 LOOK_AHEAD_BLOCKS = 64       # ... or this many blocks, whichever first
 
@@ -36,7 +41,6 @@ LOOK_AHEAD_BLOCKS = 64       # ... or this many blocks, whichever first
 class SampledSource(Source):
     timed = True
     clocks = 1                   # one analyser samples every channel
-    sampled = True               # read by a software UART (the doctor's waveform rules apply)
 
     def __init__(self, waveform: Waveform, settings: ReadSettings, description: str) -> None:
         super().__init__()
@@ -60,7 +64,7 @@ class SampledSource(Source):
         self.physical: dict[str, LineReport] = {}
         self._uarts: dict[str, SoftUart] = {}
         for line, ch in self.channel_of.items():
-            report = LineReport(line, waveform.channels[ch], samplerate=rate, sampled=waveform.sampled)
+            report = LineReport(line, waveform.channels[ch], samplerate=rate)
             self.physical[line] = report
             self._uarts[line] = SoftUart(report, bit, fmt)
         self.start_time = settings.start_time if settings.start_time is not None else waveform.start_time
@@ -69,17 +73,6 @@ class SampledSource(Source):
         self._measure()
 
     # ------------------------------------------------------------------ opening
-    def _next_block(self) -> Block | None:
-        if self._ahead:
-            return self._ahead.pop(0)
-        if self._ended:
-            return None
-        try:
-            return next(self._blocks)
-        except StopIteration:
-            self._ended = True
-            return None
-
     def _look_ahead(self) -> None:
         """Read the first blocks (kept, to be decoded): enough to see which channels
         toggle and to measure their rates."""
@@ -174,8 +167,8 @@ class SampledSource(Source):
         report = uart.report
         baud = report.nominal
         if baud is None and uart.ticks.size > 2:
-            shortest = int(min(b - a for a, b in zip(uart.ticks.tolist(), uart.ticks.tolist()[1:])) or 1)
-            baud = nominal_rate(w.samplerate / shortest) or max(1, round(w.samplerate / shortest))
+            shortest = int(np.diff(uart.ticks).min()) or 1
+            baud = named_rate(w.samplerate / shortest)
             if w.samplerate / baud >= MIN_SAMPLES_A_BIT:
                 return
         if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
@@ -198,10 +191,7 @@ class SampledSource(Source):
         uarts = self._uarts
         # the characters read while looking ahead come first
         yield from self._release(self._watermark(), rate)
-        while True:
-            block = self._next_block()
-            if block is None:
-                break
+        for block in self._blocks:      # (the blocks looked ahead were fed while opening)
             self._feed(block)
             out = list(self._release(self._watermark(), rate))
             if out:
@@ -226,7 +216,7 @@ class SampledSource(Source):
         chunks: a run of one line's characters back to back is one chunk."""
         ready = []
         for line, chars in self._pending.items():
-            n = len(chars) if upto is None else _count_before(chars, upto)
+            n = len(chars) if upto is None else bisect_left(chars, upto, key=_tick)
             if n:
                 ready.append([(c.tick, line, c) for c in chars[:n]])
                 self._pending[line] = chars[n:]
@@ -251,17 +241,6 @@ class SampledSource(Source):
             last = tick
         if run_line is not None:
             yield Chunk(run_line, bytes(run_bytes), run_start / rate)
-
-
-def _count_before(chars: list[Char], upto: float) -> int:
-    lo, hi = 0, len(chars)
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if chars[mid].tick < upto:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
 
 
 def hz(rate: float) -> str:
