@@ -55,18 +55,41 @@ def open(*paths: str, options: Options | None = None, on_warning: Callable[[str]
         given = frozenset(kw) | ({"ack_timeout", "result_timeout", "timeouts"} if timeouts else frozenset())
         options = Options(timeouts=timeouts or Timeouts(), explicit=given, **kw)
     source = detect(list(paths), options.read_settings)
+    name = paths[0] if len(paths) == 1 else f"{paths[0]} (and {len(paths) - 1} more)"
+    capture = _capture_of(source, options, display_name(name), paths, on_warning)
+    capture.keep = keep
+    return capture
+
+
+def open_samples(path: str, samplerate: float, unitsize: int = 1, options: Options | None = None,
+                 given: str | None = None) -> Capture:
+    """A live capture from a logic analyser's bare sample stream at ``path`` (``-``:
+    standard input; docs/instruments.md, "A live logic analyser"), decoded with the
+    rate and format its software UART measures unless ``options`` give them.
+    ``given``: the input as the user named it, when ``path`` is where it was moved
+    (``/dev/fd/N``: standard input moved aside for the TUI)."""
+    from ..sources.samplestream import open_sample_stream
+
+    options = options or Options()
+    given = given or path
+    source = open_sample_stream(path, samplerate, unitsize, options.read_settings, display_name(given))
+    return _capture_of(source, options, display_name(given), (given,), None)
+
+
+def _capture_of(source, options: Options, name: str, inputs, on_warning) -> Capture:
+    """The capture reading ``source``, with the settings it brings of itself (a
+    recording's metadata, a logic capture's measure) where ``options`` do not give
+    them; what differs from an option given is said once."""
     try:
-        name = paths[0] if len(paths) == 1 else f"{paths[0]} (and {len(paths) - 1} more)"
-        options, said = recorded_options(options, source, display_name(name))
+        options, said = recorded_options(options, source, name)
     except BaseException:
         source.close()
         raise
     for message in said:
         source.warn_later(message)
     capture = Capture(source, options, on_warning)
-    capture.inputs = tuple(paths)
-    capture.keep = keep
+    capture.inputs = tuple(inputs)
     return capture
 
 
-__all__ = ["Capture", "Options", "UNDECODED_EVERY", "open", "open_live"]
+__all__ = ["Capture", "Options", "UNDECODED_EVERY", "open", "open_live", "open_samples"]

@@ -253,26 +253,19 @@ def run(args: argparse.Namespace) -> int:
 
 def run_samples(args: argparse.Namespace) -> int:
     """A logic analyser's sample stream, live."""
-    from ..capture import Capture
-    from ..sources.samplestream import open_sample_stream
+    from ..capture import open_samples
 
     if args.ports:
         raise UsageError("give ports or --samples, not both")
     if args.samplerate is None:
         raise UsageError("--samples needs --samplerate: the stream has no header (e.g. --samplerate 1MHz)")
-    options = options_from(args)
     samples = args.samples
     if samples == "-" and not sys.stdin.isatty() and sys.stdout.isatty() and not args.no_tui \
             and args.format == "text":
         # the TUI reads keys from standard input, which carries the samples: keep
         # the pipe on a descriptor of its own and give the TUI the terminal (as less does)
         samples = _pipe_aside_terminal_in() or samples
-    source = open_sample_stream(samples, args.samplerate, args.unitsize, options.read_settings,
-                                shown="standard input" if args.samples == "-" else None)
-    from ..info import recorded_options
-    options, _said = recorded_options(options, source, args.samples)
-    capture = Capture(source, options)
-    capture.inputs = (args.samples,)
+    capture = open_samples(samples, args.samplerate, args.unitsize, options_from(args), given=args.samples)
     return tap(capture, args, args.record)
 
 
