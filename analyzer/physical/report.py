@@ -52,12 +52,3 @@ class LineReport:
     @property
     def format(self) -> str:
         return f"{self.data_bits}{self.parity}{self.stop_bits:g}"
-
-    def to_dict(self) -> dict:
-        return {"line": self.line, "channel": self.channel, "measured_bps": self.measured,
-                "nominal_bps": self.nominal, "error_pct": self.error_pct, "inverted": self.inverted,
-                "format": self.format, "characters": self.characters, "framing_errors": self.framing_errors,
-                "parity_errors": self.parity_errors, "breaks": self.breaks, "glitches": self.glitches,
-                "off_grid": self.off_grid,
-                "rate_changes": [{"t": c.t, "before_bps": c.before, "after_bps": c.after}
-                                 for c in self.rate_changes]}
