@@ -31,6 +31,7 @@ from ..capture import Capture, open as open_capture, open_live
 from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
 from ..styles import ERROR, SEVERITY_STYLE, WARNING
+from ..words import counted
 from .common import (
     STANDARD_BAUDS, UsageError, add_quiet_arg, add_serial_args, non_negative_float, options_from, positive_float,
     run_tap)
@@ -159,10 +160,10 @@ def report(findings: list[Finding], doctor: WiringDoctor, events: int) -> None:
 
     console = Console(highlight=False, soft_wrap=True)
     problems = [f for f in findings if f.severity != INFO]
-    head = (f"{len(problems)} finding{'s' if len(problems) != 1 else ''}" if problems else "no problems found")
+    head = counted(len(problems), "finding") if problems else "no problems found"
     # a capture without time (raw dumps) is measured in events, not "0.0 s"
-    amount = (f"{doctor.span:.1f} s of traffic ({events:,} events)" if doctor.timed
-              else f"{events:,} events (no time in this capture)")
+    amount = (f"{doctor.span:.1f} s of traffic ({counted(events, 'event')})" if doctor.timed
+              else f"{counted(events, 'event')} (no time in this capture)")
     console.print(Text(f"gimbalscope doctor: {head} in {amount}", style="bold"))
     for f in findings:
         after = _found_after(f, doctor)
