@@ -11,7 +11,8 @@ from __future__ import annotations
 import importlib.util
 
 # top-level module → the extra that installs it
-EXTRA_OF = {"pyarrow": "fleet", "duckdb": "fleet", "matplotlib": "fleet", "pandas": "pandas"}
+EXTRA_OF = {"pyarrow": "fleet", "duckdb": "fleet", "matplotlib": "fleet", "pandas": "pandas",
+            "pyspark": "spark", "py4j": "spark"}
 
 
 def missing_extra(error: ImportError, needed_by: str) -> str | None:

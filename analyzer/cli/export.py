@@ -6,8 +6,11 @@ docs/json-lines.md with one column per field of the command table, Tables 4-18),
 ``report`` read it; so do DuckDB, Polars and Spark as it is.
 
 Each INPUT is one capture, exported by its own job in a pool of processes
-(``-j``). The files of one capture (two raw dumps, line A and line B; the parts
-of one recording) are one INPUT joined by ``+``: ``ctl.bin+dev.bin``.
+(``-j``), or by the executors of a Spark cluster (``--spark MASTER``:
+analyzer/dataset/spark; docs/spark.md), which write the same dataset. The files
+of one capture (two raw dumps, line A and line B; the parts of one recording)
+are one INPUT joined by ``+``: ``ctl.bin+dev.bin``. A folder, or a quoted
+pattern, is the captures in it (analyzer/dataset/inputs.py).
 Exporting a capture again replaces its own files and nothing else. An input
 that cannot be read, or a recording cut short, is said and skipped; the others
 are exported, and the command exits 1, listing the skipped ones.
@@ -42,10 +45,15 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "pcapng file for Wireshark (-o FILE.pcapng; docs/wireshark.md). Each INPUT "
                                    "is one capture; join the files of one capture with '+' (ctl.bin+dev.bin).")
     p.add_argument("inputs", nargs="+", metavar="INPUT",
-                   help="a socat log, an MCAP recording, a raw single-line dump, or FILE+FILE (two raw dumps "
-                        "of lines A and B, or the parts of one recording)")
+                   help="a capture file (socat log, MCAP recording, raw dump, …), FILE+FILE (two raw dumps "
+                        "of lines A and B, or the parts of one recording), a folder of captures, or a quoted "
+                        "pattern; with --spark also a URI (file://, hdfs://, s3a://)")
     p.add_argument("-o", "--output", required=True, metavar="DIR|FILE.pcapng",
-                   help="the dataset folder (made if absent), or one pcapng file for Wireshark")
+                   help="the dataset folder (made if absent), or one pcapng file for Wireshark; "
+                        "with --spark also a URI (file://, hdfs://, s3a://)")
+    p.add_argument("--spark", metavar="MASTER",
+                   help="decode on Spark: local[N], spark://HOST:PORT, yarn, k8s://… (the spark extra; "
+                        "docs/spark.md). The dataset is the one the local export writes")
     p.add_argument("--force", action="store_true", help="with a file output: replace it if it exists")
     p.add_argument("-j", "--jobs", type=positive_int, default=os.cpu_count() or 1, metavar="N",
                    help="captures exported at once, each in a process of its own (default: %(default)s, "
@@ -60,37 +68,38 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def split_input(text: str) -> tuple[str, ...]:
-    """One INPUT's files: the name itself when it exists (a '+' in a file name),
-    else its parts between '+'."""
-    if os.path.exists(text) or "+" not in text:
-        return (text,)
-    return tuple(part for part in text.split("+"))
-
-
 def run(args: argparse.Namespace) -> int:
-    to_file = file_output(args.output)
-    root = args.output if to_file else folder_output(args.output)
+    from .. import uris
+    from ..dataset.inputs import captures_of
+
+    remote_output = uris.is_remote(args.output)
+    if (remote_output or any(uris.is_remote(i) for i in args.inputs)) and not args.spark:
+        raise UsageError("URIs (hdfs://, s3a://) are for --spark; a local export reads and writes local paths")
+    to_file = not remote_output and file_output(uris.local_path(args.output))
+    root = args.output if to_file or remote_output else folder_output(args.output)
     options = options_from(args)
-    jobs = []
-    for i, text in enumerate(args.inputs):
-        paths = split_input(text)
-        if "-" in paths or "" in paths:
-            raise UsageError(f"{show(text)}: export reads capture files (standard input is for decode, stats "
-                             "and convert)")
-        jobs.append(Job(i, paths, root, options, site=args.site))
+    jobs = [Job(i, paths, root, options, site=args.site) for i, paths in enumerate(captures_of(args.inputs))]
     if not args.separate:
         from ..dataset.lines_apart import lines_of_one_capture
-        joined = lines_of_one_capture([job.paths for job in jobs], options)
+        local = [tuple(uris.local_path(p) or p for p in job.paths) for job in jobs]
+        joined = lines_of_one_capture(local, options)
         if joined is not None:
             raise UsageError(joined)
     if to_file:
+        if args.spark:
+            raise UsageError("--spark writes a dataset folder; a pcapng file is written here: leave out --spark")
         return run_to_file(args, jobs)
-    try:
-        os.makedirs(root, exist_ok=True)
-    except OSError as e:
-        raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
-    outcomes = run_jobs(args, jobs)
+    if args.spark:
+        from ..dataset.spark.export import run_on_spark
+        notes = OutcomeNotes()
+        outcomes = run_on_spark(args.spark, jobs, on_done=notes, show_progress=_progress_wanted())
+        notes.close()
+    else:
+        try:
+            os.makedirs(uris.local_path(root), exist_ok=True)
+        except OSError as e:
+            raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
+        outcomes = run_jobs(args, jobs)
     exported = [o for o in outcomes if o.error is None]
     events = sum(o.rows.get("events", 0) for o in exported)
     txns = sum(o.rows.get("transactions", 0) for o in exported)
@@ -138,18 +147,32 @@ def run_to_file(args: argparse.Namespace, jobs: list[Job]) -> int:
 
 
 def run_jobs(args: argparse.Namespace, jobs: list[Job]) -> list[Outcome]:
-    from ..listeners.progress import wanted
-    notes = NotePrinter(findings=False, quiet=common._quiet)
-
-    def done(outcome: Outcome) -> None:
-        for text in outcome.warnings:
-            notes.on_note(Note(text, WARNING))
-        if outcome.error is not None:
-            notes.on_note(Note(f"skipped {outcome.error}", ERROR))   # said even with -q
-
-    outcomes = export(jobs, args.jobs, show_progress=wanted(), on_done=done)
-    notes.on_stop()
+    notes = OutcomeNotes()
+    outcomes = export(jobs, args.jobs, show_progress=_progress_wanted(), on_done=notes)
+    notes.close()
     return outcomes
+
+
+def _progress_wanted() -> bool:
+    from ..listeners.progress import wanted
+    return wanted()
+
+
+class OutcomeNotes:
+    """What each capture's outcome says, as it ends: its warnings, and why it was
+    skipped; ``close()`` sums up warnings said too often."""
+
+    def __init__(self) -> None:
+        self.notes = NotePrinter(findings=False, quiet=common._quiet)
+
+    def __call__(self, outcome: Outcome) -> None:
+        for text in outcome.warnings:
+            self.notes.on_note(Note(text, WARNING))
+        if outcome.error is not None:
+            self.notes.on_note(Note(f"skipped {outcome.error}", ERROR))   # said even with -q
+
+    def close(self) -> None:
+        self.notes.on_stop()
 
 
 def said_skipped(outcomes: list[Outcome]) -> int:

@@ -3,7 +3,9 @@
 percentiles per day or week (statuses per spec §1.4.2-1.4.3), the devices
 trending worse (analyzer/dataset/report.py), and the wiring doctor's findings
 per capture. Text on the terminal, ``--format json``, and ``--html FILE``: one
-self-contained page with trend charts."""
+self-contained page with trend charts. ``--spark MASTER`` computes the figures
+with Spark SQL instead of DuckDB (analyzer/dataset/spark/report.py): the same
+report, for datasets too big for one machine."""
 
 from __future__ import annotations
 
@@ -13,7 +15,7 @@ import sys
 
 from ..outfile import AtomicOutput, check_output, show
 from ..output import dumps
-from .common import positive_int
+from .common import UsageError, positive_int
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -22,23 +24,26 @@ def register(sub: argparse._SubParsersAction) -> None:
                        description="Per device and day (or week): commands, error and NAK rates, ACK and result "
                                    "latency; devices whose latency or error rate is trending worse; the wiring "
                                    "doctor's findings per capture. Reads a dataset made by 'gimbalscope export'.")
-    p.add_argument("dataset", metavar="DIR", help="the dataset folder")
+    p.add_argument("dataset", metavar="DIR", help="the dataset folder (with --spark also a URI: file://, hdfs://, "
+                                                  "s3a://)")
     p.add_argument("--period", choices=("day", "week"), default="day")
     p.add_argument("--format", choices=("text", "json"), default="text")
     p.add_argument("--html", metavar="FILE", help="also write one self-contained HTML page with trend charts")
     p.add_argument("--force", action="store_true", help="overwrite the --html FILE if it exists")
     p.add_argument("--min-commands", type=positive_int, default=MIN_COMMANDS, metavar="N",
                    help="a period counts toward a trend only with N commands (default %(default)s)")
+    p.add_argument("--spark", metavar="MASTER",
+                   help="compute the figures with Spark: local[N], spark://HOST:PORT, yarn, k8s://… "
+                        "(the spark extra; docs/spark.md)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..dataset.query import connect
-    from ..dataset.report import build, to_dict
+    from ..dataset.report import to_dict
 
     if args.html:
         check_output(args.html, force=args.force)   # before the work: a bad path costs nothing
-    report = build(connect(args.dataset), args.period, min_commands=args.min_commands)
+    report = spark_report(args) if args.spark else duckdb_report(args)
     if args.format == "json":
         sys.stdout.buffer.write(dumps(to_dict(report)) + b"\n")
     else:
@@ -50,6 +55,25 @@ def run(args: argparse.Namespace) -> int:
             out.write(page.encode("utf-8"))
         print(f"gimbalscope: report written to {show(args.html)}", file=sys.stderr)
     return 0
+
+
+def duckdb_report(args: argparse.Namespace):
+    from .. import uris
+    from ..dataset.query import connect
+    from ..dataset.report import build
+    if uris.is_remote(args.dataset):
+        raise UsageError(f"{args.dataset}: a dataset behind a URI is read with --spark MASTER")
+    return build(connect(uris.local_path(args.dataset)), args.period, min_commands=args.min_commands)
+
+
+def spark_report(args: argparse.Namespace):
+    from ..dataset.spark.report import build_on_spark
+    from ..dataset.spark.session import start
+    spark = start(args.spark, "gimbalscope report")
+    try:
+        return build_on_spark(spark, args.dataset, args.period, min_commands=args.min_commands)
+    finally:
+        spark.stop()
 
 
 def render_text(report) -> None:

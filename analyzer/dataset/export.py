@@ -10,11 +10,13 @@ on with the others.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import time
 from dataclasses import dataclass, field
 
+from .. import uris
 from ..capture import Options, open as open_capture
 from ..info import CaptureInfo
 from ..listeners.wiring_check import WiringCheck
@@ -30,7 +32,8 @@ MCAP_MAGIC = b"\x89MCAP0\r\n"
 @dataclass
 class Job:
     index: int
-    paths: tuple[str, ...]     # one capture: a file, or the files of one (two raw dumps, a recording's parts)
+    paths: tuple[str, ...]     # one capture: a file, or the files of one (two raw dumps, a recording's parts),
+                               # as given: local paths or URIs (analyzer/uris.py)
     root: str
     options: Options
     site: str | None = None    # --site; None: the recording's own, if it says
@@ -116,23 +119,36 @@ def _discard(job: Job, writer) -> None:
 
 
 def run_job(job: Job, progress=None) -> Outcome:
-    """Export one capture (in a worker process, or in this one)."""
-    from ..writers.parquet import ParquetDatasetWriter
-
+    """Export one capture (in a worker process, a Spark executor, or this one)."""
     progress = progress if progress is not None else _PROGRESS
     started = time.monotonic()
-    name = capture_name(job.paths)
-    out = Outcome(job.index, name)
+    out = Outcome(job.index, capture_name(job.paths))
     READS.clear()
-    for path in job.paths:
+    try:
+        with staged(job.paths) as local:
+            _export(job, local, out, progress)
+    except CaptureError as e:   # a remote input that could not be fetched
+        out.error = str(e)
+    finally:
+        if progress is not None:
+            progress.put((job.index, None))   # done: all of it counts as read
+        out.seconds = time.monotonic() - started
+    return out
+
+
+def _export(job: Job, local: tuple[str, ...], out: Outcome, progress) -> None:
+    from ..writers.parquet import ParquetDatasetWriter, capture_key
+
+    name = out.capture
+    for path in local:
         if path.lower().endswith(".mcap"):
             why = cut_mcap(path)
             if why:
                 out.error = why
-                return out
+                return
     writer = None
     try:
-        capture = open_capture(*job.paths, options=job.options)
+        capture = open_capture(*local, options=job.options)
         site = job.site
         if site is None:
             site = (getattr(capture.source, "metadata", None) or {}).get("site") or None
@@ -140,7 +156,7 @@ def run_job(job: Job, progress=None) -> Outcome:
         if job.file is not None:
             writer = _file_writer(job, info)
         else:
-            writer = ParquetDatasetWriter(job.root, info, capture=name, site=site)
+            writer = ParquetDatasetWriter(job.root, info, capture=name, site=site, key=capture_key(job.paths))
         check = WiringCheck()   # swapped lines, a wrong rate, not this protocol: said, as decode says them
         listeners = [check, writer] if progress is None else [_Reporter(job.index, progress), check, writer]
         out.events = TapRunner(capture, listeners, info=info).run()
@@ -166,11 +182,38 @@ def run_job(job: Job, progress=None) -> Outcome:
         if writer is not None:
             _discard(job, writer)
         raise
+
+
+@contextlib.contextmanager
+def staged(paths: tuple[str, ...]):
+    """The capture's files as local paths: a ``file://`` URI's path, and a remote
+    URI's file copied into a temporary folder (the readers read local files; an
+    executor has no other copy), removed after."""
+    if not any(uris.is_remote(p) for p in paths):
+        yield tuple(uris.local_path(p) for p in paths)
+        return
+    import shutil
+    import tempfile
+    folder = tempfile.mkdtemp(prefix="gimbalscope-input-")
+    try:
+        local = []
+        for i, path in enumerate(paths):
+            if not uris.is_remote(path):
+                local.append(uris.local_path(path))
+                continue
+            # its own name (the readers know some kinds by it: .gz, .zst), in a folder of its own
+            target = os.path.join(folder, str(i), path.rstrip("/").rsplit("/", 1)[-1] or "capture")
+            os.makedirs(os.path.dirname(target))
+            try:
+                filesystem, where = uris.arrow_filesystem(path)
+                with filesystem.open_input_stream(where) as src, open(target, "wb") as dst:
+                    shutil.copyfileobj(src, dst, 1 << 20)
+            except (OSError, ValueError) as e:
+                raise CaptureError(f"{path}: cannot read it: {' '.join(str(e).split())}") from None
+            local.append(target)
+        yield tuple(local)
     finally:
-        if progress is not None:
-            progress.put((job.index, None))   # done: all of it counts as read
-        out.seconds = time.monotonic() - started
-    return out
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 class PoolMeter:
@@ -181,7 +224,7 @@ class PoolMeter:
         self.sizes = {}
         for job in jobs:
             try:
-                self.sizes[job.index] = sum(os.path.getsize(p) for p in job.paths)
+                self.sizes[job.index] = sum(os.path.getsize(uris.local_path(p) or "") for p in job.paths)
             except OSError:
                 self.sizes[job.index] = 0
         self.read = {job.index: 0 for job in jobs}

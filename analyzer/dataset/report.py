@@ -163,15 +163,29 @@ def trends(periods: list[Period], *, min_commands: int = MIN_COMMANDS) -> list[T
     return out
 
 
-def build(con, period: str = "day", *, min_commands: int = MIN_COMMANDS) -> Report:
-    """The report of the dataset behind ``con`` (``query.connect``)."""
+@dataclass(frozen=True)
+class Dialect:
+    """How an engine spells what the report's SQL needs beyond what DuckDB and
+    Spark SQL share: the continuous quantile (linear interpolation between the
+    two nearest values, in both)."""
+    quantile: str   # with {col} and {q}
+
+
+DUCKDB = Dialect(quantile="quantile_cont({col}, {q})")
+SPARK = Dialect(quantile="percentile({col}, {q})")
+
+
+def build(con, period: str = "day", *, min_commands: int = MIN_COMMANDS, dialect: Dialect = DUCKDB) -> Report:
+    """The report of the dataset behind ``con``: anything whose ``execute(sql)``
+    gives rows by ``fetchall()`` (a DuckDB connection, ``query.connect``; Spark,
+    ``spark/report.py``), in ``dialect``."""
     if period not in ("day", "week"):
         raise ValueError(f"period {period!r}: day or week")
     counts = ", ".join(f"count(*) FILTER (WHERE status = '{s}')" for s in STATUSES)
+    quantiles = ", ".join(dialect.quantile.format(col=col, q=q)
+                          for col in ("ack_latency", "result_latency") for q in (0.5, 0.95))
     rows = con.execute(f"""
-        SELECT device, date_trunc('{period}', date)::DATE AS period, count(*), {counts},
-               quantile_cont(ack_latency, 0.5), quantile_cont(ack_latency, 0.95),
-               quantile_cont(result_latency, 0.5), quantile_cont(result_latency, 0.95)
+        SELECT device, CAST(date_trunc('{period}', date) AS DATE) AS period, count(*), {counts}, {quantiles}
         FROM transactions
         WHERE date IS NOT NULL AND device IS NOT NULL
         GROUP BY ALL
@@ -188,7 +202,7 @@ def build(con, period: str = "day", *, min_commands: int = MIN_COMMANDS) -> Repo
     for capture, site, start in con.execute(
             "SELECT capture, any_value(site), min(start) FROM findings GROUP BY capture ORDER BY min(start), capture"
     ).fetchall():
-        captures[capture] = CaptureReport(capture, site, start, [])
+        captures[capture] = CaptureReport(capture, site, _utc(start), [])
     for capture, severity, code, subject, title in con.execute(
             "SELECT capture, severity, code, subject, title FROM findings "
             "ORDER BY capture, CASE severity WHEN 'error' THEN 0 WHEN 'warning' THEN 1 ELSE 2 END, code, subject"
@@ -196,6 +210,13 @@ def build(con, period: str = "day", *, min_commands: int = MIN_COMMANDS) -> Repo
         captures[capture].findings.append(Finding(severity, code, subject, title))
     ordered = sorted(devices.values(), key=lambda d: (not d.worse, _device_key(d.device)))
     return Report(period, ordered, list(captures.values()))
+
+
+def _utc(when: dt.datetime | None) -> dt.datetime | None:
+    """A capture's start in UTC, the dataset's time zone, whatever zone the
+    engine gave it in (DuckDB: its session's; Spark: the Python process's,
+    without saying)."""
+    return None if when is None else when.astimezone(dt.timezone.utc)
 
 
 def _device_key(device: str):

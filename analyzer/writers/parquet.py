@@ -15,7 +15,6 @@ no ``FileWriter`` (analyzer/writers/base.py); it says what it wrote as they do
 
 from __future__ import annotations
 
-import glob
 import hashlib
 import os
 import re
@@ -31,7 +30,9 @@ from ..formats.parquet_rows import EventBatches, TransactionBatches, day_of, fin
 from ..info import CaptureInfo
 from ..outfile import show
 from ..runner import Listener
+from .. import uris
 from .base import wrote
+from .dataset_folder import folder_of
 
 ROWS_PER_GROUP = 32 * 1024   # rows per row group: a few MB of Python rows per table at a time (memory stays flat)
 TMP = ".tmp"
@@ -39,11 +40,18 @@ TMP = ".tmp"
 
 def capture_key(paths: list[str] | tuple[str, ...]) -> str:
     """The file name stem of a capture's files: its first file's name (readable)
-    and a hash of its files' real paths (unique)."""
-    real = "\0".join(os.path.realpath(p) for p in paths)
+    and a hash of its files' real paths (unique). A ``file://`` URI is its path;
+    a remote URI (``s3a://…``) is itself, its real path."""
+    real = "\0".join(_real(p) for p in paths)
     digest = hashlib.sha1(real.encode("utf-8", "surrogateescape")).hexdigest()[:12]
-    stem = re.sub(r"[^A-Za-z0-9._-]+", "_", os.path.basename(paths[0]))[:60] or "capture"
+    name = paths[0].rstrip("/").rsplit("/", 1)[-1] if uris.scheme(paths[0]) else os.path.basename(paths[0])
+    stem = re.sub(r"[^A-Za-z0-9._-]+", "_", name)[:60] or "capture"
     return f"{stem}-{digest}"
+
+
+def _real(path: str) -> str:
+    local = uris.local_path(path)
+    return os.path.realpath(local) if local is not None else path
 
 
 class ParquetDatasetWriter(Listener):
@@ -52,6 +60,7 @@ class ParquetDatasetWriter(Listener):
     def __init__(self, path: str, info: CaptureInfo, file=None, *, capture: str | None = None,
                  site: str | None = None, key: str | None = None) -> None:
         self.root = path
+        self.folder = folder_of(path)
         self.info = info
         self.capture = capture if capture is not None else "+".join(info.inputs)
         self.site = site
@@ -125,7 +134,7 @@ class ParquetDatasetWriter(Listener):
 
     # ------------------------------------------------------------ files
     def _file(self, table: str, day: str) -> str:
-        return os.path.join(self.root, table, f"{S.PARTITION}={day}", self.key + ".parquet")
+        return self.folder.file(table, f"{S.PARTITION}={day}", self.key + ".parquet")
 
     def _write(self, table: str, batch) -> None:
         # findings are dated by the capture's start (their rows carry no time of their own)
@@ -139,20 +148,8 @@ class ParquetDatasetWriter(Listener):
             self.rows[table] += rows.num_rows
 
     def _open(self, table: str, day: str) -> pq.ParquetWriter:
-        """A new file of ``table`` for ``day``, under its temporary name. Its partition
-        folder may be new and empty until the file is made, and another capture
-        exported alongside (``export -j``) removes partition folders it leaves
-        empty: make the folder again if it went in between."""
-        path = self._file(table, day) + TMP
-        tries = 3
-        while True:
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-            try:
-                return pq.ParquetWriter(path, S.TABLES[table], compression="zstd")
-            except FileNotFoundError:
-                tries -= 1
-                if not tries:
-                    raise
+        """A new file of ``table`` for ``day``, under its temporary name."""
+        return self.folder.writer(self._file(table, day) + TMP, S.TABLES[table])
 
     def summary(self) -> str:
         """What was written, one line: ``wrote 1,024 events, 12 transactions, 0 findings to DIR``."""
@@ -160,11 +157,9 @@ class ParquetDatasetWriter(Listener):
 
     def old_files(self) -> list[str]:
         """The capture's files in the dataset now (and any left by a failed export)."""
-        out = []
-        for table in S.TABLES:
-            pattern = os.path.join(glob.escape(self.root), table, f"{S.PARTITION}=*", glob.escape(self.key) + ".parquet")
-            out += glob.glob(pattern) + glob.glob(pattern + TMP)
-        return out
+        name = self.key + ".parquet"
+        return (self.folder.files_named(S.TABLES, S.PARTITION, name)
+                + self.folder.files_named(S.TABLES, S.PARTITION, name + TMP))
 
     def commit(self) -> None:
         """The new files take the place of the capture's old ones (after ``on_stop``)."""
@@ -173,17 +168,14 @@ class ParquetDatasetWriter(Listener):
         for old in self.old_files():
             final = old[:-len(TMP)] if old.endswith(TMP) else old
             if final not in new:   # a day the capture no longer has, or a failed export's leftover
-                _remove(old)
+                self.folder.remove(old)
                 vacated.add(os.path.dirname(old))
         for final in new:
-            os.replace(final + TMP, final)
+            self.folder.replace(final + TMP, final)
         # the partitions this capture left, if that left them empty; only those: an
         # empty folder elsewhere may be another capture's, about to get its file
         for folder in vacated:
-            try:
-                os.rmdir(folder)
-            except OSError:
-                pass
+            self.folder.drop_if_empty(folder)
         self.committed = True
 
     def abort(self) -> None:
@@ -194,12 +186,5 @@ class ParquetDatasetWriter(Listener):
             except Exception:
                 pass
         for table, day in self._writers:
-            _remove(self._file(table, day) + TMP)
+            self.folder.remove(self._file(table, day) + TMP)
         self._writers.clear()
-
-
-def _remove(path: str) -> None:
-    try:
-        os.remove(path)
-    except FileNotFoundError:
-        pass

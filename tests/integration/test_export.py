@@ -146,9 +146,9 @@ def test_a_commit_leaves_other_captures_partitions_alone(tmp_path):
 def test_a_partition_folder_removed_before_its_file_is_made_again(tmp_path, monkeypatch):
     # the other side of the same race, in one process: the folder goes between
     # being made and the file being opened in it (once); the export still succeeds
-    from analyzer.writers import parquet
+    from analyzer.writers import dataset_folder, parquet
 
-    real_makedirs = parquet.os.makedirs
+    real_makedirs = dataset_folder.os.makedirs
     removed = []
 
     def makedirs_then_lose(path, exist_ok=False):
@@ -157,7 +157,7 @@ def test_a_partition_folder_removed_before_its_file_is_made_again(tmp_path, monk
             os.rmdir(path)          # another capture's commit, just now
             removed.append(path)
 
-    monkeypatch.setattr(parquet.os, "makedirs", makedirs_then_lose)
+    monkeypatch.setattr(dataset_folder.os, "makedirs", makedirs_then_lose)
     out = tmp_path / "ds"
     capture = analyzer.open(SOCAT_LOG)
     info = CaptureInfo.of(capture, command="export")
