@@ -55,7 +55,13 @@ def arrow_filesystem(uri: str):
 
     s = scheme(uri) or ""
     arrow_uri = _ARROW_SCHEME[s] + uri[len(s):] if s in _ARROW_SCHEME else uri
-    return fs.FileSystem.from_uri(arrow_uri)
+    try:
+        return fs.FileSystem.from_uri(arrow_uri)
+    except OSError as e:
+        if s == "hdfs":   # pyarrow reaches HDFS through Hadoop's own client library, in a JVM
+            raise OSError(f"{' '.join(str(e).split())} (pyarrow's HDFS needs JAVA_HOME, HADOOP_HOME and "
+                          "CLASSPATH=$(hadoop classpath --glob) set)") from None
+        raise
 
 
 def join(base: str, *names: str) -> str:

@@ -22,12 +22,12 @@ def frame(dst, src, payload) -> bytes:
     return b"\xf8" + body + bytes([sum(body) & 0xFF])
 
 
-def run_cli(*args, input=None, timeout=60):
+def run_cli(*args, input=None, timeout=60, env=None):
     """Run the installed console command (fall back to ``python -m analyzer``)."""
     exe = shutil.which("gimbalscope")
     cmd = [exe] if exe else [sys.executable, "-m", "analyzer"]
     return subprocess.run(cmd + [str(a) for a in args], capture_output=True, text=True, input=input,
-                          timeout=timeout, cwd=ROOT)
+                          timeout=timeout, cwd=ROOT, env=env)
 
 
 def drain(master: int) -> bytes:

@@ -94,3 +94,12 @@ def test_to_arrow_without_the_extra_names_it():
     assert r.returncode == 1
     assert r.stderr.strip().splitlines()[-1].startswith("ImportError: to_arrow() needs pyarrow")
     assert HINT in r.stderr
+
+
+def test_spark_without_the_spark_extra_says_what_to_install(tmp_path):
+    for args in (["export", SOCAT_LOG, "-o", str(tmp_path / "ds")], ["report", str(tmp_path / "ds")]):
+        r = without(("pyspark", "py4j"), *args, "--spark", "local[1]")
+        assert r.returncode == 2, r.stderr
+        assert r.stderr == ("gimbalscope: error: " + args[0] + " needs pyspark, which is not installed: it comes "
+                            "with the spark extra, pip install 'gimbalscope[spark]' (in a clone: pip install -e "
+                            "'.[spark]')\n")
