@@ -4,6 +4,9 @@
   1. `gimbalscope export` of K socat logs of saturated 115200-baud traffic, with
      1 worker and with 2: events/s, MB/s of input, dataset bytes per event, and
      the peak resident memory of the command and of its biggest worker
+  1b. with --spark: the same export on Spark local[1] and local[2] (the spark extra
+     and Java 17): events/s, and the time Spark takes to start alone, which every
+     --spark command pays once
   2. the time of each query of the README ("Queries") run
      by `gimbalscope query` on a dataset of about 10M events: one real export
      of N events, copied to further captures on further days with pyarrow
@@ -11,6 +14,7 @@
      big dataset costs seconds to make rather than the export's minutes
 
     python3 bench/export_bench.py [--captures 4] [--events-per-capture 250000] [--query-events 10000000]
+                                  [--spark] [--skip-queries]
 """
 
 from __future__ import annotations
@@ -84,6 +88,28 @@ def throughput(logs: list[str], work: str) -> None:
               f"bytes/event; peak RSS {own:.0f} MB (command), {kids:.0f} MB (biggest worker)", flush=True)
 
 
+_SPARK_START = ("import time; t = time.perf_counter(); from analyzer.dataset.spark.session import start; "
+                "s = start('local[1]', 'start'); print(time.perf_counter() - t); s.stop()")
+
+
+def on_spark(logs: list[str], work: str) -> None:
+    """The export of ``throughput`` on Spark local[N]: the same inputs, the same dataset."""
+    size = sum(os.path.getsize(p) for p in logs)
+    proc = subprocess.run([sys.executable, "-c", _SPARK_START], capture_output=True, text=True, cwd=ROOT)
+    if proc.returncode != 0:
+        raise SystemExit(proc.stderr)
+    print(f"1b. Spark start alone (a JVM, local[1]): {float(proc.stdout.split()[-1]):.1f} s", flush=True)
+    for cores in (1, 2):
+        out = os.path.join(work, f"ds-spark{cores}")
+        shutil.rmtree(out, ignore_errors=True)
+        seconds, _, _ = measured(["export", *logs, "-o", out, "--spark", f"local[{cores}]", "--baud", "115200",
+                                  "-q"])
+        n = dataset_events(out)
+        print(f"1b. export --spark local[{cores}] of {len(logs)} socat logs ({size / 1e6:.0f} MB, {n:,} events): "
+              f"{seconds:.1f} s, {n / seconds:,.0f} events/s, {size / 1e6 / seconds:.1f} MB/s "
+              f"(Spark's start included)", flush=True)
+
+
 def replicate(src: str, dst: str, copies: int) -> int:
     """``copies`` more captures made of ``src``'s rows, each a day later, its devices
     in another group (so that per-device queries see more devices)."""
@@ -146,6 +172,8 @@ def main() -> None:
     ap.add_argument("--events-per-capture", type=int, default=250_000)
     ap.add_argument("--query-events", type=int, default=10_000_000)
     ap.add_argument("--skip-export", action="store_true", help="only the queries, on the last run's export")
+    ap.add_argument("--spark", action="store_true", help="also export on Spark local[1] and local[2]")
+    ap.add_argument("--skip-queries", action="store_true", help="only the exports")
     ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "gimbalscope-export-bench"))
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
@@ -154,6 +182,10 @@ def main() -> None:
     logs = make_logs(args.work, args.captures, args.events_per_capture)
     if not args.skip_export:
         throughput(logs, args.work)
+        if args.spark:
+            on_spark(logs, args.work)
+    if args.skip_queries:
+        return
     base = os.path.join(args.work, "ds-j2")
     if args.skip_export and not os.path.isdir(base):
         raise SystemExit(f"{base}: no export yet (run once without --skip-export)")

@@ -208,6 +208,10 @@ def staged(paths: tuple[str, ...]):
                 filesystem, where = uris.arrow_filesystem(path)
                 with filesystem.open_input_stream(where) as src, open(target, "wb") as dst:
                     shutil.copyfileobj(src, dst, 1 << 20)
+                # a raw dump is dated by its file's time (docs/dataset.md, "Layout"): the object's, not the copy's
+                mtime = filesystem.get_file_info(where).mtime
+                if mtime is not None:
+                    os.utime(target, (mtime.timestamp(), mtime.timestamp()))
             except (OSError, ValueError) as e:
                 raise CaptureError(f"{path}: cannot read it: {' '.join(str(e).split())}") from None
             local.append(target)

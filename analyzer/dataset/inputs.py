@@ -60,6 +60,8 @@ def _listing(text: str) -> list[str] | None:
     A folder or pattern with no capture in it is refused in one line."""
     if uris.is_remote(text):
         names = _remote_listing(text)
+        if names is None:
+            return None
     else:
         local = uris.local_path(text)
         if os.path.isdir(local):
