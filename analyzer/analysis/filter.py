@@ -57,6 +57,7 @@ from dissectors.event import KINDS, STATUSES, Event
 from ..errors import FilterError
 from .filter_hints import (DST_PARTS, PROTOCOL, Fix, Vocabulary, character_fix, dst_text_fix, operator_fix,
                            value_fix)
+from .filter_plan import Plans
 
 Predicate = Callable[[Event], bool]
 
@@ -255,6 +256,7 @@ class _Const:
     """A constant operand. A class (not a closure) so the parser can see that
     an operand is constant and fold it at compile time."""
     __slots__ = ("value",)
+    is_const = True
 
     def __init__(self, value: Any) -> None:
         self.value = value
@@ -380,6 +382,8 @@ class _Parser:
         self.depth = 0
         # the comparison being parsed: its operator's token index, the bare name on its left
         self.left: tuple[int, str | None] = (-1, None)
+        # what each closure made here is, for evaluating the filter over columns (filter_plan.py)
+        self.plans = Plans()
 
     def peek(self) -> tuple[str, Any, int]:
         return self.toks[self.i]
@@ -448,7 +452,9 @@ class _Parser:
         while self.peek()[:2] == ("kw", word):
             self.take()
             operands.append(operand())
-        return operands[0] if len(operands) == 1 else combine(tuple(operands))
+        if len(operands) == 1:
+            return operands[0]
+        return self.plans.made(combine(tuple(operands)), (word, tuple(self.plans.test(f) for f in operands)))
 
     def parse_or(self):
         return self._chain("or", self.parse_and, _any_of)
@@ -469,9 +475,10 @@ class _Parser:
         self.leave(count)
         if count == 0:
             return inner
+        test = self.plans.test(inner)
         if count % 2:
-            return lambda ev: not inner(ev)
-        return lambda ev: bool(inner(ev))
+            return self.plans.made(lambda ev: not inner(ev), ("not", test))
+        return self.plans.made(lambda ev: bool(inner(ev)), test)
 
     def parse_cmp(self):
         left_at = self.i
@@ -490,7 +497,8 @@ class _Parser:
             right = self.parse_value()
             if self.i == op_at + 2:    # the right side is one token: a literal or a name
                 self.check_value(name, tok[1], op_at + 1)
-            return _comparison(tok[1], left, right, negate)
+            test = _comparison(tok[1], left, right, negate)
+            return self.plans.made(test, self.plans.comparison(test, tok[1], left, right, negate))
         if negate:
             raise self.error("expected a value after 'not in'")
         return left
@@ -570,7 +578,7 @@ class _Parser:
             self.take()                   # Wireshark's prefix: gimbal.status is status
             at = self.i
             name, col = self.take()[1:]
-        base = self.name_getter(name, col, at)
+        base = self.plans.made(self.name_getter(name, col, at), ("name", name))
         keys = []
         while True:
             tok = self.peek()
@@ -590,7 +598,9 @@ class _Parser:
                 self.expect("op", "]")
                 keys.append(idx[1])
             else:
-                return _path(base, tuple(keys)) if keys else base
+                if not keys:
+                    return base
+                return self.plans.made(_path(base, tuple(keys)), ("name", name, *keys))
 
     def check_key(self, base: str, base_col: int, dot: tuple, key: tuple) -> None:
         """A key no event has under ``base`` (always null) is a mistake: Wireshark's
@@ -637,6 +647,11 @@ class _Parser:
 
 
 def compile_filter(src: str) -> Predicate:
-    """Compile a filter expression; raises ``FilterError`` pointing at the bad token."""
-    fn = _Parser(src).parse()
-    return lambda ev: bool(fn(ev))
+    """Compile a filter expression; raises ``FilterError`` pointing at the bad token.
+    The predicate's ``plan`` says what it tests, for evaluating it over columns
+    (filter_plan.py); the predicate itself is the ground truth."""
+    parser = _Parser(src)
+    fn = parser.parse()
+    pred = lambda ev: bool(fn(ev))   # noqa: E731
+    pred.plan = parser.plans.test(fn)
+    return pred

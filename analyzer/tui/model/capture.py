@@ -154,12 +154,12 @@ class CaptureModel:
         """The slow half of ``set_filter``, safe in a worker thread (the store only
         grows): (predicate, events scanned, matching indices). ``progress(done,
         total)`` is called as it goes; raises Cancelled when ``cancelled()``."""
-        return FilterView.prepare(text, self.store.event, self.shown, progress=progress, cancelled=cancelled)
+        return FilterView.prepare(text, self.store, self.shown, progress=progress, cancelled=cancelled)
 
     def apply_filter(self, text: str, pred, upto: int, view) -> None:
         """The fast half, on the thread that extends the model: catch up with the
         events shown while the view was being computed."""
-        self.filter.apply(text, pred, upto, view, self.store.event, self.shown, self.unsettled)
+        self.filter.apply(text, pred, upto, view, self.store, self.shown, self.unsettled)
 
     @property
     def filter_text(self) -> str:

@@ -2,9 +2,11 @@
 lets through, as the store indices of the matching shown events (an
 ``array('i')``, four bytes a row) and the matching unsettled events.
 
-Filtering a large capture is split in two: ``prepare`` scans the events shown
-so far (safe in a worker thread: the store only grows), ``apply`` catches up
-with what was shown meanwhile, on the thread that extends the model.
+Filtering a large capture is split in two: ``prepare`` finds the matching
+events among those shown so far (safe in a worker thread: the store only
+grows), ``apply`` catches up with what was shown meanwhile, on the thread that
+extends the model. Both go through the store's columns (``store_filter``):
+numpy decides what the columns can, the filter's closure the rest.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from typing import Callable
 from dissectors.event import Event
 
 from ...analysis.filter import compile_filter
-from ..scan import scan_matching
+from ..store_filter import matching
 
 
 class FilterView:
@@ -48,17 +50,17 @@ class FilterView:
             self.view = array("i")
 
     @staticmethod
-    def prepare(text: str, get, shown: int, *, progress=None, cancelled=None) -> tuple:
+    def prepare(text: str, store, shown: int, *, progress=None, cancelled=None) -> tuple:
         """(predicate, events scanned, matching indices) of ``text`` over the
-        first ``shown`` events (``get(i)`` the event at index i). Raises
-        FilterError for a bad expression, Cancelled when ``cancelled()``."""
+        first ``shown`` events of ``store``. Raises FilterError for a bad
+        expression, Cancelled when ``cancelled()``."""
         text = text.strip()
         pred = compile_filter(text) if text else None
         if pred is None:
             return None, shown, None
-        return pred, shown, scan_matching(get, 0, shown, pred, progress=progress, cancelled=cancelled)
+        return pred, shown, matching(pred, store, 0, shown, progress=progress, cancelled=cancelled)
 
-    def apply(self, text: str, pred, upto: int, view, get, shown: int, unsettled: list[Event]) -> None:
+    def apply(self, text: str, pred, upto: int, view, store, shown: int, unsettled: list[Event]) -> None:
         """Show what ``prepare`` found, caught up with the ``shown`` events now."""
         text = text.strip()
         self.pred = pred
@@ -70,7 +72,7 @@ class FilterView:
         if upto > shown:   # a replay went back meanwhile
             view = array("i", view[:bisect_left(view, shown)])
             upto = shown
-        view.extend(scan_matching(get, upto, shown, pred))
+        view.extend(matching(pred, store, upto, shown))
         self.view = view
         self.unsettled = [e for e in unsettled if pred(e)]
         if text in self.history:
