@@ -141,3 +141,19 @@ def test_random_filters_select_the_closures_rows(stores, text):
         assume(False)
     for name, store in stores.items():
         assert list(matching(pred, store, 0, len(store))) == by_closure(pred, store), (name, text)
+
+
+def test_a_filtered_views_errors_come_from_the_flags(stores):
+    from analyzer.tui.model.capture import CaptureModel
+    from analyzer.tui.store import is_error
+
+    events = list(analyzer.open("captures/demo-socat.log"))
+    model = CaptureModel(follow=False)
+    model.extend(events[:200])
+    model.set_filter('device == "1.1.2" or kind == "noise"')
+    model.extend(events[200:])   # learned as they come, after the filter's scan
+    wanted = [e for e in events if e.device == "1.1.2" or e.kind == "noise"]
+    assert model.row_count == len(wanted)
+    assert model.shown_error_count == sum(1 for e in wanted if is_error(e)) > 0
+    model.set_filter("")
+    assert model.shown_error_count == model.error_count == sum(1 for e in events if is_error(e))

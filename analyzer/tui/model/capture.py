@@ -73,6 +73,12 @@ class CaptureModel:
         return bisect_right(self.store.errors, self.shown)
 
     @property
+    def shown_error_count(self) -> int:
+        """Errors among the settled rows the filter lets through (``error_count``
+        without a filter)."""
+        return self.error_count if self.filter.view is None else self.filter.errors
+
+    @property
     def follow(self) -> bool:
         return self.following.on
 

@@ -18,6 +18,7 @@ from typing import Callable
 from dissectors.event import Event
 
 from ...analysis.filter import compile_filter
+from ..store import ERROR, is_error
 from ..store_filter import matching
 
 
@@ -28,6 +29,7 @@ class FilterView:
         self.pred: Callable[[Event], object] | None = None
         self.view: array | None = None           # indices of matching shown events; None: every one
         self.unsettled: list[Event] = []         # the unsettled events that match
+        self.errors = 0                          # error rows among ``view`` (the status line's count)
 
     def settled(self, shown: int) -> int:
         """How many settled rows there are, of ``shown`` settled events."""
@@ -37,7 +39,9 @@ class FilterView:
         """``events``, stored from index ``start`` on, are shown now."""
         pred = self.pred
         if pred is not None:
-            self.view.extend([i for i, ev in enumerate(events, start) if pred(ev)])
+            matched = [(i, ev) for i, ev in enumerate(events, start) if pred(ev)]
+            self.view.extend([i for i, _ in matched])
+            self.errors += sum(1 for _, ev in matched if is_error(ev))
 
     def hold(self, unsettled: list[Event]) -> None:
         """What pairing still holds now."""
@@ -48,6 +52,7 @@ class FilterView:
         """The shown events are shown again from the start (a replay went back)."""
         if self.view is not None:
             self.view = array("i")
+            self.errors = 0
 
     @staticmethod
     def prepare(text: str, store, shown: int, *, progress=None, cancelled=None) -> tuple:
@@ -68,13 +73,25 @@ class FilterView:
         if pred is None:
             self.view = None
             self.unsettled = unsettled
+            self.errors = 0
             return
         if upto > shown:   # a replay went back meanwhile
             view = array("i", view[:bisect_left(view, shown)])
             upto = shown
         view.extend(matching(pred, store, upto, shown))
         self.view = view
+        self.errors = error_rows(store, view, shown)
         self.unsettled = [e for e in unsettled if pred(e)]
         if text in self.history:
             self.history.remove(text)
         self.history.append(text)
+
+
+def error_rows(store, view: array, shown: int) -> int:
+    """How many of the rows ``view`` (store indices below ``shown``) are errors,
+    from the store's flags column (copies: the arrays go on growing)."""
+    import numpy as np
+    if not len(view):
+        return 0
+    flags = np.frombuffer(store.flags[:shown], dtype=np.uint8)
+    return int(np.count_nonzero(flags[np.array(view, dtype=np.int64)] & ERROR))
