@@ -3,8 +3,9 @@
 
 Prints:
   1. events/s when recording (decode + MCAP writer, `convert` of a raw capture)
-  2. bytes per event (target <= 50) and MB per hour of recording a saturated
-     115200-baud pair of lines
+  2. bytes per event and MB per hour of recording a saturated 115200-baud pair
+     of lines, the default recording and a lean one (`--lean`: target <= 50),
+     and that the lean one decodes to the same events
   3. events/s when re-dissecting an MCAP, and its share of raw-dump decode speed
      (target >= 60%); each decode the fastest of three
   4. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
@@ -55,11 +56,11 @@ def decode_rate(paths: list[str], repeat: int = 3) -> tuple[int, float]:
     return n, n / best
 
 
-def record(paths: list[str], out: str) -> tuple[int, float]:
+def record(paths: list[str], out: str, lean: bool = False) -> tuple[int, float]:
     cap = analyzer.open(*paths, baud=BAUD)
     t = time.perf_counter()
     info = CaptureInfo.of(cap, command="bench")
-    n = TapRunner(cap, [McapWriter(out, info)], info=info).run()   # as convert records
+    n = TapRunner(cap, [McapWriter(out, info, lean=lean)], info=info).run()   # as convert records
     return n, n / (time.perf_counter() - t)
 
 
@@ -136,9 +137,16 @@ def main() -> None:
           f"each line busy {busy:.0%} of the time")
     print(f"1. recording (decode + MCAP writer): {rec_rate:,.0f} events/s")
     per_hour = size / 1e6 / wire_seconds * 3600
-    print(f"2. MCAP size: {size / n_rec:.1f} bytes per event (target <= 50); {size / 1e6:.1f} MB for "
+    print(f"2. MCAP size, default recording: {size / n_rec:.1f} bytes per event; {size / 1e6:.1f} MB for "
           f"{wire_seconds:.0f} s = {per_hour:.0f} MB per hour of this conversation running flat out; "
           f"{per_hour / busy:.0f} MB per hour if both lines were 100% busy")
+    lean = os.path.join(tmp, "lean.mcap")
+    n_lean, lean_rate = record([log], lean, lean=True)
+    lean_size = os.path.getsize(lean)
+    same = [e.to_dict() for e in analyzer.open(lean)] == [e.to_dict() for e in analyzer.open(out)]
+    print(f"   lean (--lean): {lean_size / n_lean:.1f} bytes per event (target <= 50); "
+          f"{lean_size / 1e6 / wire_seconds * 3600:.0f} MB per hour; recording {lean_rate:,.0f} events/s; "
+          f"decodes to the same events: {'yes' if same else 'NO'}")
     dump_rate = decode_rate([ctl, dev])[1]
     print(f"3. re-dissecting the MCAP (each decode the fastest of 3): {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
           f"log: {raw_rate:,.0f} events/s; from raw dumps: {dump_rate:,.0f} events/s")

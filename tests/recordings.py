@@ -17,7 +17,7 @@ from mcap.reader import make_reader
 
 from analyzer.formats import mcap_schemas as S
 
-OUR_SCHEMAS = {schema["title"] for schema in S.SCHEMAS.values()}
+OUR_SCHEMAS = {schema["title"] for schema in S.ALL_SCHEMAS.values()}
 
 
 class SchemaMismatch(AssertionError):

@@ -14,10 +14,12 @@ a failed conversion leaves no file behind (the writer base, analyzer/writers/bas
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
+from ..errors import UsageError
 from ..info import CaptureInfo
-from ..outfile import check_output
+from ..outfile import check_output, show
 from ..writers import WRITERS, open_writer, writer_class
 from .common import add_input_args, open_inputs, run_tap
 
@@ -30,6 +32,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_input_args(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT" + "|OUT".join(WRITERS))
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")
+    p.add_argument("--lean", action="store_true",
+                   help="MCAP: a lean recording (no /events, raw reads batched; about a third the size; "
+                        "docs/mcap.md)")
     p.add_argument("--site", metavar="NAME", help="where the capture was made, kept in a recording's metadata "
                                                    "(gimbalscope export puts it in the dataset's site column)")
     p.set_defaults(run=run)
@@ -38,9 +43,14 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     check_output(args.output, args.inputs, force=args.force)   # first: an output over an input is worst
     writer_class(args.output)                                    # then: a format we write
+    options = {}
+    if args.lean:
+        if os.path.splitext(args.output)[1].lower() != ".mcap":
+            raise UsageError(f"--lean is for MCAP recordings (.mcap), not {show(args.output)}")
+        options["lean"] = True
     capture = open_inputs(args)
     info = CaptureInfo.of(capture, command="convert", site=args.site)
-    with open_writer(args.output, info) as writer:   # the file takes its name only if the run ends well
+    with open_writer(args.output, info, **options) as writer:   # the file takes its name only if the run ends well
         run_tap(capture, "convert", writer, info=info, progress=True, check=True)
     # said as export, report and recover say what they wrote (standard output may be piped on)
     print(f"gimbalscope: {writer.summary()}", file=sys.stderr)

@@ -84,6 +84,9 @@ def add_record_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--force", action="store_true", help="with --record: replace FILE.mcap if it exists")
     p.add_argument("--rotate-mb", type=positive_float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
     p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
+    p.add_argument("--lean", action="store_true",
+                   help="with --record, and for the TUI's record key: lean recordings (no /events, raw reads "
+                        "batched; about a third the size; docs/mcap.md)")
     p.add_argument("--site", metavar="NAME", help="with --record: where the tap is, kept in the recording's metadata "
                                                   "(gimbalscope export puts it in the dataset's site column)")
 
@@ -175,7 +178,7 @@ def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
         first = part_path(record, 1) if mb or minutes else record
         check_output(first, info.inputs if info.live else (), force=getattr(args, "force", False), role="port")
         return McapWriter(record, info, live=True, rotate_bytes=int(mb * 1e6) if mb else None,
-                          rotate_seconds=minutes * 60 if minutes else None)
+                          rotate_seconds=minutes * 60 if minutes else None, lean=getattr(args, "lean", False))
     except BaseException:
         capture.source.close()
         raise
@@ -202,6 +205,7 @@ def tap(capture: Capture, args: argparse.Namespace, record: str | None, command:
         raise UsageError(str(e)) from None
     recorder, servers = open_outputs(capture, info, args, record)
     return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder, record_path=record,
+                   record_lean=getattr(args, "lean", False),
                    info=info, keymap=keymap, listeners=servers)
 
 

@@ -17,6 +17,18 @@ transaction's or position's time is its message's log time (the capture's
 start plus ``t``, to the nanosecond), and an event's bytes are on its line's raw
 topic at its ``offset``; the raw chunks keep their ``t``, the ground truth that
 decoding reads.
+
+A lean recording (``lean=True``, docs/mcap.md, "Lean recordings") leaves
+``/events`` out (the events are decoded again from the raw reads) and batches
+the raw reads: one ``/serial/reads`` message holds up to ``READS_PER_MESSAGE``
+consecutive reads of every line, in the order they were read, each with its
+line, ``t`` and bytes. One list across the lines, rather than a batch per line
+with sequence numbers, keeps the order the reads arrived in without anything to
+merge: reading the list back gives the chunks exactly as the tap gave them, so
+decoding places every chunk as it did live (timed decoding puts a chunk after
+the other line's earlier chunks). A batch spans at most ``READS_SPAN`` seconds
+of wire time, so its log time (its first read's) stays near its reads; a live
+recording ends the batch in progress whenever it flushes (``flush_reads``).
 """
 
 from __future__ import annotations
@@ -39,6 +51,11 @@ Emit = Callable[[str, str, int, dict], None]
 # the optional keys of an event message, in the JSON Lines order (docs/json-lines.md)
 _OPTIONAL_BEFORE_FIELDS = ("command", "dst", "src")
 _OPTIONAL_AFTER_FIELDS = ("txn", "status", "latency")
+
+# lean recordings: the most reads a /serial/reads message holds, and the most wire
+# time between its first and last read (docs/mcap.md, "Lean recordings")
+READS_PER_MESSAGE = 64
+READS_SPAN = 1.0
 
 
 def base64(data: bytes) -> str:
@@ -108,9 +125,13 @@ class Messages(WireClock):
     """Turns a tap's input into topic messages, handed to ``emit`` (module doc)."""
 
     def __init__(self, emit: Emit, *, start_time: float | None = None,
-                 wire_byte_time: float | None = None) -> None:
+                 wire_byte_time: float | None = None, lean: bool = False) -> None:
         super().__init__(start_time, wire_byte_time)
         self.emit = emit
+        self.lean = lean
+        self._reads: list[dict] = []     # lean: the batch in progress
+        self._reads_ts = 0               # and its log time (its first read's)
+        self._reads_t: float | None = None
         self.positions = PositionTracker()
         self._seq = 0
         self._offsets: dict[str, int] = {}
@@ -124,6 +145,9 @@ class Messages(WireClock):
         line = chunk.line
         self._offsets[line] = offset + len(chunk.data)
         self._seq += 1
+        if self.lean:
+            self._read(line, chunk.t, base64(chunk.data), offset)
+            return
         msg = {"line": line, "offset": offset, "data": base64(chunk.data)}
         if chunk.t is not None:
             msg["t"] = chunk.t
@@ -134,8 +158,33 @@ class Messages(WireClock):
         ``line``), so decoding the recording expires the same timeouts live did."""
         if t is None:
             return
+        if self.lean:
+            self._read(line, t, "", self._offsets.get(line, 0))
+            return
         self.emit(S.RAW_TOPIC.format(line=line), "raw", self.time_ns(t, 0),
                   {"line": line, "offset": self._offsets.get(line, 0), "t": t, "data": ""})
+
+    def _read(self, line: str, t: float | None, data: str, offset: int) -> None:
+        """Lean: a read joins the batch in progress, which goes out when full or
+        when this read is more than ``READS_SPAN`` after its first."""
+        reads = self._reads
+        if reads and (len(reads) >= READS_PER_MESSAGE
+                      or (t is not None and self._reads_t is not None and t - self._reads_t > READS_SPAN)):
+            self.flush_reads()
+            reads = self._reads
+        if not reads:
+            self._reads_ts = self.time_ns(t, self._seq, offset)
+            self._reads_t = t
+        read = {"line": line, "t": t, "data": data} if t is not None else {"line": line, "data": data}
+        reads.append(read)
+
+    def flush_reads(self) -> None:
+        """Lean: the batch of reads in progress as a message, now (a live recording
+        flushing, the end of the input, a part closing)."""
+        reads = self._reads
+        if reads:
+            self._reads = []
+            self.emit(S.READS_TOPIC, "reads", self._reads_ts, {"reads": reads})
 
     def note(self, message: str, t: float | None, level: int = S.WARNING) -> None:
         """A tap's own message (a port lost and back, the skew estimate) on /log."""
@@ -145,7 +194,8 @@ class Messages(WireClock):
     def event(self, ev: Event) -> None:
         ts = self.time_ns(ev.t, ev.number, ev.offset)
         emit = self.emit
-        emit(S.EVENTS_TOPIC, "event", ts, event_message(ev))
+        if not self.lean:
+            emit(S.EVENTS_TOPIC, "event", ts, event_message(ev))
         if ev.problems:
             emit(S.LOG_TOPIC, "log", ts, self._problem_log(ev, ts))
         self._transaction(ev, ts)
@@ -161,6 +211,7 @@ class Messages(WireClock):
 
     def finish(self) -> None:
         """The end of the input: the transaction still open is complete."""
+        self.flush_reads()
         txn = self._transactions.finish()
         if txn is not None:
             self.emit(S.TRANSACTIONS_TOPIC, "txn", txn.ts, txn.to_dict())

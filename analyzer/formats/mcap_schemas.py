@@ -31,6 +31,7 @@ EVENTS_TOPIC = "/events"
 TRANSACTIONS_TOPIC = "/transactions"
 LOG_TOPIC = "/log"                   # foxglove.Log: human-readable anomalies
 POSITION_TOPIC = "/gimbal/{device}/position"   # per device: analyzer/analysis/positions.py
+READS_TOPIC = "/serial/reads"        # lean recordings: the reads of every line, batched in wire order
 METADATA_NAME = "gimbalscope"
 PROFILE = "gimbalscope"
 
@@ -173,10 +174,30 @@ LOG = _object(
     },
     ("timestamp", "level", "message", "name", "file", "line"))
 
+READS = _object(
+    "gimbalscope.RawReads", "Consecutive reads from the serial lines, in the order they were read across the "
+    "lines (a lean recording's ground truth, docs/mcap.md, \"Lean recordings\"); a read's offset is the sum of "
+    "the sizes of its line's earlier reads",
+    {
+        "reads": {"type": "array", "minItems": 1, "description": "in the order read, whatever their line",
+                  "items": {"type": "object", "properties": {
+                      "line": RAW["properties"]["line"],
+                      "t": RAW["properties"]["t"],
+                      "data": RAW["properties"]["data"],
+                  }, "required": ["line", "data"], "additionalProperties": False}},
+    },
+    ("reads",))
+
 INFO, WARNING, ERROR = 2, 3, 4
 
 # every schema, by the key messages name it with (analyzer/formats/mcap_messages.py)
 SCHEMAS = {"raw": RAW, "event": EVENT, "txn": TRANSACTION, "log": LOG, "position": POSITION}
+# a lean recording's (docs/mcap.md, "Lean recordings"): no /events, raw reads batched
+LEAN_SCHEMAS = {"reads": READS, "txn": TRANSACTION, "log": LOG, "position": POSITION}
+ALL_SCHEMAS = {**SCHEMAS, **LEAN_SCHEMAS}
+# the recording profiles (the metadata record's ``profile``)
+DEFAULT, LEAN = "default", "lean"
+PROFILES = (DEFAULT, LEAN)
 
 
 @lru_cache(maxsize=None)

@@ -12,6 +12,13 @@ read is said once, with its byte offset, and the rest is read:
 - a message on a raw topic that is not a gimbalscope raw chunk (other tools, by
   hand) is counted and skipped: one warning per topic.
 
+A lean recording (docs/mcap.md, "Lean recordings") has no per-line raw topics:
+its reads are batched on ``/serial/reads``, a list of reads of every line in the
+order they were read, each with its line, ``t`` and bytes. The list is read back
+as the chunks it holds, in its order, so the chunks come out exactly as a
+recording with per-line topics gives them (the same order across the lines, the
+same times). A message whose list does not read whole is not ours, as above.
+
 A raw chunk's bytes are base64 when its channel's schema says
 ``"contentEncoding": "base64"`` (recordings since docs/foxglove.md), hex in older
 recordings: both decode.
@@ -59,7 +66,10 @@ from .mcapscan import (
     RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk, summary_records)
 from .meter import READS
 
-RAW_TOPICS = {f"/serial/{line}/raw": line for line in (LINE_A, LINE_B, LINE_AB)}
+READS_TOPIC = "/serial/reads"   # lean recordings: the reads of every line, batched (formats/mcap_schemas.py)
+_BATCHED = "reads"              # the "line" of the reads topic's channels (each read names its own)
+_LINES = (LINE_A, LINE_B, LINE_AB)
+RAW_TOPICS = {**{f"/serial/{line}/raw": line for line in _LINES}, READS_TOPIC: _BATCHED}
 
 _LOG_TIME = struct.Struct("<Q")            # at byte 6 of a message record's body
 _BODIES = frozenset((OP_CHUNK, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE))   # top-level records read; the rest are skipped
@@ -116,13 +126,14 @@ class McapSource(Source):
 
     # ------------------------------------------------------------------ reading
     def _batches(self, topics: list[str], pairs: bool = False, need_t: bool | None = None,
-                 note: Note | None = None) -> Iterator[list]:
+                 note: Note | None = None, only: str | None = None) -> Iterator[list]:
         """The raw chunks of ``topics`` in file order, a list per MCAP chunk: ``Chunk``s,
         or with ``pairs`` (log time in ns, ``Chunk``). ``need_t``: the recording has
         time (True), has none (False), or not known yet (None); a message that
-        disagrees is not a raw chunk of this recording. Problems go to ``note``."""
+        disagrees is not a raw chunk of this recording. Problems go to ``note``.
+        ``only``: the chunks of that line only (of a lean recording's reads)."""
         note = note or self._say
-        p = _Pass(topics, pairs, need_t)
+        p = _Pass(topics, pairs, need_t, only)
         with open_input(self.path) as f:
             size = os.fstat(f.fileno()).st_size
             if f.read(len(MAGIC)) != MAGIC:
@@ -144,9 +155,12 @@ class McapSource(Source):
             if walk.stop:
                 note(_LOST if walk.lost else _CUT, f"ends early ({walk.stop})" + (
                     f"; {len(salvaged)} raw chunks read from the part of it that is there" if salvaged else ""))
-        self._raw_channels = {line for line, _decode in p.wanted.values()}
+        self._raw_channels = {line for line, _decode in p.wanted.values() if line != _BATCHED} | p.batched_lines
         for line, (count, first) in p.foreign.items():
-            topic, why = f"/serial/{line}/raw", _diagnose(first, need_t)
+            if line == _BATCHED:
+                topic, why = READS_TOPIC, _diagnose_reads(first, need_t)
+            else:
+                topic, why = f"/serial/{line}/raw", _diagnose(first, need_t)
             note(_FOREIGN, f"{count} messages on {topic} were not gimbalscope raw chunks (the first: {why})"
                  if count > 1 else f"1 message on {topic} was not a gimbalscope raw chunk ({why})")
 
@@ -231,7 +245,8 @@ class McapSource(Source):
             return None
 
     def _topics(self) -> list[str]:
-        return [f"/serial/{line}/raw" for line in self.lines]
+        """The raw topics of the recording's lines, and the reads topic of a lean one."""
+        return [*(f"/serial/{line}/raw" for line in self.lines), READS_TOPIC]
 
     def chunks(self) -> Iterator[Chunk]:
         if os.path.getsize(self.path) < READER_PROCESS_MIN:
@@ -271,7 +286,8 @@ class McapSource(Source):
             proc.wait()
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
-        return chain.from_iterable(self._batches([f"/serial/{line}/raw"], need_t=self.timed))
+        return chain.from_iterable(self._batches([f"/serial/{line}/raw", READS_TOPIC], need_t=self.timed,
+                                                 only=line))
 
 
 def open_mcap(inputs: list[Input], settings: ReadSettings) -> McapSource:
@@ -449,11 +465,12 @@ def _record_heads(f, size: int) -> Iterator[tuple[int, int]]:
 class _Pass:
     """What one read through the file knows so far."""
 
-    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign", "base64")
+    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign", "base64", "only", "batched_lines")
 
-    def __init__(self, topics: list[str], pairs: bool, need_t: bool | None) -> None:
+    def __init__(self, topics: list[str], pairs: bool, need_t: bool | None, only: str | None = None) -> None:
         self.lines = {topic: RAW_TOPICS[topic] for topic in topics}
-        self.pairs, self.need_t = pairs, need_t
+        self.pairs, self.need_t, self.only = pairs, need_t, only
+        self.batched_lines: set[str] = set()  # the lines a reads channel says it carries
         self.wanted: dict[int, tuple] = {}    # channel id → (line, decode of 'data'), for the topics asked for
         self.base64: set[int] = set()         # schema ids whose 'data' is base64 (else hex)
         self.encodings: dict[int, str] = {}   # every channel id → its message encoding
@@ -515,6 +532,14 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
                 raw = wanted.get(records[body] | records[body + 1] << 8)
                 if raw is not None:
                     line, decode = raw
+                    if line == _BATCHED:
+                        payload = records[body + 22:nxt]
+                        try:
+                            _read_batch(payload, _LOG_TIME.unpack_from(records, body + 6)[0], p, out)
+                        except _NOT_OURS:
+                            _count_foreign(p.foreign, line, payload)
+                        pos = nxt
+                        continue
                     try:
                         msg = loads(records[body + 22:nxt])
                         data = decode(msg["data"])
@@ -551,8 +576,48 @@ def _channel(p: _Pass, channel) -> None:
     line = p.lines.get(channel.topic)
     if line is None:
         p.wanted.pop(channel.id, None)   # an id given to another topic
+    elif line == _BATCHED:   # always base64 (lean recordings came after hex)
+        p.wanted[channel.id] = (line, _from_base64)
+        said = str(channel.metadata.get("lines", "")).split(",") if isinstance(channel.metadata, dict) else []
+        p.batched_lines.update([x for x in said if x in _LINES] or (LINE_A, LINE_B))   # unsaid: a pair
     else:
         p.wanted[channel.id] = (line, _from_base64 if channel.schema_id in p.base64 else bytes.fromhex)
+
+
+def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
+    """Append the chunks of a lean recording's reads message to ``out``, in its
+    order (of ``p.only``'s line only); raises one of ``_NOT_OURS`` (appending
+    nothing) when the message does not read whole as reads of this recording.
+    With ``p.pairs``, each chunk's log time is the message's (its first read's)
+    moved on by the read's wire time since the first read's, as the recorder
+    computes log times."""
+    reads = json_loads(payload)["reads"]
+    if type(reads) is not list or not reads:
+        raise ValueError
+    need_t, only, pairs = p.need_t, p.only, p.pairs
+    lo, hi = -MAX_T, MAX_T
+    chunks = []
+    append = chunks.append
+    t0 = reads[0].get("t")
+    for read in reads:
+        line = read["line"]
+        if line not in _LINES:                        # an unhashable line raises TypeError: not ours
+            raise ValueError
+        data = _from_base64(read["data"])
+        t = read.get("t")
+        if need_t:
+            if not lo <= t <= hi:
+                raise ValueError
+        elif t is not None and (need_t is False or not lo <= t <= hi):
+            raise ValueError
+        if only is not None and line != only:
+            continue
+        if pairs:
+            at = log_time if t is None or t0 is None else log_time + int(round(t * 1e9)) - int(round(t0 * 1e9))
+            append((at, Chunk(line, data, t)))
+        else:
+            append(Chunk(line, data, t))
+    out.extend(chunks)
 
 
 def _from_base64(text: str) -> bytes:
@@ -623,6 +688,30 @@ def _diagnose(payload: bytes, need_t: bool | None) -> str:
     if need_t is False and t is not None:
         return "a time ('t') in a recording without time"
     return "not a gimbalscope raw chunk"
+
+
+def _diagnose_reads(payload: bytes, need_t: bool | None) -> str:
+    """Why a message on the reads topic is not a gimbalscope reads message."""
+    try:
+        msg = json.loads(payload)
+    except (ValueError, RecursionError):
+        return "not JSON"
+    if not isinstance(msg, dict):
+        return f"JSON {type(msg).__name__}, not an object"
+    reads = msg.get("reads")
+    if not isinstance(reads, list) or not reads:
+        return "no 'reads' list" if reads is None else "'reads' is not a list of reads"
+    for k, read in enumerate(reads):
+        if not isinstance(read, dict):
+            return f"read {k} is not an object"
+        if read.get("line") not in _LINES:
+            return f"read {k} has no line A, B or AB"
+        raw = {key: value for key, value in read.items() if key != "line"}
+        why = _diagnose(json.dumps(raw).encode(), need_t) if isinstance(raw.get("data"), str) else (
+            "no 'data' field" if "data" not in raw else "'data' is not a string")
+        if why != "not a gimbalscope raw chunk":
+            return f"read {k}: {why}"
+    return "not gimbalscope reads"
 
 
 def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:

@@ -76,7 +76,7 @@ class Feed(Listener):
 
     def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener, *,
                  interval: float | None = None, recorder: McapWriter | None = None,
-                 meter: ReadMeter = READS) -> None:
+                 meter: ReadMeter = READS, record_lean: bool = False) -> None:
         self.runner = runner
         self.deliver = deliver
         self.doctor = doctor
@@ -90,6 +90,7 @@ class Feed(Listener):
         self._warnings: list[str] = []
         self._findings: list | None = None
         self.recorder = recorder             # --record: made (and checked) before the screen opens
+        self.record_lean = record_lean       # the record key writes lean recordings (live --lean)
         self.meter = meter                   # how far the input files have been read: asked once a batch
         self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
         self._thread = threading.Thread(target=self._run, daemon=True, name="gimbalscope-feed")
@@ -129,13 +130,13 @@ class Feed(Listener):
         if self.recorder is not None and not self.recorder.failed:
             return
         try:
-            self.recorder = McapWriter(path, self.runner.info, live=True,
+            self.recorder = McapWriter(path, self.runner.info, live=True, lean=self.record_lean,
                                        metadata={"recorded_from": "the TUI's record key"})
         except RecordingError as e:
             self.runner.post(str(e))
             return
         self.runner.add_listener(self.recorder)
-        self.runner.post(f"recording to {show(path)}")
+        self.runner.post(f"recording to {show(path)}" + (" (lean)" if self.record_lean else ""))
 
     def stop_recording(self) -> None:
         rec, self.recorder = self.recorder, None

@@ -90,14 +90,15 @@ def check_ids(path: str, keymap: dict[str, object]) -> None:
 
 
 def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, speed: float = 1.0,
-             recorder: McapWriter | None = None, record_path: str | None = None,
+             recorder: McapWriter | None = None, record_path: str | None = None, record_lean: bool = False,
              info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
              filter_text: str | None = None, listeners: Sequence[Listener] = ()) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
     follow off). The capture runs in the feed's thread when the app mounts, with
     ``recorder`` (``--record``), ``listeners`` (the ``--foxglove`` server), the
     doctor and the feed as the runner's listeners; ``info`` is the one
-    ``recorder`` and ``listeners`` were made with."""
+    ``recorder`` and ``listeners`` were made with. ``record_lean``: the record
+    key writes lean recordings (``live --lean``, docs/mcap.md)."""
     model = CaptureModel(follow=mode != "view")
     if filter_text:
         model.set_filter(filter_text)   # already checked by the CLI
@@ -109,7 +110,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         doctor = DoctorListener(tui=True)
         # ``listeners`` beside the recorder: both hear the doctor's notes after the same events
         runner = TapRunner(capture, [l for l in (recorder, *listeners, doctor) if l is not None], info=info)
-        feed = feed_class(runner)(runner, deliver, doctor, recorder=recorder)
+        feed = feed_class(runner)(runner, deliver, doctor, recorder=recorder, record_lean=record_lean)
         runner.add_listener(feed)   # last: it reads the doctor's findings of each step
         return feed
 

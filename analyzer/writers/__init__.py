@@ -63,9 +63,10 @@ def _load(entry: str) -> type[Listener]:
     return getattr(importlib.import_module(module), name)
 
 
-def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None) -> Listener:
-    """A writer of ``path``'s format, writing into ``file`` (or ``path`` itself)."""
-    return writer_class(path)(path, info, file=file)
+def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None, **options) -> Listener:
+    """A writer of ``path``'s format, writing into ``file`` (or ``path`` itself);
+    ``options`` are the format's own (MCAP's ``lean``)."""
+    return writer_class(path)(path, info, file=file, **options)
 
 
 def open_format(name: str, info: CaptureInfo, **options) -> FileWriter:

@@ -13,6 +13,10 @@ Two ways to record:
   metadata first; optionally in parts (``rotate_bytes``, ``rotate_seconds``). A
   write error stops the recording, not the tap: it is posted as a note once.
 
+Either way, ``lean=True`` writes a lean recording (docs/mcap.md, "Lean
+recordings": no ``/events``, the raw reads batched on ``/serial/reads``), and
+its metadata record says ``profile: lean``.
+
 Either way, the file is created when the writer is made: a path that cannot be
 written is an error before the tap starts.
 
@@ -65,10 +69,11 @@ class McapWriter(FileWriter):
 
     def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, live: bool = False,
                  rotate_bytes: int | None = None, rotate_seconds: float | None = None,
-                 metadata: dict[str, str] | None = None) -> None:
+                 metadata: dict[str, str] | None = None, lean: bool = False) -> None:
         self.live = live
+        self.lean = lean   # docs/mcap.md, "Lean recordings"; said in the metadata record
         self._runner = None
-        self._extra = metadata or {}
+        self._extra = {**(metadata or {}), **({"profile": S.LEAN} if lean else {})}
         self._rotate = (rotate_bytes, rotate_seconds) if rotate_bytes or rotate_seconds else None
         # live (and in parts): in place, the recorder's own files (module doc)
         super().__init__(path, info, file=file, atomic=not (live or self._rotate))
@@ -77,7 +82,7 @@ class McapWriter(FileWriter):
         """A live recording, or one in parts: the recorder opens its files itself,
         in place, flushes them every second when live, and after a failed write
         closes them as well as it can (analyzer/writers/mcap_recorder.py)."""
-        kw = dict(message_clock(self.info), lines=self.info.lines)
+        kw = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean)
         if self.live:
             kw.update(metadata=self.info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
         else:
@@ -92,8 +97,8 @@ class McapWriter(FileWriter):
     def begin(self) -> None:
         """A recording into the target's file (a conversion)."""
         if self.file is not None:
-            self.recorder = McapRecorder(self.path, metadata={}, file=self.file,
-                                         lines=self.info.lines, **message_clock(self.info))
+            self.recorder = McapRecorder(self.path, metadata={}, file=self.file, lines=self.info.lines,
+                                         lean=self.lean, **message_clock(self.info))
 
     @property
     def failed(self) -> str | None:

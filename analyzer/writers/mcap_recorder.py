@@ -181,8 +181,11 @@ class McapRecorder:
     def __init__(self, path: str, *, metadata: dict[str, str], start_time: float | None = None,
                  flush_interval: float | None = None, clock: Callable[[], float] = time.monotonic,
                  lines: tuple[str, ...] = ("A", "B"), file: BinaryIO | None = None,
-                 on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None) -> None:
+                 on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None,
+                 lean: bool = False) -> None:
         self.path = path
+        self.lean = lean   # docs/mcap.md, "Lean recordings": no /events, raw reads batched
+        self._flushing = False
         self.wire_byte_time = wire_byte_time   # untimed input: seconds per byte offset
         self.on_error = on_error
         self.failed: str | None = None   # why the recording stopped early
@@ -210,16 +213,23 @@ class McapRecorder:
         self._writer = _Writer(self._out, compression=CompressionType.ZSTD, chunk_size=CHUNK_SIZE,
                               index_types=INDEXES, use_chunking=chunked)
         self._writer.start(profile=S.PROFILE, library="gimbalscope")
-        self._messages = Messages(self._emit, start_time=start_time, wire_byte_time=self.wire_byte_time)
+        self._messages = Messages(self._emit, start_time=start_time, wire_byte_time=self.wire_byte_time,
+                                  lean=self.lean)
         self.start_ns = self._messages.start_ns
+        schemas = S.LEAN_SCHEMAS if self.lean else S.SCHEMAS
         self._schemas = {key: self._writer.register_schema(schema["title"], "jsonschema", S.encoded(schema))
-                         for key, schema in S.SCHEMAS.items()}
+                         for key, schema in schemas.items()}
         self._channels: dict[str, int] = {}
         # the fixed topics exist from the start, also in a recording without messages;
         # a device's position topic when it is first seen
-        for line in lines:
-            self._channel(S.RAW_TOPIC.format(line=line), "raw")
-        for topic, key in ((S.EVENTS_TOPIC, "event"), (S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")):
+        if self.lean:   # one topic for the reads of every line; which lines, in its metadata
+            self._channels[S.READS_TOPIC] = self._writer.register_channel(
+                S.READS_TOPIC, "json", self._schemas["reads"], metadata={"lines": ",".join(lines)})
+        else:
+            for line in lines:
+                self._channel(S.RAW_TOPIC.format(line=line), "raw")
+            self._channel(S.EVENTS_TOPIC, "event")
+        for topic, key in ((S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")):
             self._channel(topic, key)
         self._lines = lines
         if metadata:   # written first, so a killed recording still says what it is
@@ -234,6 +244,8 @@ class McapRecorder:
         """Record bytes read from a line (``offset`` of their first byte)."""
         if not self._closed:
             self._messages.raw(chunk, offset)
+            if self.lean:   # reads wait in a batch: flush on time here too
+                self._maybe_flush()
 
     def end_marker(self, t: float | None) -> None:
         """Record that time ran on to ``t`` with nothing more on the wire (an empty
@@ -319,13 +331,26 @@ class McapRecorder:
         self.message_bytes += len(data)
         if self._out.good != before:   # a full chunk went out, this message in it
             self._kept = self.messages
-        if self._flush_interval is not None and self._clock() - self._last_flush >= self._flush_interval:
+        self._maybe_flush()
+
+    def _maybe_flush(self) -> None:
+        if self._flush_interval is not None and not self._flushing \
+                and self._clock() - self._last_flush >= self._flush_interval:
             self.flush()
 
     def flush(self) -> None:
-        """Close the chunk in progress and push it to disk (a killed tap keeps it)."""
+        """Close the chunk in progress and push it to disk (a killed tap keeps it);
+        a lean recording's batch of reads in progress goes into it first."""
         if self._closed:
             return
+        if self.lean:
+            self._flushing = True
+            try:
+                self._messages.flush_reads()
+            finally:
+                self._flushing = False
+            if self._closed:   # writing the batch failed
+                return
         before = self._out.good
         try:
             self._writer.flush()

@@ -2,7 +2,9 @@
 ``--record`` file or a new one named by the time, or stops, and says so. It
 holds no recording itself: ``Toggled`` asks the app, which owns the capture
 thread, to start or stop one. It draws nothing (the status line shows the
-recording)."""
+recording). ``live --lean`` makes the recordings it starts lean (docs/mcap.md,
+"Lean recordings"): the profile is the tap's, chosen on the command line, like
+the ``--record`` file."""
 
 from __future__ import annotations
 

@@ -1,0 +1,37 @@
+"""The TUI's record key writes lean recordings when the tap was started with
+``--lean`` (docs/mcap.md, "Lean recordings")."""
+
+from analyzer.capture import open_live
+from analyzer.tui.run import make_app, stop_feed
+from tests.integration.test_mcap import doctor, go_read, jsonl
+from tests.ui.test_pilot import SIZE, exchange, pty_pair, run, settle
+
+
+def test_the_record_key_records_lean_with_the_tap_lean(tmp_path):
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
+    rec = tmp_path / "toggled.mcap"
+    app = make_app(open_live([pa, pb]), mode="live", ports=[pa, pb], record_path=str(rec), record_lean=True)
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            exchange(ma, mb)
+            await settle(pilot, app, lambda a: a.model.row_count >= 2)
+            await pilot.press("r")
+            await settle(pilot, app, lambda a: a.last is not None and a.last.recording)
+            for _ in range(3):
+                exchange(ma, mb, dst=(1, 1, 2))
+            await settle(pilot, app, lambda a: sum(1 for e in a.model.events if e.dst == (1, 1, 2)) >= 3)
+            await pilot.press("r")
+            await settle(pilot, app, lambda a: a.last is not None and not a.last.recording)
+        stop_feed(app)
+
+    run(drive())
+    events = jsonl(rec)
+    commands = [e for e in events if e["kind"] == "command"]
+    assert len(commands) == 3 and all(e["dst"] == [1, 1, 2] and e["status"] == "ok" for e in commands)
+    report = go_read(rec)
+    meta = report["metadata"]["gimbalscope"]
+    assert meta["profile"] == "lean" and meta["recorded_from"] == "the TUI's record key"
+    assert "/events" not in report["messages"] and report["messages"]["/serial/reads"] >= 1
+    assert doctor(rec) == []
