@@ -37,6 +37,11 @@ def categories(ev: Event) -> list[str]:
     return out
 
 
+def checksum_problem(ev: Event) -> bool:
+    """Does the event have a checksum problem (``Stats.checksum_errors`` counts it)?"""
+    return any(cat in _CHECKSUM_PROBLEMS for cat in categories(ev))
+
+
 class Latency:
     __slots__ = ("n", "min", "max", "buckets", "zero")
 

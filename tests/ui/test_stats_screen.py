@@ -15,9 +15,9 @@ from tests.text_tables import cells, headers, read_tables
 from tests.ui.test_pilot import settle
 
 
-def screen_text(width: int) -> dict[str, str]:
+def screen_text(width: int, filter_text: str | None = None) -> dict[str, str]:
     """The statistics screen's parts as drawn on a terminal ``width`` columns wide."""
-    app = make_app(analyzer.open(SOCAT_LOG), mode="view")
+    app = make_app(analyzer.open(SOCAT_LOG), mode="view", filter_text=filter_text)
 
     async def drive():
         async with app.run_test(size=(width, 40)) as pilot:
@@ -56,3 +56,17 @@ def test_the_screen_names_and_shows_what_the_command_prints():
                                     "retransmissions"]
     summary = printed.split("\nper command")[0]
     assert " ".join(shown["summary"].split()) == " ".join(summary.split())
+
+
+def test_with_a_filter_the_screen_shows_the_filtered_rows_as_stats_filter_prints_them():
+    from tests.pure.test_stats import run_piped
+
+    text = 'device == "1.1.2"'
+    shown = screen_text(120, text)
+    head, _, rest = shown["summary"].partition("\n")
+    assert head.startswith("the 142 rows of the filter: ") and text in head
+    printed = run_piped("stats", SOCAT_LOG, "--filter", text, columns=shown["width"])
+    assert " ".join(rest.split()) == " ".join(printed.split("\nper command")[0].split())
+    tables = read_tables(printed)
+    ours = read_tables(shown["by-device"])
+    assert cells(ours) == cells([t for t in tables if t.title.startswith("per device")])

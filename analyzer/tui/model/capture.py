@@ -20,9 +20,10 @@ from bisect import bisect_left, bisect_right
 
 from dissectors.event import Event
 
-from ...analysis.stats import Stats
+from ...analysis.stats import Stats, checksum_problem
 from ..detail import DetailNode, detail as detail_tree
 from ..store import EventStore, EventsView
+from ..store_stats import stats_of
 from .devices import DeviceInfo, DeviceMap
 from .filter import FilterView
 from .follow import Follow, Marks
@@ -49,7 +50,8 @@ class CaptureModel:
         self.nav = Navigation(self)
         self.text = RowText(self)
         self.replay = Replay(self)
-        self.stats = Stats()
+        self.checksum_errors = 0                  # shown events with a checksum problem (the status line's)
+        self._stats: tuple | None = None          # (what it was computed for, the Stats)
         self.device_map = DeviceMap()
         self.plots = PositionPlots()
         self._cache: dict[int, Event] = {}
@@ -67,6 +69,19 @@ class CaptureModel:
     @property
     def series(self) -> dict[str, dict[str, Series]]:
         return self.plots.series
+
+    @property
+    def stats(self) -> Stats:
+        """The statistics of the shown events, or of the rows the filter shows, from
+        the store's columns (``store_stats``), computed when asked and kept until
+        the rows change."""
+        view = self.filter.view
+        key = (self.shown, id(view), None if view is None else len(view))
+        if self._stats is None or self._stats[0] != key:
+            import numpy as np
+            rows = None if view is None else np.frombuffer(view.tobytes(), dtype=np.int32)
+            self._stats = (key, stats_of(self.store, self.shown, rows))
+        return self._stats[1]
 
     @property
     def error_count(self) -> int:
@@ -111,9 +126,7 @@ class CaptureModel:
     def _show(self, events: list[Event], start: int) -> None:
         """``events`` (stored from index ``start`` on) are shown now: the parts learn of them."""
         self.shown = start + len(events)
-        add = self.stats.add
-        for ev in events:
-            add(ev)
+        self.checksum_errors += sum(1 for ev in events if ev.problems and checksum_problem(ev))
         self.device_map.add(events)
         self.plots.add(events)
         self.filter.learn(events, start)
@@ -141,7 +154,7 @@ class CaptureModel:
             return self._grew(before)
         if k < n:
             self.shown = 0
-            self.stats = Stats()
+            self.checksum_errors = 0
             self.device_map = DeviceMap()
             self.plots = PositionPlots()
             self._cache.clear()

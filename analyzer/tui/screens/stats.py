@@ -1,6 +1,7 @@
 """The statistics screen (``S``): the summary and the per-command and per-device
 tables of ``gimbalscope stats``, in its words, the ACK latency histogram, and the
-device map, refreshed once a second."""
+device map, refreshed once a second. With a filter, the figures are those of the
+rows it shows (computed from the store's columns: analyzer/tui/store_stats.py)."""
 
 from __future__ import annotations
 
@@ -78,7 +79,10 @@ class StatsScreen(Screen):
         m = self.model
         d = m.stats.to_dict()
         # the words and columns of `gimbalscope stats` (analyzer/listeners/stats.py)
-        self.query_one("#summary", Static).update(Text("\n".join(summary(d))))
+        head = Text()
+        if m.filter_text:
+            head.append(f"the {m.filter.settled(m.shown):,} rows of the filter: {m.filter_text}\n", style="bold cyan")
+        self.query_one("#summary", Static).update(head + Text("\n".join(summary(d))))
         self.query_one("#by-command", Static).update(counts_table("command", d["by_command"], "per command"))
         self.query_one("#by-device", Static).update(
             counts_table("device", d["by_device"], "per device (group.port.device)"))

@@ -113,7 +113,7 @@ class StatusBar(Static):
         errors = m.error_count
         line.append(counted(m.shown + len(m.unsettled), "event"), style="bold")
         line.append(f"  {counted(errors, 'error')}", style=SEVERITY_BADGE[ERROR] if errors else "")
-        line.append(f"  {m.stats.checksum_errors:,} checksum")
+        line.append(f"  {m.checksum_errors:,} checksum")
         problems = [f for f in m.findings if f.severity != INFO]
         if problems:
             worst = ERROR if any(f.severity == ERROR for f in problems) else WARNING
