@@ -94,6 +94,8 @@ class Feed(Listener):
         self.meter = meter                   # how far the input files have been read: asked once a batch
         self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
         self._thread = threading.Thread(target=self._run, daemon=True, name="gimbalscope-feed")
+        self._end_lock = threading.Lock()   # the last batch, and findings that come after it
+        self._ended = False
 
     # ------------------------------------------------------------- thread
     def start(self) -> None:
@@ -116,7 +118,23 @@ class Feed(Listener):
         except Exception as e:   # a source failing mid-capture: say it on screen, keep what came
             error = f"{type(e).__name__}: {e}"
             self.notes.append(f"capture stopped: {error}")
-        self._send(done=True, error=error)
+        with self._end_lock:
+            self._send(done=True, error=error)
+            self._ended = True
+
+    def findings_arrived(self, findings: list | None, error: str | None) -> None:
+        """The wiring doctor's word from its own process (doctor_apart.py), from the
+        thread that waited for it: the next batch carries it while the capture
+        runs; once it has ended, one more last batch does. A doctor that failed is
+        a warning on screen."""
+        with self._end_lock:
+            if error is not None:
+                self._warnings.append(f"the wiring doctor stopped: {error}")
+            else:
+                self.doctor.findings = findings   # the feed's last word, if the capture has not ended
+                self._findings = findings
+            if self._ended:
+                self._send(done=True)
 
     # ------------------------------------------------------------ controls
     @property

@@ -21,6 +21,7 @@ from ..listeners import DoctorListener
 from ..runner import Listener, TapRunner
 from ..writers.mcap import McapWriter
 from .app import GimbalscopeApp
+from .doctor_apart import ApartFindings, DoctorApart, apart_possible
 from .feed import Feed, feed_class
 from .model import CaptureModel
 
@@ -107,11 +108,22 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
     info = info or CaptureInfo.of(capture, command=mode)
 
     def make_feed(deliver) -> Feed:
-        doctor = DoctorListener(tui=True)
+        # a file viewed: the doctor reads it again in a process of its own, off the
+        # load's path (doctor_apart.py); a live tap, a replay or a pipe: in the runner
+        apart = None
+        if mode == "view" and apart_possible(capture.inputs):
+            apart = DoctorApart(capture.inputs, capture.options, command=info.command)
+            if not apart.start():   # no process to be had: the doctor stays in the runner
+                apart = None
+        doctor = ApartFindings() if apart else DoctorListener(tui=True)
         # ``listeners`` beside the recorder: both hear the doctor's notes after the same events
-        runner = TapRunner(capture, [l for l in (recorder, *listeners, doctor) if l is not None], info=info)
+        runner = TapRunner(capture, [l for l in (recorder, *listeners, None if apart else doctor) if l is not None],
+                           info=info)
         feed = feed_class(runner)(runner, deliver, doctor, recorder=recorder, record_lean=record_lean)
         runner.add_listener(feed)   # last: it reads the doctor's findings of each step
+        feed.doctor_apart = apart
+        if apart:
+            apart.deliver_to(feed.findings_arrived)
         return feed
 
     source = " + ".join(ports) if ports else info.source
@@ -130,6 +142,9 @@ def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[s
             close()
     if feed is None:
         return []
+    apart = getattr(feed, "doctor_apart", None)
+    if apart is not None:
+        apart.stop()
     feed.stop()
     feed.join(timeout=5.0)
     return feed.notes

@@ -1,0 +1,141 @@
+"""The wiring doctor of a file being viewed, off the load's path: in a process of
+its own, which reads the file again and hands back its findings when it is done.
+
+Loading a file into the TUI means decoding, pairing and storing its events; the
+doctor looks at every event too (its evidence, its per-device trends), a
+fifth of the load's time when it ran in the capture thread. Beside it, in
+another process at a lower priority, it costs the load nothing on a machine
+with a core to spare, and its findings reach the screen (the status line, the
+findings screen) when it is done, often before the load is.
+
+Only where the file can be read twice: a live tap, a replay (paced, so not a
+load) and standard input or a FIFO keep the doctor in the capture thread
+(``apart_possible``). A doctor that fails in its process is said as a warning;
+the view goes on without findings.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import sys
+import threading
+from typing import Callable
+
+NICENESS = 10   # the doctor's process yields to the screen's and the load's
+
+
+def apart_possible(inputs: tuple[str, ...]) -> bool:
+    """Can the capture's files be read again by another process (regular files)?"""
+    if not inputs:
+        return False
+    for path in inputs:
+        try:
+            if not stat.S_ISREG(os.stat(path).st_mode):
+                return False
+        except (OSError, ValueError):
+            return False
+    return True
+
+
+def findings_of(inputs: tuple[str, ...], options, command: str = "view") -> list:
+    """The doctor's findings of the capture ``inputs`` (run in the doctor's process)."""
+    from ..capture import open as open_capture
+    from ..info import CaptureInfo
+    from ..listeners import DoctorListener
+    from ..runner import TapRunner
+
+    capture = open_capture(*inputs, options=options)
+    doctor = DoctorListener(tui=True)
+    TapRunner(capture, [doctor], info=CaptureInfo.of(capture, command=command)).run()
+    return doctor.findings
+
+
+def _child(inputs, options, command, conn) -> None:
+    # nothing of this process may reach the terminal the screen is drawn on
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    try:
+        os.nice(NICENESS)
+    except OSError:
+        pass
+    try:
+        conn.send(("findings", findings_of(inputs, options, command)))
+    except BaseException as e:   # whatever it is, the screen hears of it, in one line
+        conn.send(("error", f"{type(e).__name__}: {e}"))
+    finally:
+        conn.close()
+
+
+class DoctorApart:
+    """The doctor's process for one file. ``start()`` says whether it started;
+    ``deliver_to(done)`` names who hears ``done(findings, error)`` when it ends
+    (from a thread of its own; not when it is stopped)."""
+
+    def __init__(self, inputs: tuple[str, ...], options, command: str = "view") -> None:
+        self.inputs, self.options, self.command = inputs, options, command
+        self.done: Callable[[list | None, str | None], None] | None = None
+        self.process = None
+        self._stopped = threading.Event()
+        self._ready = threading.Event()
+
+    def start(self) -> bool:
+        import multiprocessing
+        # spawn: a fresh interpreter (fork would copy the screen's threads mid-flight)
+        ctx = multiprocessing.get_context("spawn")
+        parent, child = ctx.Pipe(duplex=False)
+        self.process = ctx.Process(target=_child, args=(self.inputs, self.options, self.command, child),
+                                   name="gimbalscope-doctor", daemon=True)
+        # the screen captures standard output and error (no descriptors): a new
+        # process is given the real ones, which it then points at /dev/null
+        saved = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
+        try:
+            self.process.start()
+        except (OSError, ValueError):
+            parent.close()
+            return False
+        finally:
+            sys.stdout, sys.stderr = saved
+            child.close()
+        threading.Thread(target=self._wait, args=(parent,), name="gimbalscope-doctor-wait", daemon=True).start()
+        return True
+
+    def deliver_to(self, done: Callable[[list | None, str | None], None]) -> None:
+        self.done = done
+        self._ready.set()
+
+    def _wait(self, conn) -> None:
+        try:
+            what, value = conn.recv()
+        except (EOFError, OSError):
+            what, value = "error", "its process ended without a word"
+        finally:
+            conn.close()
+        self._ready.wait()
+        if self._stopped.is_set():
+            return
+        if what == "findings":
+            self.done(value, None)
+        else:
+            self.done(None, value)
+
+    def stop(self) -> None:
+        """End the process if it still runs (the screen is closing)."""
+        self._stopped.set()
+        self._ready.set()
+        p = self.process
+        if p is not None and p.is_alive():
+            p.terminate()
+            p.join(timeout=5)
+
+
+class ApartFindings:
+    """What the feed reads of the doctor (``checked``, ``findings``, as of a
+    ``DoctorListener``) while the doctor runs apart: nothing until its process
+    is done, then its findings, once."""
+
+    def __init__(self) -> None:
+        self.checked = False
+        self.findings: list | None = None   # None: not known yet (the feed sends no change)

@@ -1,0 +1,56 @@
+"""A file viewed in the TUI: its wiring doctor runs in a process of its own
+(analyzer/tui/doctor_apart.py), off the load's path, and its findings reach the
+screen when it is done: the findings ``gimbalscope doctor`` gives the same file.
+A pipe, which cannot be read twice, keeps the doctor in the capture thread."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import os
+
+import analyzer
+from analyzer.listeners import DoctorListener
+from analyzer.tui.doctor_apart import ApartFindings, apart_possible
+from analyzer.tui.run import make_app, stop_feed
+from tests.conftest import CTL, DEV, SOCAT_LOG, run_cli
+from tests.ui.test_pilot import settle
+
+
+def doctor_says(*paths) -> list[tuple[str, str]]:
+    r = run_cli("doctor", *paths, "--format", "json")
+    return sorted((f["code"], f["subject"]) for f in json.loads(r.stdout)["findings"])
+
+
+def viewed(*paths) -> tuple[list[tuple[str, str]], object]:
+    app = make_app(analyzer.open(*paths), mode="view")
+
+    async def drive():
+        async with app.run_test(size=(100, 30)) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.findings,
+                         what=lambda a: f"done {a.model.done}, findings {a.model.findings}")
+            return sorted((f.code, f.subject) for f in app.model.findings), app.feed
+
+    try:
+        return asyncio.run(drive())
+    finally:
+        stop_feed(app)
+
+
+def test_a_files_findings_come_from_the_doctor_apart():
+    for paths in ((SOCAT_LOG,), (CTL, DEV)):
+        found, feed = viewed(*paths)
+        assert found == doctor_says(*paths)
+        assert ("noisy_link", "B") in found
+        # the doctor was not among the capture thread's listeners
+        assert isinstance(feed.doctor, ApartFindings)
+        assert not any(isinstance(l, DoctorListener) for l in feed.runner.listeners)
+        assert not feed.doctor_apart.process.is_alive()
+
+
+def test_what_cannot_be_read_twice_keeps_the_doctor_in_the_capture_thread(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    assert apart_possible((SOCAT_LOG,)) and apart_possible((CTL, DEV))
+    assert not apart_possible((str(fifo),)) and not apart_possible(("-",)) and not apart_possible(())
+    assert not apart_possible((str(tmp_path / "gone.log"),))
