@@ -148,13 +148,14 @@ class EventStore:
         return len(self.kind)
 
     # --------------------------------------------------------------- input
-    def append(self, batch: list[Event]) -> None:
-        """Store settled events, numbered consecutively from len(self) + 1.
+    def append(self, batch: list[Event]) -> list[str | None]:
+        """Store settled events, numbered consecutively from len(self) + 1; their
+        devices (``Event.device``, worked out once here for the model's other parts).
 
         Column by column (a comprehension each): several times faster than one
         loop appending to every column, and loading a day's file is this loop."""
         if not batch:
-            return
+            return []
         start = len(self.kind)
         raw = self.raw
         ends = []
@@ -178,7 +179,8 @@ class EventStore:
         # keyed by the table entry's identity: hashing the entry was a third of this loop
         self.command = _extend_wide(self.command, self._commands.codes_of(
             [(ev.command, id(ev.entry)) for ev in batch], lambda: [(ev.command, ev.entry) for ev in batch]))
-        self.device = _extend_wide(self.device, self._devices.codes_of([ev.device for ev in batch]))
+        devices = [ev.device for ev in batch]
+        self.device = _extend_wide(self.device, self._devices.codes_of(devices))
         self.latency.extend([_NAN if ev.latency is None else ev.latency for ev in batch])
         request = [ev.request or 0 for ev in batch]
         self.request.extend(request)
@@ -201,6 +203,7 @@ class EventStore:
         for i, ev in enumerate(batch, start):
             if ev.fields and ev.kind not in _DISSECTED:
                 self.fields[i] = ev.fields
+        return devices
 
     @staticmethod
     def _natural_fields(kind: str, payload: bytes | None, entry) -> dict:

@@ -178,3 +178,55 @@ def _fill(lat: Latency, values: list[float]) -> None:
             lat.zero += 1
         else:
             buckets[int(floor(log(x) / step))] += 1
+
+
+def devices_of(store: EventStore, stop: int) -> dict:
+    """The device map (address -> model/devices.py's ``DeviceInfo``) of the first
+    ``stop`` stored events, from the columns: per device, the commands sent to
+    it, the ACKs and NAKs it answered, the lines its paired answers (results,
+    ACKs, NAKs, NICs) came on, and the commands it answered with NIC. A device
+    comes in the order it first appears."""
+    from dissectors.event import NIC, ST_NIC
+
+    from .model.devices import DeviceInfo
+
+    out: dict = {}
+    if not stop:
+        return out
+
+    def col(name: str) -> np.ndarray:
+        a = getattr(store, name)[:stop]
+        return np.frombuffer(a, dtype=a.typecode)
+
+    kind, device, flags, line = col("kind"), col("device"), col("flags"), col("line")
+    names = list(store._devices.values)
+    lines = list(store._lines.values)
+    is_command = kind == _K[COMMAND]
+    answer = np.isin(kind, [_K[RESULT], _K[ACK], _K[NAK], _K[NIC]]) & ((flags & LINKED) != 0)
+    mapped = (is_command | answer) & (device != 0)
+
+    def info(code: int):
+        addr = names[code]
+        got = out.get(addr)
+        if got is None:
+            got = out[addr] = DeviceInfo(addr)
+        return got
+
+    # in the order devices first appear, as the map fed event by event makes them
+    order = np.unique(device[mapped], return_index=True)
+    for code in order[0][np.argsort(order[1])].tolist():
+        info(code)
+    for code, n in zip(*np.unique(device[mapped & is_command], return_counts=True)):
+        info(code).commands += int(n)
+    acks = mapped & np.isin(kind, [_K[ACK], _K[NAK]])
+    for code, n in zip(*np.unique(device[acks], return_counts=True)):
+        info(code).answered += int(n)
+    pairs = np.unique(device[mapped & answer].astype(np.int64) * 256 + line[mapped & answer])
+    for p in pairs.tolist():
+        info(p // 256).lines.add(lines[p % 256])
+    nic = mapped & is_command & (col("status") == STATUSES.index(ST_NIC))
+    commands = list(store._commands.values)
+    for code, c in set(zip(device[nic].tolist(), col("command")[nic].tolist())):
+        if c and commands[c][0]:
+            info(code).nic.add(commands[c][0])
+    return out

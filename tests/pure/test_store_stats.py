@@ -56,3 +56,41 @@ def test_column_statistics_equal_the_events(which, tmp_path):
         pred = compile_filter(text)
         rows = [i for i, ev in enumerate(events) if pred(store.event(i))]
         assert stats_of(store, len(store), rows).to_dict() == fed([events[i] for i in rows]), text
+
+
+def fed_devices(events) -> dict:
+    """The device map worked out event by event, from the events' own attributes:
+    a command counts for its device; a paired answer (result, ACK, NAK, NIC) says
+    the line its device answers on, an ACK or NAK counts as answered; a command
+    that got NIC names what the device does not know (§1.4.2)."""
+    from analyzer.tui.model.devices import DeviceInfo
+
+    out: dict = {}
+    for ev in events:
+        if ev.kind not in ("command", "result", "ack", "nak", "nic") or ev.device is None:
+            continue
+        if ev.kind != "command" and ev.transaction is None:
+            continue
+        info = out.setdefault(ev.device, DeviceInfo(ev.device))
+        if ev.kind == "command":
+            info.commands += 1
+            if ev.status == "nic" and ev.command:
+                info.nic.add(ev.command)
+            continue
+        info.lines.add(ev.line)
+        info.answered += ev.kind in ("ack", "nak")
+    return out
+
+
+@pytest.mark.parametrize("which", [*range(len(SAMPLES)), "hostile"])
+def test_the_device_map_from_the_columns_equals_the_map_fed_the_events(which, tmp_path):
+    from analyzer.tui.store_stats import devices_of
+
+    events = list(analyzer.open(*(hostile(tmp_path) if which == "hostile" else SAMPLES[which])))
+    store = EventStore()
+    store.append(events)
+    expected = fed_devices(events)
+    assert expected and devices_of(store, len(store)) == expected
+    assert list(devices_of(store, len(store))) == list(expected)   # in the order they first appear
+    assert devices_of(store, len(events) // 2) == fed_devices(events[:len(events) // 2])
+    assert any(info.nic for info in expected.values()) or which != 0

@@ -6,8 +6,9 @@ parts it is made of, each a class of its own module:
 - ``Navigation`` (navigation.py): next error, pair, same device, marks, search
 - ``RowText`` (row_text.py): a row's cells and the time mode
 - ``Replay`` and ``Playback`` (replay.py): a replay's pace and position
-- ``DeviceMap`` (devices.py) and ``PositionPlots`` (plots.py), with ``Stats``
-  (analyzer/analysis/stats.py): what the shown events say
+- ``PositionPlots`` (plots.py), fed the events; the statistics (``Stats``,
+  analyzer/analysis/stats.py) and the device map (``DeviceInfo``, devices.py),
+  worked out from the store's columns when asked (analyzer/tui/store_stats.py)
 
 The widgets only read them; tests/pure checks them without a screen.
 """

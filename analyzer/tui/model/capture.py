@@ -23,8 +23,8 @@ from dissectors.event import Event
 from ...analysis.stats import Stats, checksum_problem
 from ..detail import DetailNode, detail as detail_tree
 from ..store import EventStore, EventsView
-from ..store_stats import stats_of
-from .devices import DeviceInfo, DeviceMap
+from ..store_stats import devices_of, stats_of
+from .devices import DeviceInfo
 from .filter import FilterView
 from .follow import Follow, Marks
 from .navigation import Navigation
@@ -52,7 +52,7 @@ class CaptureModel:
         self.replay = Replay(self)
         self.checksum_errors = 0                  # shown events with a checksum problem (the status line's)
         self._stats: tuple | None = None          # (what it was computed for, the Stats)
-        self.device_map = DeviceMap()
+        self._devices: tuple | None = None        # (shown, the device map)
         self.plots = PositionPlots()
         self._cache: dict[int, Event] = {}
 
@@ -64,7 +64,12 @@ class CaptureModel:
 
     @property
     def devices(self) -> dict[str, DeviceInfo]:
-        return self.device_map.devices
+        """The device map of the shown events, from the store's columns
+        (``store_stats.devices_of``), worked out when asked and kept until more
+        events are shown."""
+        if self._devices is None or self._devices[0] != self.shown:
+            self._devices = (self.shown, devices_of(self.store, self.shown))
+        return self._devices[1]
 
     @property
     def series(self) -> dict[str, dict[str, Series]]:
@@ -119,16 +124,18 @@ class CaptureModel:
         """Store and show settled events (wire order). Returns how many rows became visible."""
         before = self.row_count
         start = len(self.store)
-        self.store.append(batch)
-        self._show(batch, start)
+        devices = self.store.append(batch)
+        self._show(batch, start, devices)
         return self._grew(before)
 
-    def _show(self, events: list[Event], start: int) -> None:
-        """``events`` (stored from index ``start`` on) are shown now: the parts learn of them."""
+    def _show(self, events: list[Event], start: int, devices: list[str | None] | None = None) -> None:
+        """``events`` (stored from index ``start`` on; ``devices``, their devices) are
+        shown now: the parts learn of them."""
         self.shown = start + len(events)
+        if devices is None:
+            devices = [ev.device for ev in events]
         self.checksum_errors += sum(1 for ev in events if ev.problems and checksum_problem(ev))
-        self.device_map.add(events)
-        self.plots.add(events)
+        self.plots.add(events, devices)
         self.filter.learn(events, start)
 
     def set_unsettled(self, held: list[Event]) -> int:
@@ -155,7 +162,6 @@ class CaptureModel:
         if k < n:
             self.shown = 0
             self.checksum_errors = 0
-            self.device_map = DeviceMap()
             self.plots = PositionPlots()
             self._cache.clear()
             self.filter.forget()

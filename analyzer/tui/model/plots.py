@@ -40,18 +40,22 @@ class PositionPlots:
     def __init__(self) -> None:
         self.series: dict[str, dict[str, Series]] = {}
 
-    def add(self, events) -> None:
-        for ev in events:
+    def add(self, events, addresses=None) -> None:
+        """``events``, and ``addresses``, their devices when already known."""
+        for i, ev in enumerate(events):
             command = ev.command
             if command != "P" and command != "P?":   # most events: one test
                 continue
             fields = ev.fields
-            if not fields or "azimuth_deg" not in fields or ev.device is None:
+            if not fields or "azimuth_deg" not in fields:
+                continue
+            device = ev.device if addresses is None else addresses[i]
+            if device is None:
                 continue
             if ev.kind == COMMAND and command == "P":                  # go to (Table 11)
-                self._point(ev.device, "commanded", ev.t, fields)
+                self._point(device, "commanded", ev.t, fields)
             elif ev.kind == RESULT and command == "P?" and ev.transaction is not None:
-                self._point(ev.device, "reported", ev.t, fields)       # an unpaired answer says nothing
+                self._point(device, "reported", ev.t, fields)          # an unpaired answer says nothing
 
     def _point(self, addr: str, which: str, t: float | None, fields: dict) -> None:
         if t is None:
