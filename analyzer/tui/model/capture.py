@@ -23,7 +23,6 @@ from dissectors.event import Event
 from ...analysis.stats import Stats, checksum_problem
 from ..detail import DetailNode, detail as detail_tree
 from ..store import EventStore, EventsView
-from ..store_stats import devices_of, stats_of
 from .devices import DeviceInfo
 from .filter import FilterView
 from .follow import Follow, Marks
@@ -68,6 +67,7 @@ class CaptureModel:
         (``store_stats.devices_of``), worked out when asked and kept until more
         events are shown."""
         if self._devices is None or self._devices[0] != self.shown:
+            from ..store_stats import devices_of   # numpy: loaded when first asked, not with the screen
             self._devices = (self.shown, devices_of(self.store, self.shown))
         return self._devices[1]
 
@@ -84,6 +84,8 @@ class CaptureModel:
         key = (self.shown, id(view), None if view is None else len(view))
         if self._stats is None or self._stats[0] != key:
             import numpy as np
+
+            from ..store_stats import stats_of
             rows = None if view is None else np.frombuffer(view.tobytes(), dtype=np.int32)
             self._stats = (key, stats_of(self.store, self.shown, rows))
         return self._stats[1]

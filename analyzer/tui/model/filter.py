@@ -19,7 +19,6 @@ from dissectors.event import Event
 
 from ...analysis.filter import compile_filter
 from ..store import ERROR, is_error
-from ..store_filter import matching
 
 
 class FilterView:
@@ -63,6 +62,7 @@ class FilterView:
         pred = compile_filter(text) if text else None
         if pred is None:
             return None, shown, None
+        from ..store_filter import matching   # numpy: loaded when a filter first runs, not with the screen
         return pred, shown, matching(pred, store, 0, shown, progress=progress, cancelled=cancelled)
 
     def apply(self, text: str, pred, upto: int, view, store, shown: int, unsettled: list[Event]) -> None:
@@ -78,6 +78,7 @@ class FilterView:
         if upto > shown:   # a replay went back meanwhile
             view = array("i", view[:bisect_left(view, shown)])
             upto = shown
+        from ..store_filter import matching
         view.extend(matching(pred, store, upto, shown))
         self.view = view
         self.errors = error_rows(store, view, shown)
