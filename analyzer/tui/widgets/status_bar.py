@@ -5,20 +5,142 @@ errors, the doctor's findings, the filter, replay position and speed, follow
 state or "+N new", a running scan's progress or the feed's last warning
 (line 2). It only shows: it reads the model and what the app hands it, and
 has no messages of its own. Counts have thousands separators (8,671), as
-everywhere on the TUI."""
+everywhere on the TUI.
+
+It is two rows at any width: each line is made of parts with a rank (what a
+user needs to see first ranks highest; ``fit``). A line too long for the bar
+shortens its paths (keeping their ends), then, rank by rank from the lowest,
+shortens free texts (a note, a finding's title, the filter) with an ellipsis and
+leaves out parts (settings, the clock, skew, port names, the checksum count,
+rates); the lines' states, the recording, the counts, follow and "capture
+ended" stay, cropped last. A live tap's clock is redrawn once a second, and
+only while the bar is on screen; nothing else here runs on a timer."""
 
 from __future__ import annotations
 
 import time
 from collections import deque
+from dataclasses import dataclass
 
+from rich.cells import cell_len
 from rich.text import Text
+from textual.timer import Timer
 from textual.widgets import Static
 
 from ...styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
 from ...words import counted
 from ..feed import FeedBatch
 from ..model import CaptureModel
+
+ELLIPSIS = "…"
+SHORTEST = 8        # cells a shortened free text keeps at least (its ellipsis included)
+
+
+@dataclass
+class Part:
+    """A piece of a status line: ``head`` and ``tail`` as they are, ``free`` a
+    free text that may be shortened (cut at its end, or at its start for a path:
+    ``cut_start``); ``rank``: the higher, the later it is left out (MUST: never),
+    and its free text shortened (unless ``cut_rank`` says when: a path, which
+    keeps its file's name, early); ``sep``: what separates it from the part before."""
+    rank: int
+    head: str = ""
+    style: str = ""
+    free: str = ""
+    tail: str = ""
+    sep: str = "  "
+    cut_start: bool = False
+    sep_style: str | None = None     # the separator's style (None: the part's; PREVIOUS: the part before's)
+    cut_rank: int | None = None      # the rank at which the free text is shortened (None: ``rank``)
+
+    def __post_init__(self) -> None:
+        self.full = self.free
+        if self.cut_rank is None:
+            self.cut_rank = self.rank
+
+    def width(self, first: bool) -> int:
+        return cell_len(self.head) + cell_len(self.free) + cell_len(self.tail) + (0 if first else cell_len(self.sep))
+
+    def shorten(self, by: int) -> None:
+        """The free text ``by`` cells shorter (a negative ``by``: longer, up to
+        its whole), and no shorter than SHORTEST."""
+        now, whole = cell_len(self.free), cell_len(self.full)
+        self.free = _cut(self.full, min(whole, max(min(whole, SHORTEST), now - by)), self.cut_start)
+
+
+MUST = 9            # a part of this rank is never left out, only cropped
+PREVIOUS = "previous"
+
+
+def _cut(text: str, width: int, start: bool) -> str:
+    """``text`` in ``width`` cells with an ellipsis where it was cut (its start or its end)."""
+    if cell_len(text) <= width:
+        return text
+    chars = list(text)
+    if start:
+        while chars and cell_len("".join(chars)) > width - 1:
+            chars.pop(0)
+        return ELLIPSIS + "".join(chars).lstrip()
+    while chars and cell_len("".join(chars)) > width - 1:
+        chars.pop()
+    return "".join(chars).rstrip() + ELLIPSIS
+
+
+def _share_cut(group: list[Part], over: int) -> None:
+    """Shorten the free texts of ``group`` by ``over`` cells in all, the longest
+    first, so that they end as long as each other (two long port names keep as
+    much of each)."""
+    if over <= 0 or not group:
+        return
+    lengths = [cell_len(p.free) for p in group]
+    floors = [min(n, SHORTEST) for n in lengths]
+    level = max(lengths)
+    while level > 0 and sum(n - max(f, min(n, level)) for n, f in zip(lengths, floors)) < over:
+        level -= 1
+    for p, n, f in zip(group, lengths, floors):
+        p.shorten(n - max(f, min(n, level)))
+
+
+def fit(parts: list[Part], width: int | None) -> Text:
+    """The parts on one line of at most ``width`` cells (None: any). Rank by
+    rank from the lowest, while the line is too long: the free texts of that
+    (cut) rank are shortened, then the parts of that rank left out (the
+    rightmost first; never a MUST part);
+    a shortened text then takes back any room left; last, the line is cropped
+    with an ellipsis."""
+    parts = [p for p in parts if p.head or p.free or p.tail]
+
+    def over() -> int:
+        return sum(p.width(i == 0) for i, p in enumerate(parts)) - width
+    if width is not None and width > 0:
+        for rank in sorted({p.rank for p in parts} | {p.cut_rank for p in parts}):
+            if over() <= 0:
+                break
+            _share_cut([p for p in parts if p.cut_rank == rank and p.free], over())
+            for p in reversed([p for p in parts if p.rank == rank and rank < MUST]):
+                if over() <= 0:
+                    break
+                parts.remove(p)
+        for p in sorted((p for p in parts if p.free != p.full), key=lambda p: -p.rank):
+            if over() >= 0:
+                break
+            p.shorten(over())
+    spans: list[list[str]] = []   # [text, style]
+    for i, p in enumerate(parts):
+        text = p.head + p.free + p.tail
+        if i and p.sep_style == PREVIOUS:
+            spans[-1][0] += p.sep
+        elif i and p.sep_style is not None:
+            spans.append([p.sep, p.sep_style])
+        elif i:
+            text = p.sep + text   # in the part's span (a badge's margin)
+        spans.append([text, p.style])
+    line = Text(no_wrap=True, overflow="ellipsis")
+    for text, style in spans:
+        line.append(text, style=style)
+    if width is not None and width > 0 and line.cell_len > width:
+        line.truncate(width, overflow="ellipsis")
+    return line
 
 
 def _size(n: float) -> str:
@@ -42,6 +164,8 @@ class StatusBar(Static):
         self.ended = self.started        # when the capture ended (model.done)
         self.scan = ""                   # a filter or search running in a worker: its progress
         self._shown: Text | None = None
+        self._on_screen = False          # the main screen is showing (not under a full screen)
+        self._clock: Timer | None = None
 
     def batch(self, batch: FeedBatch) -> None:
         """A batch from the feed: the lines' state, and what it had to say."""
@@ -52,42 +176,86 @@ class StatusBar(Static):
 
     def capture_ended(self) -> None:
         self.ended = time.monotonic()
+        self._tick_clock()
+
+    # --------------------------------------------------------------- clock
+    def shown(self, on_screen: bool) -> None:
+        """The main screen is showing (True) or under a full screen (False): the
+        clock runs only while the bar can be seen."""
+        self._on_screen = on_screen
+        if on_screen:
+            self.redraw()
+        self._tick_clock()
+
+    def _tick_clock(self) -> None:
+        """A live tap's elapsed time changes once a second: the bar is redrawn
+        then, while it is on screen and the capture runs; nothing else ticks."""
+        if self._clock is not None:
+            self._clock.stop()
+            self._clock = None
+        if self.mode != "live" or self.model.done or not self._on_screen or not self.is_mounted:
+            return
+        elapsed = time.monotonic() - self.started
+        self._clock = self.set_timer(1.0 - elapsed % 1.0 + 0.005, self._clock_ticked, name="status clock")
+
+    def _clock_ticked(self) -> None:
+        self._clock = None
+        self.redraw()
+        self._tick_clock()
+
+    @property
+    def clock_running(self) -> bool:
+        return self._clock is not None
+
+    # -------------------------------------------------------------- drawing
+    def on_mount(self) -> None:
+        self._tick_clock()
+
+    def on_resize(self) -> None:
+        self.redraw()
 
     def redraw(self) -> None:
-        text = Text.assemble(self._wire(), "\n", self._events())
-        # refreshed ten times a second: an unchanged line is not redrawn (an ended
-        # capture's screen was repainted forever, a tenth of a core)
+        width = self.content_size.width or None
+        text = Text.assemble(fit(self._wire(), width), "\n", fit(self._events(), width),
+                             no_wrap=True, overflow="ellipsis")
+        # an unchanged line is not redrawn (an ended capture's screen was
+        # repainted forever, a tenth of a core)
         if text != self._shown:
             self._shown = text
-            self.update(text)
+            # its size is fixed (two rows, the screen's width): no layout, only
+            # the bar is repainted (a layout of the screen a second was most
+            # of what an idle live screen cost)
+            self.update(text, layout=False)
 
-    def _wire(self) -> Text:
+    def _wire(self) -> list[Part]:
         """Line 1: where the events come from."""
         m, b, live = self.model, self.last, self.mode == "live"
-        line = Text()
+        parts: list[Part] = []
         if not live:
-            line.append(self.source_name + "  ")
+            # a long path keeps its end, the file's name
+            parts.append(Part(6, free=self.source_name, cut_start=True, cut_rank=1))
             load = self._load()
             if load:
-                line.append(load + "  ", style="dim" if m.done else "bold")
+                parts.append(Part(8, load, style="dim" if m.done else "bold", sep_style=""))
         elif b is not None:
             for st in b.lines:
-                line.append(f"{st.line} ", style="bold")
-                line.append(f"{st.port}")
-                line.append(f" {st.state}", style=PORT_STATE_STYLE.get(st.state, "white"))
+                parts.append(Part(MUST, st.line, style="bold", sep_style=""))
+                parts.append(Part(4, free=st.port, cut_start=True, sep=" ", sep_style=PREVIOUS, cut_rank=1))
+                parts.append(Part(MUST, st.state, style=PORT_STATE_STYLE.get(st.state, "white"), sep=" "))
                 if not m.done:   # nothing is read once it ended
-                    line.append(f" {_size(st.rate)}/s")
-                line.append("  ")
-        line.append(b.settings if b is not None and b.settings else self.settings, style="dim")
+                    parts.append(Part(5, f"{_size(st.rate)}/s", sep=" "))
+        parts.append(Part(2, b.settings if b is not None and b.settings else self.settings, style="dim",
+                          sep_style=PREVIOUS if parts and not live else ""))
         if b is not None and b.skew:
-            line.append(f"  skew +{b.skew * 1000:.1f} ms", style="yellow")
+            parts.append(Part(3, f"skew +{b.skew * 1000:.1f} ms", style="yellow"))
         if b is not None and b.recording:
-            line.append(f"  ● REC {b.recording} {_size(b.recording_bytes)}", style="bold red")
+            parts.append(Part(MUST, "● REC ", style="bold red", free=b.recording, cut_start=True, cut_rank=1,
+                              tail=f" {_size(b.recording_bytes)}"))
         if live:   # how long the tap has run (a file's duration is in its stats)
             elapsed = (self.ended if m.done else time.monotonic()) - self.started
-            line.append(f"  {int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:{int(elapsed % 60):02d}",
-                        style="dim")
-        return line
+            parts.append(Part(3, f"{int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:"
+                                 f"{int(elapsed % 60):02d}", style="dim"))
+        return parts
 
     def _load(self) -> str:
         """A file: how much of it has been read, from the feed's batches: bytes
@@ -106,33 +274,34 @@ class StatusBar(Static):
             return f"{word} {_size(b.total)}"
         return f"{word} {100 * b.read // b.total}% · {_size(b.read)} of {_size(b.total)}"
 
-    def _events(self) -> Text:
+    def _events(self) -> list[Part]:
         """Line 2: what the events are, and what the screen is doing."""
         m = self.model
-        line = Text()
         errors = m.error_count
-        line.append(counted(m.shown + len(m.unsettled), "event"), style="bold")
-        line.append(f"  {counted(errors, 'error')}", style=SEVERITY_BADGE[ERROR] if errors else "")
-        line.append(f"  {m.checksum_errors:,} checksum")
+        parts = [Part(MUST, counted(m.shown + len(m.unsettled), "event"), style="bold"),
+                 Part(MUST, counted(errors, "error"), style=SEVERITY_BADGE[ERROR] if errors else ""),
+                 Part(4, f"{m.checksum_errors:,} checksum")]
         problems = [f for f in m.findings if f.severity != INFO]
         if problems:
             worst = ERROR if any(f.severity == ERROR for f in problems) else WARNING
-            line.append(f"  ⚠ {counted(len(problems), 'finding')} (w): {problems[0].title}",
-                        style=SEVERITY_BADGE[worst])
+            parts.append(Part(6, f"⚠ {counted(len(problems), 'finding')} (w): ", free=problems[0].title,
+                              style=SEVERITY_BADGE[worst]))
         if m.filter_text:
-            line.append(f"  filter: {m.filter_text} ({m.row_count:,} shown)", style="cyan")
+            parts.append(Part(7, "filter: ", free=m.filter_text, tail=f" ({m.row_count:,} shown)", style="cyan"))
         pb = m.replay.playback
         if pb is not None:
             speed = "max" if pb.speed == 0 else f"{pb.speed:g}×"
-            line.append(f"  replay {'▶' if pb.playing else '⏸'} {speed} at {pb.position:.1f} s", style="bold")
+            parts.append(Part(8, f"replay {'▶' if pb.playing else '⏸'} {speed} at {pb.position:.1f} s",
+                              style="bold"))
         if m.follow:
-            line.append("  FOLLOW", style="bold green")
+            parts.append(Part(8, "FOLLOW", style="bold green"))
         elif m.new_while_away:
-            line.append(f"  +{m.new_while_away:,} new (End follows)", style="bold yellow")
+            parts.append(Part(8, f"+{m.new_while_away:,} new", style="bold yellow"))
+            parts.append(Part(3, "(End follows)", style="bold yellow", sep=" "))
         if m.done and self.mode == "live":
-            line.append("  capture ended", style="red")
+            parts.append(Part(MUST, "capture ended", style="red"))
         if self.scan:
-            line.append(f"  {self.scan}", style="bold cyan")
+            parts.append(Part(7, free=self.scan, style="bold cyan"))
         elif self.messages:
-            line.append(f"  {self.messages[-1]}", style="italic")
-        return line
+            parts.append(Part(5, free=" ".join(self.messages[-1].splitlines()), style="italic"))
+        return parts
