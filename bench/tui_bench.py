@@ -11,13 +11,16 @@ headless (Textual's Pilot) and prints:
      the background (a key meanwhile, the whole filter) and Esc stopping one
   3. live tap of two saturated 115200-baud ptys: events shown vs events on the
      wire (dropped?), and how far the screen is behind the wire (p50/p95/max)
+  4. (--idle SECONDS, alone) `gimbalscope live` on two quiet ptys in a terminal
+     of its own: the share of a core it uses while nothing arrives
 
 Targets: first screen < 1 s; loading >= 1.5x as fast as decode --format jsonl;
 peak RSS <= 150 bytes per event at 1M events and within 2 GB at 10M; keys < 200
-ms at 10M; live no drops and at most 250 ms behind.
+ms at 10M; live no drops and at most 250 ms behind; idle live <= 1 % of a core.
 
     python3 bench/tui_bench.py [--events 1000000] [--live-seconds 10] [--no-live]
     python3 bench/tui_bench.py --events 10000000 --no-live   # makes a 10M recording first (minutes)
+    python3 bench/tui_bench.py --idle 20                    # the idle live TUI's CPU share over 20 s
 """
 
 from __future__ import annotations
@@ -304,6 +307,68 @@ def live_figures(seconds: float) -> None:
           f"over {len(lags):,} events (target <= 250 ms)")
 
 
+def idle_figures(seconds: float) -> None:
+    """``gimbalscope live`` on two quiet ptys, in a terminal of its own (a pty,
+    as a user's): the share of a core the process uses while nothing arrives, from
+    its CPU time (/proc/PID/stat utime + stime) over ``seconds`` after it settled."""
+    import fcntl
+    import pty
+    import struct
+    import subprocess
+    import termios
+
+    lines = []
+    for _ in range(2):
+        m, s = os.openpty()
+        tty.setraw(s)
+        lines.append((m, s, os.ttyname(s)))
+    term_m, term_s = pty.openpty()
+    fcntl.ioctl(term_s, termios.TIOCSWINSZ, struct.pack("HHHH", SIZE[1], SIZE[0], 0, 0))
+    env = dict(os.environ, TERM="xterm-256color", COLUMNS=str(SIZE[0]), LINES=str(SIZE[1]))
+    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "live", lines[0][2], lines[1][2]],
+                            stdin=term_s, stdout=term_s, stderr=term_s, env=env, cwd=ROOT, start_new_session=True)
+    os.close(term_s)
+    stop = threading.Event()
+
+    def drain() -> None:   # the terminal: read what the TUI draws, so that it never waits to write
+        while not stop.is_set():
+            try:
+                if not os.read(term_m, 65536):
+                    return
+            except OSError:
+                return
+    reader = threading.Thread(target=drain, daemon=True)
+    reader.start()
+    tick = os.sysconf("SC_CLK_TCK")
+
+    def cpu() -> float:
+        with open(f"/proc/{proc.pid}/stat") as f:
+            fields = f.read().rpartition(")")[2].split()
+        return (int(fields[11]) + int(fields[12])) / tick   # utime, stime (fields 14 and 15)
+    try:
+        time.sleep(5.0)   # started, first screen drawn
+        if proc.poll() is not None:
+            raise SystemExit(f"gimbalscope live ended early (status {proc.returncode})")
+        c0, t0 = cpu(), time.monotonic()
+        time.sleep(seconds)
+        c1, t1 = cpu(), time.monotonic()
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(5)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+        stop.set()
+        os.close(term_m)
+        for m, s, _name in lines:
+            os.close(m)
+            os.close(s)
+    share = 100 * (c1 - c0) / (t1 - t0)
+    print(f"4. idle live TUI: gimbalscope live on two quiet ptys, {SIZE[0]}x{SIZE[1]} terminal: {share:.2f} % of a "
+          f"core over {t1 - t0:.0f} s ({c1 - c0:.2f} s of CPU; target <= 1 %)")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--events", type=int, default=1_000_000)
@@ -312,11 +377,16 @@ def main() -> None:
     ap.add_argument("--feed-ptys", nargs=2, type=int, help=argparse.SUPPRESS)   # the wire process
     ap.add_argument("--view-figures", help=argparse.SUPPRESS)                  # the view process
     ap.add_argument("--no-live", action="store_true", help="skip the live figures")
+    ap.add_argument("--idle", type=float, metavar="SECONDS",
+                    help="only the idle live TUI's CPU share, measured over SECONDS (e.g. 20)")
     ap.add_argument("--seed", type=int, default=5, help=argparse.SUPPRESS)
     ap.add_argument("--start", type=float, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.feed_ptys:
         feed_ptys(args.feed_ptys, args.live_seconds, args.seed, args.start)
+        return
+    if args.idle:
+        idle_figures(args.idle)
         return
     if args.view_figures:
         import json

@@ -47,11 +47,13 @@ from .base import Source
 PARITIES = {"N": serial.PARITY_NONE, "E": serial.PARITY_EVEN, "O": serial.PARITY_ODD,
             "M": serial.PARITY_MARK, "S": serial.PARITY_SPACE}
 TICK = 0.05          # seconds between idle ticks
+READ_WAIT = 0.25     # seconds a port's read waits for a byte before its reader looks for stop (a read
+                     # returns at its first byte: this is only how long a quiet port's reader sleeps)
 REOPEN_EVERY = 0.5   # seconds between attempts to reopen a vanished port
 QUEUE_BYTES = 1 << 20          # read and not yet taken by the capture: the most held
 BEHIND_BYTES = 256 << 10       # more waiting than decoding clears in a fraction of a second
 CAUGHT_UP_BYTES = 16 << 10     # back to decoding once the backlog is this small
-JOIN_SECONDS = 1.0             # a reader ends within one read timeout (TICK) of stop
+JOIN_SECONDS = 1.0             # a reader ends within one read timeout (READ_WAIT) of stop
 
 
 class UndecodedChunk(Chunk):
@@ -104,7 +106,7 @@ def open_port(url: str, baud: int, data_bits: int, parity: str, stop_bits: float
         raise CaptureError(f"{url}: no such serial port")
     try:
         kw = dict(baudrate=baud, bytesize=data_bits, parity=PARITIES[parity.upper()], stopbits=stop_bits,
-                  timeout=TICK)
+                  timeout=READ_WAIT)
         if not is_url:
             kw["exclusive"] = True   # refuse a port another program holds
         return serial.serial_for_url(url, **kw)

@@ -19,11 +19,15 @@ from textual import on
 from textual.app import App
 from textual.binding import Binding
 from textual.message import Message
+from textual.timer import Timer
 
 from .feed import Feed, FeedBatch
 from .model import CaptureModel
 from .screens.capture import CaptureScreen
 from .widgets import EventList, RecordControl
+
+
+PACE = 0.1   # seconds between a playing replay's steps
 
 
 class FeedMessage(Message):
@@ -84,6 +88,7 @@ class GimbalscopeApp(App):
         self.mode = mode                 # live, replay, view
         self.keymap = keymap or {}       # binding id -> keys (--keymap), as the help screen shows them
         self.last: FeedBatch | None = None
+        self._pace: Timer | None = None  # a replay's steps (``_tick``), running only while it plays
         self.main = CaptureScreen(model, mode=mode, source=source, settings=settings, record_path=record_path)
         self.status_bar = self.main.status_bar
 
@@ -126,7 +131,10 @@ class GimbalscopeApp(App):
     def _start_feed(self) -> None:
         self.feed = self._feed_factory(self._deliver)
         self.feed.start()
-        self.set_interval(0.1, self._tick)
+        # nothing ticks while nothing changes: the screen moves on the feed's
+        # messages and on keys; a replay is paced only while it plays
+        self._pace = self.set_interval(PACE, self._tick, pause=True, name="replay pace")
+        self._pace_while_playing()
         self.main.refresh_status()
 
     # ------------------------------------------------------------ the feed
@@ -146,11 +154,35 @@ class GimbalscopeApp(App):
             self.status_bar.capture_ended()
         self.main.rows_changed()
         self.main.refresh_status()
+        self._capture_changed()
+        if b.done:
+            self._pace_while_playing()
+
+    def _capture_changed(self) -> None:
+        """A full screen on top (statistics, plots, findings) is redrawn when the
+        capture has changed, not on a timer."""
+        changed = getattr(self.screen, "capture_changed", None)
+        if changed is not None:
+            changed()
 
     def _tick(self) -> None:
+        """A replay's pace: the rows up to the playback's position, and the position."""
         if self.model.replay.playback is not None and self.model.replay.advance(time.monotonic()):
             self.main.rows_changed()
+            self._capture_changed()
         self.main.refresh_status()
+        self._pace_while_playing()
+
+    def _pace_while_playing(self) -> None:
+        """The pace runs while a replay plays; at full speed (``--speed max``) only
+        until every event of the loaded file is shown."""
+        pace, pb, m = self._pace, self.model.replay.playback, self.model
+        if pace is None:
+            return
+        if pb is not None and pb.playing and not (pb.speed == 0 and m.done and m.shown >= len(m.store)):
+            pace.resume()
+        else:
+            pace.pause()
 
     @on(RecordControl.Toggled)
     def _record_toggled(self, message: RecordControl.Toggled) -> None:
@@ -238,6 +270,7 @@ class GimbalscopeApp(App):
             replay.seek(amount)
             self.main.rows_changed()
         self.main.refresh_status()
+        self._pace_while_playing()
 
     def action_cancel_scan(self) -> None:
         """Esc: stop a filter or search that is still running."""

@@ -40,6 +40,7 @@ MAX_BATCH = 5_000
 LIVE_INTERVAL = 0.03
 FILE_INTERVAL = 0.25
 RATE_BUCKET = 0.05   # seconds: the line rate is summed over the last second in buckets this long
+IDLE_CHECK = 0.25    # seconds: how often a quiet capture's state (rates, ports) is compared with the screen's
 
 
 @dataclass
@@ -87,6 +88,7 @@ class Feed(Listener):
         self._pending: list[Event] = []
         self._last = time.monotonic()
         self._sent_any = False
+        self._state: tuple | None = None     # what the last batch reported beside its events (see _send)
         self._warnings: list[str] = []
         self._findings: list | None = None
         self.recorder = recorder             # --record: made (and checked) before the screen opens
@@ -182,10 +184,15 @@ class Feed(Listener):
         now = time.monotonic()
         pending = self._pending
         # the first events go out at once (the first screen), then at most every
-        # interval; a file loading flat out sends at most MAX_BATCH events a message
-        if now - self._last >= self.interval or (pending and not self._sent_any) or len(pending) >= MAX_BATCH:
+        # interval; a file loading flat out sends at most MAX_BATCH events a message.
+        # A quiet line's idle ticks send nothing unless what the screen shows has
+        # changed (a rate falling to 0, a port lost), looked at every IDLE_CHECK:
+        # an idle screen is not woken
+        news = pending or self._warnings or self._findings is not None
+        if now - self._last >= (self.interval if news else max(self.interval, IDLE_CHECK)) \
+                or (pending and not self._sent_any) or len(pending) >= MAX_BATCH:
             self._sent_any = self._sent_any or bool(pending)
-            self._send()
+            self._send(changed_only=True)
             self._last = now
 
     def on_stop(self) -> None:
@@ -203,15 +210,25 @@ class Feed(Listener):
             st.state = state.get(line, st.state)
         return [LineStatus(s.line, s.port, s.state, s.bytes, s.rate) for s in self.lines.values()]
 
-    def _send(self, done: bool = False, error: str | None = None) -> None:
+    def _send(self, done: bool = False, error: str | None = None, *, changed_only: bool = False) -> bool:
+        """Deliver a batch; with ``changed_only``, only if it holds events, warnings
+        or findings, or the state it reports differs from the last one delivered.
+        Returns whether it delivered."""
         path = self.recording
         size = os.path.getsize(path) if path and os.path.exists(path) else 0
+        unsettled = [] if done else self.runner.unsettled()
+        status, skew, settings, read = self._status(), self.runner.skew, self.runner.serial_settings, self._read()
+        state = ([id(e) for e in unsettled], [(s.state, s.rate) for s in status], skew, path, size, settings, read)
+        if changed_only and not (self._pending or self._warnings or self._findings is not None) \
+                and state == self._state:
+            return False
+        self._state = state
         events, self._pending = self._pending, []
         warnings, self._warnings = self._warnings, []
         findings, self._findings = self._findings, None
-        self.deliver(FeedBatch(events, [] if done else self.runner.unsettled(), self._status(),
-                               self.runner.skew, path, size, warnings, findings, done, error,
-                               self.runner.serial_settings, *self._read()))
+        self.deliver(FeedBatch(events, unsettled, status, skew, path, size, warnings, findings, done, error,
+                               settings, *read))
+        return True
 
     def _read(self) -> tuple[int, int | None]:
         """Bytes of the input read so far, of its size (None: it has none)."""

@@ -20,6 +20,9 @@ from ..widgets.prompt import Prompt
 # Filters and searches over more rows than this run in a worker thread, with
 # progress on the status line and Esc to stop them.
 BACKGROUND_ROWS = 50_000
+# seconds: following a busy line, how often the detail, hex and timeline panes
+# catch up with the moving selection
+DETAIL_EVERY = 0.2
 
 
 def filtered_out(number: int, which: str = "") -> str:
@@ -44,7 +47,7 @@ class CaptureScreen(Screen):
         self.goto_bar = GotoBar(id="goto")
         self.record = RecordControl(record_path)
         self.scan = BackgroundScan()
-        self._detail_due = False   # follow mode: the lower panes are refreshed on a timer
+        self._detail_due = False   # following: the lower panes catch up on a timer (_detail_later)
 
     def compose(self) -> ComposeResult:
         yield self.status_bar
@@ -62,7 +65,12 @@ class CaptureScreen(Screen):
 
     def on_mount(self) -> None:
         self.event_list.focus()
-        self.set_interval(0.2, self._catch_up_detail)
+
+    def on_screen_suspend(self) -> None:
+        self.status_bar.shown(False)    # under a full screen: its clock stops
+
+    def on_screen_resume(self) -> None:
+        self.status_bar.shown(True)
 
     def refresh_status(self) -> None:
         self.status_bar.scan = self.scan.text
@@ -82,9 +90,16 @@ class CaptureScreen(Screen):
                 # following a busy line the selection moves with every batch; rebuilding
                 # the detail tree each time kept the screen's thread busy and the list
                 # fell behind the wire: the lower panes catch up five times a second
-                self._detail_due = True
+                self._detail_later()
             else:
                 self.show_selected(lst.selected)
+
+    def _detail_later(self) -> None:
+        """Following: the lower panes catch up DETAIL_EVERY seconds from now (one
+        timer at a time, and none while the selection stays)."""
+        if not self._detail_due:
+            self._detail_due = True
+            self.set_timer(DETAIL_EVERY, self._catch_up_detail, name="detail catch-up")
 
     def _catch_up_detail(self) -> None:
         if self._detail_due:
@@ -96,7 +111,7 @@ class CaptureScreen(Screen):
         if self.model.follow:
             # following, the cursor moves with every batch: the lower panes catch
             # up on their timer (``_catch_up_detail``), not once a batch
-            self._detail_due = True
+            self._detail_later()
             return
         self.show_selected(message.number)
 
@@ -118,6 +133,7 @@ class CaptureScreen(Screen):
     @on(EventList.Navigated)
     def _navigated(self) -> None:
         self.model.following.stop()
+        self.refresh_status()
 
     @on(DetailTree.Jump)
     def _jump(self, message: DetailTree.Jump) -> None:
@@ -146,6 +162,7 @@ class CaptureScreen(Screen):
         self.model.following.stop()
         if self.event_list.go_to(number):
             self.event_list.focus()
+        self.refresh_status()
 
     def jump(self, to: str, step: int) -> None:
         """To the next (step 1) or previous (-1) error, partner, event of the

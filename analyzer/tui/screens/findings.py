@@ -6,14 +6,14 @@ from __future__ import annotations
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.binding import Binding
-from textual.screen import Screen
 from textual.widgets import Footer
 
 from ...styles import INFO, SEVERITY_STYLE
 from ..model import CaptureModel
+from .redraw import Redrawn
 
 
-class FindingsScreen(Screen):
+class FindingsScreen(Redrawn):
     """The wiring doctor's findings, updated live; Enter on an evidence line goes
     to that event (analyzer.analysis.doctor)."""
 
@@ -31,8 +31,7 @@ class FindingsScreen(Screen):
         yield Footer()
 
     def on_mount(self) -> None:
-        self.redraw()
-        self.set_interval(1.0, self.redraw)
+        super().on_mount()
         self.query_one("#findings").focus()
 
     def redraw(self) -> None:

@@ -6,10 +6,10 @@ from __future__ import annotations
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.containers import VerticalScroll
-from textual.screen import Screen
 from textual.widgets import Footer, Static
 
 from ..model import CaptureModel
+from .redraw import Redrawn
 from .back import BACK
 
 
@@ -54,7 +54,7 @@ def plot(series: dict, width: int, height: int) -> Text:
     return out
 
 
-class PlotScreen(Screen):
+class PlotScreen(Redrawn):
     """Commanded (go-to) vs reported (position query) azimuth and elevation per device."""
 
     BINDINGS = BACK
@@ -66,10 +66,6 @@ class PlotScreen(Screen):
     def compose(self) -> ComposeResult:
         yield VerticalScroll(id="plots")
         yield Footer()
-
-    def on_mount(self) -> None:
-        self.redraw()
-        self.set_interval(1.0, self.redraw)
 
     def redraw(self) -> None:
         box = self.query_one("#plots", VerticalScroll)

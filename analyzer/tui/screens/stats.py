@@ -1,6 +1,6 @@
 """The statistics screen (``S``): the summary and the per-command and per-device
 tables of ``gimbalscope stats``, in its words, the ACK latency histogram, and the
-device map, refreshed once a second. With a filter, the figures are those of the
+device map, redrawn when the capture has changed, at most once a second. With a filter, the figures are those of the
 rows it shows (computed from the store's columns: analyzer/tui/store_stats.py)."""
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ from rich.table import Table
 from rich.text import Text
 from textual.app import ComposeResult
 from textual.containers import VerticalScroll
-from textual.screen import Screen
 from textual.widgets import Footer, Static
 
 from ...listeners.stats import counts_table, summary
 from ...output import fmt_seconds
 from ..model import CaptureModel
 from .back import BACK
+from .redraw import Redrawn
 
 
 def histogram(model: CaptureModel, width: int = 50) -> Text:
@@ -55,7 +55,7 @@ def device_map(model: CaptureModel) -> Table:
     return t
 
 
-class StatsScreen(Screen):
+class StatsScreen(Redrawn):
     BINDINGS = BACK
 
     def __init__(self, model: CaptureModel) -> None:
@@ -71,9 +71,8 @@ class StatsScreen(Screen):
             yield Static(id="devices")
         yield Footer()
 
-    def on_mount(self) -> None:
+    def redraw(self) -> None:
         self.refresh_stats()
-        self.set_interval(1.0, self.refresh_stats)
 
     def refresh_stats(self) -> None:
         m = self.model
