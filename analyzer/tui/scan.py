@@ -8,7 +8,6 @@ a cancelled scan returns None and changes nothing.
 
 from __future__ import annotations
 
-from array import array
 from typing import Callable
 
 STEP = 20_000   # events between progress reports and cancel checks

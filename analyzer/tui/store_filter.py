@@ -36,7 +36,8 @@ import numpy as np
 from dissectors.event import COMMAND, NO_FIELDS, NO_PROBLEMS, RESULT
 
 from ..analysis.filter import FIELD_NAMES
-from .scan import STEP, Cancelled
+from . import scan
+from .scan import Cancelled
 from .store import CHECKSUM_BAD, CHECKSUM_OK, FRAMED, KINDS, RETRANSMISSION, STATUSES, UNTIMED, EventStore
 
 _OPS = {"==": np.equal, "!=": np.not_equal, "<": np.less, ">": np.greater, "<=": np.less_equal,
@@ -204,14 +205,15 @@ def matching(pred: Callable, store: EventStore, start: int, stop: int, *,
     if len(rows):
         total = len(rows)
         event = store.event
-        for a in range(0, total, STEP):
+        step = scan.STEP
+        for a in range(0, total, step):
             if cancelled is not None and cancelled():
                 raise Cancelled
-            chunk = rows[a:a + STEP]
+            chunk = rows[a:a + step]
             picked = [r for r in chunk.tolist() if pred(event(start + r))]
             sure[picked] = True
             if progress is not None:
-                progress(min(total, a + STEP), total)
+                progress(min(total, a + step), total)
     out = array("i")
     out.frombytes((np.flatnonzero(sure) + start).astype(np.int32).tobytes())
     return out
