@@ -287,7 +287,8 @@ class StatusBar(Static):
             parts.append(Part(6, f"⚠ {counted(len(problems), 'finding')} (w): ", free=problems[0].title,
                               style=SEVERITY_BADGE[worst]))
         if m.filter_text:
-            parts.append(Part(7, "filter: ", free=m.filter_text, tail=f" ({m.row_count:,} shown)", style="cyan"))
+            shown = f" ({m.row_count:,} shown, {counted(m.shown_error_count, 'error')})"
+            parts.append(Part(7, "filter: ", free=m.filter_text, tail=shown, style="cyan"))
         pb = m.replay.playback
         if pb is not None:
             speed = "max" if pb.speed == 0 else f"{pb.speed:g}×"
