@@ -130,6 +130,7 @@ def view_figures(path: str) -> dict[str, float]:
                 await pilot.pause(0.05)
             figures["loaded"] = time.perf_counter() - t0
             figures["events"] = app.model.shown
+            figures["rss_loaded"] = vm_hwm_mb()   # the load's peak (the keys and filters below add theirs)
             await pilot.pause()
             lst = app.query_one(EventList)
             figures["end_follows"] = float(lst.selected == app.model.shown)
@@ -199,13 +200,15 @@ def view_report(path: str) -> None:
     n = f["events"]
     print(f"1. view of {n:,} events: first screen after {f['first']:.2f} s (target < 1 s); all loaded after "
           f"{f['loaded']:.1f} s ({n / f['loaded']:,.0f} events/s), decode --format jsonl of the same file "
-          f"{jsonl:.1f} s: {jsonl / f['loaded']:.2f}x as fast (target >= 1.5x); peak RSS {f['rss']:.0f} MB, "
-          f"{f['rss'] * 1024 * 1024 / n:.0f} bytes per event (target <= 150 at 1M, within 2 GB at 10M); End "
+          f"{jsonl:.1f} s: {jsonl / f['loaded']:.2f}x as fast (target: no slower, 1.0x); peak RSS once loaded "
+          f"{f['rss_loaded']:.0f} MB, {f['rss_loaded'] * 1024 * 1024 / n:.0f} bytes per event (target <= 150), "
+          f"after the keys and filters {f['rss']:.0f} MB; End "
           f"pressed while loading (at 90%) {'followed to the last event' if f['end_follows'] else 'did NOT follow'}")
     print(f"2. keys on {n:,} events (ms until the screen has refreshed; target < 200): home {f['home']:.0f}, "
           f"page down {f['pagedown']:.0f}, next error {f['next_error']:.0f}, pair {f['pair']:.0f}, same device "
-          f"{f['same_device']:.0f}, end {f['end']:.0f}; filter 'status == \"nak\"' over every event "
-          f"{f['filter']:.0f} ({f['filter_rows']:,} rows; a key meanwhile handled after {f['key_while_filtering']:.0f}"
+          f"{f['same_device']:.0f}, end {f['end']:.0f}; filter 'status == \"nak\"' over every event, Enter to "
+          f"its rows on screen (target <= 1 s at 1M, <= 3 s at 10M) {f['filter']:.0f} ({f['filter_rows']:,} rows; "
+          f"a key meanwhile handled after {f['key_while_filtering']:.0f}"
           f"{'' if f['filter_busy'] else ' (the filter had ended)'}); "
           f"Esc stopped a running filter in {f['cancel']:.0f}{'' if f['cancelled'] else ' (NOT stopped)'}")
 
