@@ -659,15 +659,23 @@ def _record(op: int, body: bytes) -> bytes:
     return RECORD.pack(op, len(body)) + body
 
 
-def _diagnose(payload: bytes, need_t: bool | None) -> str:
-    """Why a message on a raw topic is not a gimbalscope raw chunk, in a few words
-    (said for the first such message only)."""
+def _json_object(payload: bytes) -> tuple[dict | None, str]:
+    """A message's JSON object, or None and why it is none."""
     try:
         msg = json.loads(payload)
     except (ValueError, RecursionError):
-        return "not JSON"
+        return None, "not JSON"
     if not isinstance(msg, dict):
-        return f"JSON {type(msg).__name__}, not an object"
+        return None, f"JSON {type(msg).__name__}, not an object"
+    return msg, ""
+
+
+def _diagnose(payload: bytes, need_t: bool | None) -> str:
+    """Why a message on a raw topic is not a gimbalscope raw chunk, in a few words
+    (said for the first such message only)."""
+    msg, why = _json_object(payload)
+    if msg is None:
+        return why
     data = msg.get("data")
     if not isinstance(data, str):
         return "no 'data' field" if data is None else "'data' is not a string"
@@ -692,12 +700,9 @@ def _diagnose(payload: bytes, need_t: bool | None) -> str:
 
 def _diagnose_reads(payload: bytes, need_t: bool | None) -> str:
     """Why a message on the reads topic is not a gimbalscope reads message."""
-    try:
-        msg = json.loads(payload)
-    except (ValueError, RecursionError):
-        return "not JSON"
-    if not isinstance(msg, dict):
-        return f"JSON {type(msg).__name__}, not an object"
+    msg, why = _json_object(payload)
+    if msg is None:
+        return why
     reads = msg.get("reads")
     if not isinstance(reads, list) or not reads:
         return "no 'reads' list" if reads is None else "'reads' is not a list of reads"

@@ -39,6 +39,17 @@ async def settle(pilot, app, until, seconds=HANG_GUARD, what=lambda app: ""):
         await pilot.pause(0.05)
 
 
+async def record_three_exchanges(pilot, app, ma: int, mb: int) -> None:
+    """The record key, three exchanges with 1.1.2 on the wire, the record key again."""
+    await pilot.press("r")
+    await settle(pilot, app, lambda a: a.last is not None and a.last.recording)
+    for _ in range(3):
+        exchange(ma, mb, dst=(1, 1, 2))
+    await settle(pilot, app, lambda a: sum(1 for e in a.model.events if e.dst == (1, 1, 2)) >= 3)
+    await pilot.press("r")
+    await settle(pilot, app, lambda a: a.last is not None and not a.last.recording)
+
+
 def selected(app) -> int | None:
     return app.query_one(EventList).selected
 
@@ -210,14 +221,7 @@ def test_live_follow_badge_and_record_toggle(tmp_path):
             await settle(pilot, app, lambda a: "+2 new" in str(a.status_bar.render()))
             await pilot.press("G")
             assert app.model.follow and selected(app) == app.model.row(app.model.row_count - 1).number
-            # record from now on, then stop
-            await pilot.press("r")
-            await settle(pilot, app, lambda a: a.last is not None and a.last.recording)
-            for _ in range(3):
-                exchange(ma, mb, dst=(1, 1, 2))
-            await settle(pilot, app, lambda a: sum(1 for e in a.model.events if e.dst == (1, 1, 2)) >= 3)
-            await pilot.press("r")
-            await settle(pilot, app, lambda a: a.last is not None and not a.last.recording)
+            await record_three_exchanges(pilot, app, ma, mb)   # record from now on, then stop
         stop_feed(app)
 
     run(drive())

@@ -4,7 +4,7 @@
 from analyzer.capture import open_live
 from analyzer.tui.run import make_app, stop_feed
 from tests.integration.test_mcap import doctor, go_read, jsonl
-from tests.ui.test_pilot import SIZE, exchange, pty_pair, run, settle
+from tests.ui.test_pilot import SIZE, exchange, pty_pair, record_three_exchanges, run, settle
 
 
 def test_the_record_key_records_lean_with_the_tap_lean(tmp_path):
@@ -17,13 +17,7 @@ def test_the_record_key_records_lean_with_the_tap_lean(tmp_path):
         async with app.run_test(size=SIZE) as pilot:
             exchange(ma, mb)
             await settle(pilot, app, lambda a: a.model.row_count >= 2)
-            await pilot.press("r")
-            await settle(pilot, app, lambda a: a.last is not None and a.last.recording)
-            for _ in range(3):
-                exchange(ma, mb, dst=(1, 1, 2))
-            await settle(pilot, app, lambda a: sum(1 for e in a.model.events if e.dst == (1, 1, 2)) >= 3)
-            await pilot.press("r")
-            await settle(pilot, app, lambda a: a.last is not None and not a.last.recording)
+            await record_three_exchanges(pilot, app, ma, mb)
         stop_feed(app)
 
     run(drive())
