@@ -28,9 +28,9 @@ def scheme(text: str) -> str | None:
 
 
 def is_remote(text: str) -> bool:
-    """A URI that is not a local file (``hdfs://``, ``s3a://``, …)."""
-    s = scheme(text)
-    return s is not None and s != "file"
+    """A URI that is not a local file (``hdfs://``, ``s3a://``, …; ``file://HOST/``
+    is another machine's file)."""
+    return local_path(text) is None
 
 
 def local_path(text: str) -> str | None:

@@ -238,6 +238,7 @@ def test_a_master_that_cannot_be_used_is_one_line(tmp_path, master, said):
     ("hdfs://namenode.invalid:8020/fleet", "cannot write the dataset there"),
     ("ftp://example.invalid/fleet", "cannot write the dataset there"),
     ("file:///proc/fleet", "cannot make the dataset folder"),
+    ("file://otherhost/fleet", "cannot write the dataset there"),   # another machine's file
 ])
 def test_an_output_that_cannot_be_written_is_one_line(tmp_path, output, said):
     r = run_cli("export", SOCAT_LOG, "-o", output, "--spark", "local[1]")
@@ -250,3 +251,8 @@ def test_uris_without_spark_are_refused(tmp_path):
     assert r.returncode == 2 and "URIs (hdfs://, s3a://) are for --spark" in r.stderr
     r = run_cli("report", "s3a://bucket/fleet")
     assert r.returncode == 2 and "with --spark MASTER" in r.stderr
+    # file://HOST/ is another machine's file, not a local path
+    for args in (["export", SOCAT_LOG, "-o", "file://otherhost/fleet"], ["export", "file://otherhost/a.log", "-o",
+                                                                          tmp_path / "ds"]):
+        r = run_cli(*args)
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and "are for --spark" in r.stderr, r.stderr
