@@ -47,6 +47,11 @@ def local_path(text: str) -> str | None:
     return unquote(parts.path)
 
 
+def failure(e: BaseException) -> str:
+    """What a filesystem error (pyarrow's, which can run over several lines) says, on one line."""
+    return " ".join(str(e).split()) or type(e).__name__
+
+
 def arrow_filesystem(uri: str):
     """(pyarrow filesystem, path in it) for a remote URI. Raises ``OSError`` or
     ``ValueError`` (pyarrow's, or ``ArrowInvalid``) when the filesystem cannot be
@@ -59,7 +64,7 @@ def arrow_filesystem(uri: str):
         return fs.FileSystem.from_uri(arrow_uri)
     except OSError as e:
         if s == "hdfs":   # pyarrow reaches HDFS through Hadoop's own client library, in a JVM
-            raise OSError(f"{' '.join(str(e).split())} (pyarrow's HDFS needs JAVA_HOME, HADOOP_HOME and "
+            raise OSError(f"{failure(e)} (pyarrow's HDFS needs JAVA_HOME, HADOOP_HOME and "
                           "CLASSPATH=$(hadoop classpath --glob) set)") from None
         raise
 

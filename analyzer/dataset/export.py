@@ -213,7 +213,7 @@ def staged(paths: tuple[str, ...]):
                 if mtime is not None:
                     os.utime(target, (mtime.timestamp(), mtime.timestamp()))
             except (OSError, ValueError) as e:
-                raise CaptureError(f"{path}: cannot read it: {' '.join(str(e).split())}") from None
+                raise CaptureError(f"{path}: cannot read it: {uris.failure(e)}") from None
             local.append(target)
         yield tuple(local)
     finally:

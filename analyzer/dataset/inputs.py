@@ -91,7 +91,7 @@ def _remote_listing(uri: str) -> list[str] | None:
             return None   # a file, or nothing: the export says which when it reads it
         found = filesystem.get_file_info(fs.FileSelector(path, allow_not_found=True))
     except (OSError, ValueError) as e:
-        raise UsageError(f"{uri}: cannot list it: {_one_line(e)}") from None
+        raise UsageError(f"{uri}: cannot list it: {uris.failure(e)}") from None
     base = folder.rstrip("/")
     names = sorted(f"{base}/{f.base_name}" for f in found if f.type == fs.FileType.File and _wanted(f.base_name)
                    and (not pattern or fnmatch.fnmatchcase(f.base_name, tail)))
@@ -120,7 +120,3 @@ def grouped(names: list[str]) -> list[tuple[str, ...]]:
             out.append(parts[stem])   # its place: where its first part is
         parts[stem].append((int(m.group("n")), name))
     return [tuple(n for _, n in sorted(c)) if isinstance(c, list) else c for c in out]
-
-
-def _one_line(e: BaseException) -> str:
-    return " ".join(str(e).split()) or type(e).__name__

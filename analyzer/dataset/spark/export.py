@@ -75,7 +75,7 @@ def check_output(root: str) -> None:
             f.write(b"")
         filesystem.delete_file(probe_path)
     except (OSError, ValueError, ImportError) as e:
-        raise OutputRefused(f"{root}: cannot write the dataset there: {one_line(e)}") from None
+        raise OutputRefused(f"{root}: cannot write the dataset there: {uris.failure(e)}") from None
 
 
 def _run(spark, jobs: list[Job], show_progress: bool) -> list[Outcome]:
