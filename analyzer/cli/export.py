@@ -28,7 +28,7 @@ import argparse
 import os
 import sys
 
-from ..dataset.export import Job, Outcome, export
+from ..dataset.export import Job, Outcome, export, make_dataset_folder
 from ..listeners.printer import NotePrinter
 from ..outfile import OutputRefused, show
 from ..runner import ERROR, WARNING, Note
@@ -95,10 +95,7 @@ def run(args: argparse.Namespace) -> int:
         outcomes = run_on_spark(args.spark, jobs, on_done=notes, show_progress=_progress_wanted())
         notes.close()
     else:
-        try:
-            os.makedirs(uris.local_path(root), exist_ok=True)
-        except OSError as e:
-            raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
+        make_dataset_folder(root)
         outcomes = run_jobs(args, jobs)
     exported = [o for o in outcomes if o.error is None]
     events = sum(o.rows.get("events", 0) for o in exported)

@@ -20,7 +20,7 @@ from .. import uris
 from ..capture import Options, open as open_capture
 from ..info import CaptureInfo
 from ..listeners.wiring_check import WiringCheck
-from ..outfile import show
+from ..outfile import OutputRefused, show
 from ..runner import Listener, TapRunner
 from ..sources import CaptureError
 from ..sources.meter import READS
@@ -220,17 +220,28 @@ def staged(paths: tuple[str, ...]):
         shutil.rmtree(folder, ignore_errors=True)
 
 
+def input_size(job: Job) -> int:
+    """Bytes of a job's input files (0 when a file is remote or missing: the job says)."""
+    try:
+        return sum(os.path.getsize(uris.local_path(p) or "") for p in job.paths)
+    except OSError:
+        return 0
+
+
+def make_dataset_folder(root: str) -> None:
+    """The local dataset folder ``root`` made if absent, or one line saying why not."""
+    try:
+        os.makedirs(uris.local_path(root), exist_ok=True)
+    except OSError as e:
+        raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
+
+
 class PoolMeter:
     """Bytes read of every job's inputs, from the jobs' reports (the progress
     bar's meter, analyzer/listeners/progress.py)."""
 
     def __init__(self, jobs: list[Job], reports) -> None:
-        self.sizes = {}
-        for job in jobs:
-            try:
-                self.sizes[job.index] = sum(os.path.getsize(uris.local_path(p) or "") for p in job.paths)
-            except OSError:
-                self.sizes[job.index] = 0
+        self.sizes = {job.index: input_size(job) for job in jobs}
         self.read = {job.index: 0 for job in jobs}
         self.reports = reports
 

@@ -29,7 +29,7 @@ from typing import Callable, Iterator
 from ... import uris
 from ...errors import OutputRefused
 from ...outfile import show
-from ..export import Job, Outcome, run_job
+from ..export import Job, Outcome, input_size, make_dataset_folder, run_job
 from .session import one_line, start
 
 OUTCOME_SCHEMA = "index long, outcome binary"
@@ -60,10 +60,7 @@ def check_output(root: str) -> None:
     any executor starts)."""
     local = uris.local_path(root)
     if local is not None:
-        try:
-            os.makedirs(local, exist_ok=True)
-        except OSError as e:
-            raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
+        make_dataset_folder(root)
         if not os.access(local, os.W_OK | os.X_OK):
             raise OutputRefused(f"{show(root)}: cannot write in the dataset folder: permission denied")
         return
@@ -81,7 +78,7 @@ def check_output(root: str) -> None:
 def _run(spark, jobs: list[Job], show_progress: bool) -> list[Outcome]:
     if not jobs:
         return []
-    largest_first = sorted(jobs, key=lambda job: -_size(job))
+    largest_first = sorted(jobs, key=lambda job: -input_size(job))
     rows = [(job.index, pickle.dumps(job)) for job in largest_first]
     # one job a partition: each capture is a task of its own
     frame = spark.sparkContext.parallelize(rows, len(rows)).toDF("index long, job binary")
@@ -112,20 +109,13 @@ def export_batches(batches: Iterator) -> Iterator:
                                          names=["index", "outcome"])
 
 
-def _size(job: Job) -> int:
-    try:
-        return sum(os.path.getsize(uris.local_path(p) or "") for p in job.paths)
-    except OSError:
-        return 0   # remote, or missing: the job says
-
-
 class _TaskMeter:
     """The progress bar's meter (analyzer/listeners/progress.py) for a Spark job:
     the inputs' bytes, counted done as Spark's tasks end."""
 
     def __init__(self, spark, jobs: list[Job]) -> None:
         self.tracker = spark.sparkContext.statusTracker()
-        self.bytes = sum(_size(job) for job in jobs) or len(jobs)
+        self.bytes = sum(input_size(job) for job in jobs) or len(jobs)
         self.tasks = len(jobs)
         self.finished = 0
 
