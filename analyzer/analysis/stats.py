@@ -28,8 +28,13 @@ KIND_ORDER = (COMMAND, ACK, NAK, NIC, RESULT, NOISE)   # the order reports list 
 
 def categories(ev: Event) -> list[str]:
     """The event's problem categories, each once, in order."""
+    return problem_categories(ev.problems)
+
+
+def problem_categories(problems) -> list[str]:
+    """The categories of a list of problems, each once, in order."""
     out: list[str] = []
-    for p in ev.problems:
+    for p in problems:
         info = getattr(p, "id", None)   # a plain string (an event built by hand) has none
         cat = info.text if info is not None else p.split(":", 1)[0]
         if cat not in out:

@@ -24,21 +24,10 @@ import numpy as np
 
 from dissectors.event import ACK, COMMAND, NAK, NOISE, P_NOISE, PENDING, RATE, RESULT
 
-from ..analysis.stats import _CHECKSUM_PROBLEMS, _LOG_STEP, Counts, Latency, Stats
+from ..analysis.stats import _CHECKSUM_PROBLEMS, _LOG_STEP, Counts, Latency, Stats, problem_categories
 from .store import CHECKSUM_BAD, KINDS, LINKED, RETRANSMISSION, STATUSES, UNTIMED, EventStore
 
 _K = {k: i for i, k in enumerate(KINDS)}
-
-
-def _categories(problems) -> list[str]:
-    """A problem list's categories, each once, in order (``stats.categories``)."""
-    out: list[str] = []
-    for p in problems:
-        info = getattr(p, "id", None)
-        cat = info.text if info is not None else p.split(":", 1)[0]
-        if cat not in out:
-            out.append(cat)
-    return out
 
 
 def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> Stats:
@@ -82,7 +71,7 @@ def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> St
     for i, problems in sorted(list(store.problems.items())):
         if i >= stop or (in_rows is not None and i not in in_rows):
             continue
-        cats = _categories(problems)
+        cats = problem_categories(problems)
         out.problems.update(cats)
         if any(c in _CHECKSUM_PROBLEMS for c in cats):
             checksum_rows.add(i)
