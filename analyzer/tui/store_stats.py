@@ -26,6 +26,7 @@ from dissectors.event import ACK, COMMAND, NAK, NOISE, P_NOISE, PENDING, RATE, R
 
 from ..analysis.stats import _CHECKSUM_PROBLEMS, _LOG_STEP, Counts, Latency, Stats, problem_categories
 from .store import CHECKSUM_BAD, KINDS, LINKED, RETRANSMISSION, STATUSES, UNTIMED, EventStore
+from .store_filter import Columns
 
 _K = {k: i for i, k in enumerate(KINDS)}
 
@@ -44,13 +45,14 @@ def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> St
     if not n:
         return out
 
+    cols = Columns(store, 0, stop)   # each column copied once: the store goes on growing in another thread
+
     def col(name: str) -> np.ndarray:
-        a = getattr(store, name)[:stop]   # a copy: the store goes on growing in another thread
-        return np.frombuffer(a, dtype=a.typecode)[rows] if len(a) else np.zeros(0, a.typecode)
+        return cols.column(name)[rows]
 
     kind, line, flags = col("kind"), col("line"), col("flags")
     status, command, device = col("status"), col("command"), col("device")
-    end = np.frombuffer(store.end[:stop], dtype=store.end.typecode).astype(np.int64)
+    end = cols.column("end").astype(np.int64)
     size = (end - np.concatenate(([0], end[:-1])))[rows]
 
     for code, count in zip(*np.unique(kind, return_counts=True)):
@@ -93,11 +95,12 @@ def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> St
     linked = (flags & LINKED) != 0
     counted = (kind != _K[RATE]) & (kind != noise_code)
     out.orphans = int(np.count_nonzero(counted & ~linked & (kind != _K[COMMAND])))
-    _tables(out, store, stop, rows, kind, status, command, device, flags, counted & linked)
+    _tables(out, store, cols, rows, kind, status, command, device, flags, counted & linked)
     return out
 
 
-def _tables(out: Stats, store: EventStore, stop: int, rows, kind, status, command, device, flags, linked) -> None:
+def _tables(out: Stats, store: EventStore, cols: Columns, rows, kind, status, command, device, flags,
+            linked) -> None:
     """``by_command`` and ``by_device``: a command counts for its own id and
     device, an answer for its command's (the request's command column)."""
     if not linked.any():
@@ -109,8 +112,8 @@ def _tables(out: Stats, store: EventStore, stop: int, rows, kind, status, comman
     names = ["?" if v is None else v for v in ids]
     devices = ["?" if v is None else v for v in list(store._devices.values)]
     own = id_of[command]
-    request = np.frombuffer(store.request[:stop], dtype=store.request.typecode)[rows].astype(np.int64)
-    all_commands = np.frombuffer(store.command[:stop], dtype=store.command.typecode)
+    request = cols.column("request")[rows].astype(np.int64)
+    all_commands = cols.column("command")
     answered = np.where(request > 0, id_of[all_commands[np.maximum(request - 1, 0)]], own)
     is_command = kind == _K[COMMAND]
     cmd_key = np.where(is_command, own, answered)
@@ -140,7 +143,7 @@ def _tables(out: Stats, store: EventStore, stop: int, rows, kind, status, comman
         for code, count in Counter(bad.tolist()).items():
             counts_for(table, labels[code]).checksum_errors += count
 
-    latency = np.frombuffer(store.latency[:stop], dtype=np.float64)[rows]
+    latency = cols.column("latency")[rows]
     has = linked & ~is_command & ~np.isnan(latency)
     for which, kinds in (("ack_latency", (_K[ACK], _K[NAK])), ("result_latency", (_K[RESULT],))):
         pick = has & np.isin(kind, kinds)
@@ -183,10 +186,7 @@ def devices_of(store: EventStore, stop: int) -> dict:
     if not stop:
         return out
 
-    def col(name: str) -> np.ndarray:
-        a = getattr(store, name)[:stop]
-        return np.frombuffer(a, dtype=a.typecode)
-
+    col = Columns(store, 0, stop).column
     kind, device, flags, line = col("kind"), col("device"), col("flags"), col("line")
     names = list(store._devices.values)
     lines = list(store._lines.values)

@@ -92,7 +92,9 @@ def error_rows(store, view: array, shown: int) -> int:
     """How many of the rows ``view`` (store indices below ``shown``) are errors,
     from the store's flags column (copies: the arrays go on growing)."""
     import numpy as np
+
+    from ..store_filter import Columns
     if not len(view):
         return 0
-    flags = np.frombuffer(store.flags[:shown], dtype=np.uint8)
-    return int(np.count_nonzero(flags[np.array(view, dtype=np.int64)] & ERROR))
+    errors = Columns(store, 0, shown).flag(ERROR)
+    return int(np.count_nonzero(errors[np.array(view, dtype=np.int64)]))
