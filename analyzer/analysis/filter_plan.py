@@ -20,7 +20,7 @@ The closure stays the ground truth. A plan is a tree of
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Callable
 
 Plan = tuple | None
 
@@ -59,17 +59,3 @@ class Plans:
             return ("leaf", rp, test, "has", left.value, negate)
         return None
 
-
-def leaves(plan: Plan) -> list[tuple]:
-    """Every leaf of ``plan`` (for tests and for saying what runs where)."""
-    if plan is None or plan[0] == "const":
-        return []
-    if plan[0] == "leaf":
-        return [plan]
-    if plan[0] == "not":
-        return leaves(plan[1])
-    return [leaf for p in plan[1] for leaf in leaves(p)]
-
-
-def uses(plan: Plan, what: Any) -> bool:
-    return any(leaf[1][1] == what for leaf in leaves(plan))
