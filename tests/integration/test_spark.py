@@ -246,6 +246,13 @@ def test_an_output_that_cannot_be_written_is_one_line(tmp_path, output, said):
     assert r.stderr.count("\n") == 1 and said in r.stderr, r.stderr
 
 
+def test_a_path_that_is_no_dataset_is_refused_before_spark_starts(tmp_path):
+    r = run_cli("report", tmp_path / "nothing", "--spark", "local[1]")
+    assert r.returncode == 2
+    assert r.stderr == (f"gimbalscope: error: {tmp_path / 'nothing'}: no such dataset (make one with: "
+                        f"gimbalscope export CAPTURE... -o {tmp_path / 'nothing'})\n")   # no JVM said a word
+
+
 def test_uris_without_spark_are_refused(tmp_path):
     r = run_cli("export", "s3a://bucket/site.log", "-o", tmp_path / "ds")
     assert r.returncode == 2 and "URIs (hdfs://, s3a://) are for --spark" in r.stderr
