@@ -70,11 +70,12 @@ def spark_report(args: argparse.Namespace):
     from .. import uris
     from ..dataset.query import check_dataset
     from ..dataset.spark.report import build_on_spark
-    from ..dataset.spark.session import start
+    from ..dataset.spark.session import check, start
+    check(args.spark)
     local = uris.local_path(args.dataset)
     if local is not None:
         check_dataset(local)   # before Spark starts: a wrong path costs no JVM
-    spark = start(args.spark, "gimbalscope report")
+    spark = start(args.spark, "gimbalscope report", checked=True)
     try:
         return build_on_spark(spark, args.dataset, args.period, min_commands=args.min_commands)
     finally:

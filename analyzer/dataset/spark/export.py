@@ -30,7 +30,7 @@ from ... import uris
 from ...errors import OutputRefused
 from ...outfile import show
 from ..export import Job, Outcome, input_size, make_dataset_folder, run_job
-from .session import one_line, start
+from .session import check, one_line, start
 
 OUTCOME_SCHEMA = "index long, outcome binary"
 
@@ -39,11 +39,13 @@ def run_on_spark(master: str, jobs: list[Job], *, on_done: Callable[[Outcome], N
                  show_progress: bool = False, spark=None) -> list[Outcome]:
     """Export ``jobs`` on Spark (a session for ``master``, or ``spark`` when given);
     the outcomes in the jobs' order, each also to ``on_done`` as the job ends."""
-    if jobs:
-        check_output(jobs[0].root)
     own = spark is None
     if own:
-        spark = start(master, "gimbalscope export")
+        check(master)   # a master that cannot work is said before the output is made
+    if jobs:
+        check_output(jobs[0].root)
+    if own:
+        spark = start(master, "gimbalscope export", checked=True)
     try:
         outcomes = _run(spark, jobs, show_progress)
     finally:

@@ -90,14 +90,23 @@ def check_java() -> None:
                          "Debian and Ubuntu: apt-get install openjdk-17-jre-headless)")
 
 
-def start(master: str, app: str):
-    """A SparkSession for ``master``; raises ``UsageError`` with one line when
-    Spark cannot start."""
-    import pyspark   # ImportError: the spark extra (cli/main.py says what to install)
-    from pyspark.sql import SparkSession
+def check(master: str) -> None:
+    """Everything Spark needs that can be told without starting it: pyspark (an
+    ImportError: cli/main.py names the extra), a master that is one and can be
+    reached, Java. Each a ``UsageError`` of one line."""
+    import pyspark  # noqa: F401
 
     check_master(master)
     check_java()
+
+
+def start(master: str, app: str, *, checked: bool = False):
+    """A SparkSession for ``master`` (``check``-ed first, unless the caller has);
+    raises ``UsageError`` with one line when Spark cannot start."""
+    if not checked:
+        check(master)
+    from pyspark.sql import SparkSession
+
     # pyspark warns at import that it does not support pandas 3; nothing here uses pandas
     warnings.filterwarnings("ignore", message=".*PySpark does not yet fully support pandas.*")
     builder = (SparkSession.builder.master(master).appName(app)
