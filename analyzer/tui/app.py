@@ -144,7 +144,10 @@ class GimbalscopeApp(App):
 
     def on_feed_message(self, message: FeedMessage) -> None:
         b, m = message.batch, self.model
-        m.add(b.events, b.unsettled)
+        if b.chunk is not None:
+            m.add_chunk(b.chunk)
+        else:
+            m.add(b.events, b.unsettled)
         if b.findings is not None:
             m.findings = b.findings
         self.last = b

@@ -79,8 +79,14 @@ class DoctorApart:
         self.process = None
         self._stopped = threading.Event()
         self._ready = threading.Event()
+        self._lock = threading.Lock()   # a start and a stop from two threads (decode_apart.py)
 
     def start(self) -> bool:
+        """Start the process (not once stopped); False if no process can be had."""
+        with self._lock:
+            return not self._stopped.is_set() and self._start()
+
+    def _start(self) -> bool:
         import multiprocessing
         # spawn: a fresh interpreter (fork would copy the screen's threads mid-flight)
         ctx = multiprocessing.get_context("spawn")
@@ -101,6 +107,10 @@ class DoctorApart:
             child.close()
         threading.Thread(target=self._wait, args=(parent,), name="gimbalscope-doctor-wait", daemon=True).start()
         return True
+
+    @property
+    def stopped(self) -> bool:
+        return self._stopped.is_set()
 
     def deliver_to(self, done: Callable[[list | None, str | None], None]) -> None:
         self.done = done
@@ -123,7 +133,8 @@ class DoctorApart:
 
     def stop(self) -> None:
         """End the process if it still runs (the screen is closing)."""
-        self._stopped.set()
+        with self._lock:
+            self._stopped.set()
         self._ready.set()
         p = self.process
         if p is not None and p.is_alive():

@@ -30,6 +30,7 @@ from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
 from ..sources.meter import READS, ReadMeter
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import RecordingError
+from .model.chunks import ModelChunk
 
 # events a message at most: a batch waits as event objects (about 100 bytes an
 # event once stored, several times that before), so a big one raises the peak
@@ -67,6 +68,7 @@ class FeedBatch:
     settings: str = ""               # the link's serial settings now (the rate follows rate changes)
     read: int = 0                    # a file: bytes of its input read so far (a pipe: of its traffic); live: 0
     total: int | None = None         # a file: its input's size; None when it has none (a pipe) or live
+    chunk: ModelChunk | None = None  # a file decoded apart: its events as columns (``events`` is empty)
 
 
 class Feed(Listener):
@@ -95,7 +97,7 @@ class Feed(Listener):
         self.record_lean = record_lean       # the record key writes lean recordings (live --lean)
         self.meter = meter                   # how far the input files have been read: asked once a batch
         self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
-        self._thread = threading.Thread(target=self._run, daemon=True, name="gimbalscope-feed")
+        self._thread = threading.Thread(target=self.run, daemon=True, name="gimbalscope-feed")
         self._end_lock = threading.Lock()   # the last batch, and findings that come after it
         self._ended = False
 
@@ -113,7 +115,8 @@ class Feed(Listener):
     def is_alive(self) -> bool:
         return self._thread.is_alive()
 
-    def _run(self) -> None:
+    def run(self) -> None:
+        """The capture, in this thread, to its last batch (``start`` runs it in a thread of its own)."""
         error = None
         try:
             self.runner.run()

@@ -21,6 +21,7 @@ from ..listeners import DoctorListener
 from ..runner import Listener, TapRunner
 from ..writers.mcap import McapWriter
 from .app import GimbalscopeApp
+from .decode_apart import DecodeApart
 from .doctor_apart import ApartFindings, DoctorApart, apart_possible
 from .feed import Feed, feed_class
 from .model import CaptureModel
@@ -107,11 +108,18 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         model.replay.start(speed)
     info = info or CaptureInfo.of(capture, command=mode)
 
-    def make_feed(deliver) -> Feed:
-        # a file viewed: the doctor reads it again in a process of its own, off the
-        # load's path (doctor_apart.py); a live tap, a replay or a pipe: in the runner
+    def make_feed(deliver) -> Feed | DecodeApart:
+        # a file viewed: decoded in a process of its own (decode_apart.py), and the
+        # doctor reads it again in another (doctor_apart.py), both off the screen's
+        # thread; a live tap, a replay or a pipe: a capture thread, the doctor in its runner
+        viewed = mode == "view" and apart_possible(capture.inputs)
+        if viewed and recorder is None and not listeners:
+            feed = DecodeApart(capture.inputs, capture.options, deliver, command=info.command,
+                               doctor=DoctorApart(capture.inputs, capture.options, command=info.command))
+            if feed.spawn():
+                return feed
         apart = None
-        if mode == "view" and apart_possible(capture.inputs):
+        if viewed:
             apart = DoctorApart(capture.inputs, capture.options, command=info.command)
             if not apart.start():   # no process to be had: the doctor stays in the runner
                 apart = None

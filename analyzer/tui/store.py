@@ -26,7 +26,10 @@ from __future__ import annotations
 import math
 from array import array
 from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from itertools import accumulate
 
+from dissectors.commands import COMMANDS
 from dissectors.dissect import dissect_command, dissect_result
 from dissectors.event import (
     ACK, COMMAND, FRAME, NAK, NIC, NO_ACK, NO_FIELDS, NO_PROBLEMS, NO_RESULT, NOISE, OK, PENDING, RATE, RESULT, ST_NAK,
@@ -64,6 +67,7 @@ def is_error(ev: Event) -> bool:
 
 
 _WIDER = {"H": "I", "I": "q"}
+_WIDTH = {"H": 0, "I": 1, "q": 2}
 
 
 def _extend_wide(column: array, values: list[int]) -> array:
@@ -77,6 +81,18 @@ def _extend_wide(column: array, values: list[int]) -> array:
     except OverflowError:
         del column[n:]
         return _extend_wide(array(_WIDER[column.typecode], column), values)
+
+
+def _extend_array(column: array, more: array) -> array:
+    """Extend ``column`` by ``more``, both of one of the widening typecodes (or
+    both the same): the narrower made as wide as the other first."""
+    if column.typecode != more.typecode:
+        if _WIDTH[more.typecode] > _WIDTH[column.typecode]:
+            column = array(more.typecode, column)
+        else:
+            more = array(column.typecode, more)
+    column.extend(more)
+    return column
 
 
 class Link:
@@ -96,11 +112,12 @@ class _Interned:
     ``codes_of`` is given (commands are keyed by the table entry's identity: an
     entry is a dataclass whose hash goes through every field)."""
 
-    __slots__ = ("values", "codes")
+    __slots__ = ("values", "codes", "taken")
 
     def __init__(self, none_key=None) -> None:
         self.values: list = [None]
         self.codes: dict = {none_key: 0}
+        self.taken = 1      # values handed on by ``take`` (the None code needs no handing)
 
     def code(self, key, value) -> int:
         c = self.codes.get(key)
@@ -115,14 +132,63 @@ class _Interned:
         codes = self.codes
         try:
             return [codes[k] for k in keys]
-        except KeyError:
-            return [self.code(k, v) for k, v in zip(keys, keys if values is None else values())]
+        except KeyError:   # code the new keys only (garbled traffic brings new ones in many batches)
+            valued = dict(zip(keys, keys if values is None else values()))
+            for k in valued:
+                if k not in codes:
+                    self.code(k, valued[k])
+            return [codes[k] for k in keys]
+
+    def take(self) -> list:
+        """The values coded since the last take, in code order."""
+        new = self.values[self.taken:]
+        self.taken = len(self.values)
+        return new
+
+    def learn(self, keys: list, values: list) -> None:
+        """Values another table coded (``take``), given the next codes here."""
+        for k, v in zip(keys, values):
+            self.codes[k] = len(self.values)
+            self.values.append(v)
+
+
+# the per-event columns (and the error rows' numbers), as a StoreChunk carries them
+COLUMNS = ("end", "t", "t_end", "offset", "kind", "line", "status", "flags", "command", "device", "latency",
+           "request", "txn", "errors")
+_ENTRY_PLACE = {id(c): k for k, c in enumerate(COMMANDS)}
+
+
+@dataclass
+class StoreChunk:
+    """Events stored by one process's store, handed to another's: a file viewed
+    is decoded in a process of its own (decode_apart.py) and the screen's store
+    takes its columns, a copy of arrays rather than a million objects.
+
+    ``start`` is the index of its first event; ``columns`` the arrays of
+    ``COLUMNS`` (``end`` counted from the start of the capture's raw bytes, so
+    appending is copying); ``problems`` and ``fields`` keyed by index; the lists,
+    values the sending store's interned tables coded since its last chunk (a
+    command's table entry as its place in ``COMMANDS``: the receiving process
+    has its own table, whose entries are the ones that must be found)."""
+    start: int
+    columns: dict[str, array]
+    raw: bytes
+    problems: dict[int, list]
+    fields: dict[int, dict]
+    lines: list
+    devices: list
+    commands: list   # (command id, place in COMMANDS, or the entry itself if it is not there)
 
 
 class EventStore:
-    """Settled events in wire order; event number N is index N - 1."""
+    """Settled events in wire order; event number N is index N - 1.
+
+    A store that hands its events on (``take``) keeps only those since the
+    last take: ``base`` events (``raw_base`` raw bytes) were handed on."""
 
     def __init__(self) -> None:
+        self.base = 0
+        self.raw_base = 0
         self.raw = bytearray()
         self.end = array("I")         # raw bytes of event i: raw[end[i-1]:end[i]] (64-bit past 4 GB)
         self.t = array("d")           # t, or the index when untimed
@@ -156,12 +222,11 @@ class EventStore:
         loop appending to every column, and loading a day's file is this loop."""
         if not batch:
             return []
-        start = len(self.kind)
-        raw = self.raw
-        ends = []
-        for ev in batch:
-            raw += ev.raw
-            ends.append(len(raw))
+        start = self.base + len(self.kind)
+        raws = [ev.raw for ev in batch]
+        ends = list(accumulate(map(len, raws), initial=self.raw_base + len(self.raw)))
+        del ends[0]
+        self.raw += b"".join(raws)
         self.end = _extend_wide(self.end, ends)
         t = [ev.t for ev in batch]
         if None in t:
@@ -185,9 +250,12 @@ class EventStore:
         request = [ev.request or 0 for ev in batch]
         self.request.extend(request)
         self.txn.extend([0 if ev.txn is None else ev.txn + 1 for ev in batch])
+        error_kinds, error_status = _ERROR_KINDS, _ERROR_STATUS
         flags = [(UNTIMED if ev.t is None else 0) | (FRAMED if ev.dst is not None else 0)
                  | _CHECKSUM_FLAG[ev.checksum_ok] | (RETRANSMISSION if ev.retransmission else 0)
-                 | (LINKED if ev.transaction is not None else 0) | (ERROR if is_error(ev) else 0)
+                 | (LINKED if ev.transaction is not None else 0)
+                 # is_error(ev), inline: a call per event was a tenth of this loop
+                 | (ERROR if ev.problems or ev.kind in error_kinds or ev.status in error_status else 0)
                  for ev in batch]
         self.flags.extend(flags)
         errors = [i for i, f in enumerate(flags, start) if f & ERROR]   # events with problems among them
@@ -200,10 +268,41 @@ class EventStore:
         # commands and results: their fields are their payload's decode (pairing
         # dissects every command, and a result against the command it answers);
         # other events' fields (a rate change's) are kept
-        for i, ev in enumerate(batch, start):
-            if ev.fields and ev.kind not in _DISSECTED:
-                self.fields[i] = ev.fields
+        self.fields.update([(i, ev.fields) for i, ev in enumerate(batch, start)
+                            if ev.fields and ev.kind not in _DISSECTED])
         return devices
+
+    def take(self) -> StoreChunk:
+        """The events appended since the last take, handed on (``append_chunk``
+        of another process's store); this store forgets them but not its codes."""
+        chunk = StoreChunk(self.base, {name: getattr(self, name) for name in COLUMNS}, bytes(self.raw),
+                           self.problems, self.fields, self._lines.take(), self._devices.take(),
+                           [(command, _ENTRY_PLACE.get(id(entry), entry))
+                            for command, entry in self._commands.take()])
+        self.base += len(self.kind)
+        self.raw_base += len(self.raw)
+        for name in COLUMNS:
+            setattr(self, name, array(getattr(self, name).typecode))
+        self.raw = bytearray()
+        self.problems = {}
+        self.fields = {}
+        return chunk
+
+    def append_chunk(self, chunk: StoreChunk) -> None:
+        """Store the events another store handed on (``take``); they follow this
+        store's last event."""
+        if chunk.start != len(self):
+            raise ValueError(f"a chunk from event {chunk.start + 1} does not follow event {len(self)}")
+        self._lines.learn(chunk.lines, chunk.lines)
+        self._devices.learn(chunk.devices, chunk.devices)
+        commands = [(command, COMMANDS[place] if isinstance(place, int) else place)
+                    for command, place in chunk.commands]
+        self._commands.learn([(command, id(entry)) for command, entry in commands], commands)
+        self.raw += chunk.raw
+        for name in COLUMNS:
+            setattr(self, name, _extend_array(getattr(self, name), chunk.columns[name]))
+        self.problems.update(chunk.problems)
+        self.fields.update(chunk.fields)
 
     @staticmethod
     def _natural_fields(kind: str, payload: bytes | None, entry) -> dict:

@@ -23,6 +23,7 @@ from dissectors.event import Event
 from ...analysis.stats import Stats, checksum_problem
 from ..detail import DetailNode, detail as detail_tree
 from ..store import EventStore, EventsView
+from .chunks import ModelChunk
 from .devices import DeviceInfo
 from .filter import FilterView
 from .follow import Follow, Marks
@@ -121,6 +122,23 @@ class CaptureModel:
             return self.extend(batch) + self.set_unsettled(unsettled)
         self.store.append(batch)
         return 0
+
+    def add_chunk(self, chunk: ModelChunk) -> int:
+        """Events as columns from a process decoding the file (``chunks.py``):
+        ``add`` without event objects. Returns how many rows became visible."""
+        pb = self.replay.playback
+        start = len(self.store)
+        self.store.append_chunk(chunk.stored)
+        if pb is not None and not (pb.speed == 0 and self.shown == start):
+            return 0   # a paced replay: stored for the playback to reach (``show_first`` rebuilds them)
+        before = self.row_count
+        self.shown = len(self.store)
+        self.checksum_errors += chunk.checksum_errors
+        self.plots.merge(chunk.points)
+        self.filter.learn_stored(self.store, start, self.shown)
+        self.unsettled = []   # a decoding process holds its unsettled events until they settle
+        self.filter.hold([])
+        return self._grew(before)
 
     def extend(self, batch: list[Event]) -> int:
         """Store and show settled events (wire order). Returns how many rows became visible."""

@@ -42,6 +42,17 @@ class FilterView:
             self.view.extend([i for i, _ in matched])
             self.errors += sum(1 for _, ev in matched if is_error(ev))
 
+    def learn_stored(self, store, start: int, stop: int) -> None:
+        """The stored events ``start``..``stop`` are shown now (they came as
+        columns, not events: the columns decide, ``store_filter``)."""
+        if self.pred is None or stop <= start:
+            return
+        from ..store_filter import matching
+        found = matching(self.pred, store, start, stop)
+        flags = store.flags
+        self.view.extend(found)
+        self.errors += sum(1 for i in found if flags[i] & ERROR)
+
     def hold(self, unsettled: list[Event]) -> None:
         """What pairing still holds now."""
         pred = self.pred

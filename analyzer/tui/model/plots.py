@@ -57,6 +57,17 @@ class PositionPlots:
             elif ev.kind == RESULT and command == "P?" and ev.transaction is not None:
                 self._point(device, "reported", ev.t, fields)          # an unpaired answer says nothing
 
+    def merge(self, series: dict[str, dict[str, Series]]) -> None:
+        """Points another process's plots found (a file decoded apart), after these."""
+        for addr, named in series.items():
+            mine = self.series.get(addr)
+            if mine is None:
+                mine = self.series[addr] = {}
+            for name, s in named.items():
+                m = self._series(mine, name)
+                m.t.extend(s.t)
+                m.v.extend(s.v)
+
     def _point(self, addr: str, which: str, t: float | None, fields: dict) -> None:
         if t is None:
             return

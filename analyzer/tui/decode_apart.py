@@ -1,0 +1,232 @@
+"""A file viewed is decoded in a process of its own, which hands the screen its
+events as store columns.
+
+Loading a file means decoding, pairing and storing its events. In one process
+the capture thread (decode, pair) and the screen's thread (store the events,
+one by one, as columns) take turns on one interpreter lock, so their times add
+up. Here the decoding process also stores the events (``ChunkMaker``: the
+same columns the screen's store keeps) and sends what it stored every quarter
+of a second; the screen's thread copies arrays (``CaptureModel.add_chunk``).
+The two run side by side, and the screen stays free for keys while a file
+loads.
+
+The decoding process runs the capture with a ``Feed`` as any capture thread
+does (its batches, line states, warnings, read progress); only the events of
+its batches become a chunk on the way. What pairing still holds is not sent:
+while a file loads nothing waits on the wire, and its end settles everything.
+
+Only for a file viewed whose inputs can be opened again (``apart_possible``);
+live taps, replays and pipes keep their capture thread (feed.py). The wiring
+doctor runs in a process of its own beside this one (doctor_apart.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+import threading
+import time
+from typing import Callable
+
+from .doctor_apart import ApartFindings, DoctorApart
+from .feed import FILE_INTERVAL, FeedBatch, LineStatus
+from .model.chunks import ChunkMaker
+
+# cores enough for the wiring doctor's process beside the decoding one and the
+# screen: with fewer, the doctor waits until the file has loaded (on two cores
+# it beside the load cost the load a quarter of its speed)
+DOCTOR_BESIDE_CORES = 4
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+class _Sender:
+    """The decoding process's ``deliver``: the feed's batches, their events made
+    into chunks and sent at most every ``FILE_INTERVAL`` (the first at once)."""
+
+    def __init__(self, conn) -> None:
+        self.conn = conn
+        self.maker = ChunkMaker()
+        self.warnings: list[str] = []
+        self.findings: list | None = None
+        self.last = 0.0
+        self.sent = False
+
+    def __call__(self, batch: FeedBatch) -> None:
+        self.maker.add(batch.events)
+        self.warnings += batch.warnings
+        if batch.findings is not None:
+            self.findings = batch.findings
+        now = time.monotonic()
+        if not (batch.done or now - self.last >= FILE_INTERVAL or (len(self.maker) and not self.sent)):
+            return
+        self.sent = self.sent or bool(len(self.maker))
+        self.last = now
+        warnings, self.warnings = self.warnings, []
+        findings, self.findings = self.findings, None
+        self.conn.send(dataclasses.replace(batch, events=[], unsettled=[], warnings=warnings, findings=findings,
+                                           chunk=self.maker.take()))
+
+
+def _child(inputs, options, command, conn) -> None:
+    # nothing of this process may reach the terminal the screen is drawn on
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
+    try:
+        from ..capture import open as open_capture
+        from ..info import CaptureInfo
+        from ..runner import TapRunner
+        from .feed import Feed
+
+        capture = open_capture(*inputs, options=options)
+        runner = TapRunner(capture, [], info=CaptureInfo.of(capture, command=command))
+        feed = Feed(runner, _Sender(conn), ApartFindings())
+        runner.add_listener(feed)
+        feed.run()   # to the last batch; a capture that fails says so in it
+    except BaseException as e:   # whatever it is, the screen hears of it, in one line
+        conn.send(FeedBatch([], [], [], done=True, error=f"{type(e).__name__}: {e}"))
+    finally:
+        conn.close()
+
+
+class DecodeApart:
+    """The screen's side: what the app asks of a feed (``start``, ``stop``,
+    ``join``, ``is_alive``, ``notes``; recording and swapping are for live taps),
+    its batches received from the decoding process by a thread of its own and
+    handed to ``deliver``, the doctor's findings (``findings_arrived``) put in
+    the next one."""
+
+    def __init__(self, inputs: tuple[str, ...], options, deliver: Callable[[FeedBatch], None], *,
+                 command: str = "view", doctor: DoctorApart | None = None) -> None:
+        """``doctor``: the wiring doctor's process, started beside the decoding
+        where there are cores enough, else once the file has loaded."""
+        self.inputs, self.options, self.command = inputs, options, command
+        self.deliver = deliver
+        self.doctor = ApartFindings()
+        self.doctor_apart = doctor
+        self._doctor_started = False
+        self.notes: list[str] = []
+        self.lines: dict[str, LineStatus] = {}
+        self.recording = None
+        self.process = None
+        self._conn = None
+        self._thread = threading.Thread(target=self._receive, daemon=True, name="gimbalscope-decode-wait")
+        self._end_lock = threading.Lock()
+        self._ended = False
+        self._last: FeedBatch | None = None
+        self._warnings: list[str] = []
+        self._findings: list | None = None
+
+    def spawn(self) -> bool:
+        """Start the decoding process; False if no process can be had."""
+        import multiprocessing
+        # spawn: a fresh interpreter (fork would copy the screen's threads mid-flight)
+        ctx = multiprocessing.get_context("spawn")
+        parent, child = ctx.Pipe(duplex=False)
+        self.process = ctx.Process(target=_child, args=(self.inputs, self.options, self.command, child),
+                                   name="gimbalscope-decode", daemon=True)
+        # the screen captures standard output and error (no descriptors): a new
+        # process is given the real ones, which it then points at /dev/null
+        saved = sys.stdout, sys.stderr
+        sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
+        try:
+            self.process.start()
+        except (OSError, ValueError):
+            parent.close()
+            return False
+        finally:
+            sys.stdout, sys.stderr = saved
+            child.close()
+        self._conn = parent
+        if _cores() >= DOCTOR_BESIDE_CORES:
+            self._start_doctor()
+        return True
+
+    def _start_doctor(self) -> None:
+        apart, self._doctor_started = self.doctor_apart, True
+        if apart is None:
+            return
+        if apart.start():
+            apart.deliver_to(self.findings_arrived)
+        elif not apart.stopped:
+            self.findings_arrived(None, "no process could be started for it")
+
+    # ------------------------------------------------------------- the app's
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        """End the decoding (the screen is closing): nothing of it needs finishing."""
+        p = self.process
+        if p is not None and p.is_alive():
+            p.terminate()
+            p.join(timeout=5)
+
+    def join(self, timeout: float | None = None) -> None:
+        if self._thread.is_alive():
+            self._thread.join(timeout)
+
+    def is_alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def start_recording(self, path: str) -> None:
+        raise RuntimeError("a file viewed is not recorded")
+
+    def stop_recording(self) -> None:
+        pass
+
+    def swap_lines(self) -> None:
+        pass
+
+    def findings_arrived(self, findings: list | None, error: str | None) -> None:
+        """The wiring doctor's word, from the thread that waited for it: the next
+        batch carries it; once the last has gone, one more last batch does."""
+        with self._end_lock:
+            if error is not None:
+                self._warnings.append(f"the wiring doctor stopped: {error}")
+            else:
+                self.doctor.findings = findings
+                self._findings = findings
+            if self._ended:
+                self._pass_on(dataclasses.replace(self._last, chunk=None, warnings=[], error=None))
+
+    # --------------------------------------------------------------- thread
+    def _receive(self) -> None:
+        conn = self._conn
+        batch = None
+        while True:
+            try:
+                batch = conn.recv()
+            except (EOFError, OSError):   # killed, or out of memory: keep what came
+                error = "the decoding process ended without a word"
+                self.notes.append(f"capture stopped: {error}")
+                batch = FeedBatch([], [], list(self.lines.values()), done=True, error=error)
+            if batch.error:
+                self.notes.append(f"capture stopped: {batch.error}")
+            self.lines = {s.line: s for s in batch.lines}
+            with self._end_lock:
+                self._pass_on(batch)
+                if batch.done:
+                    self._ended = True
+                    self._last = batch
+                    break
+        conn.close()
+        if not self._doctor_started:   # the file has loaded: the doctor's turn
+            self._start_doctor()
+
+    def _pass_on(self, batch: FeedBatch) -> None:
+        """Deliver ``batch`` with the doctor's news (under the end lock)."""
+        if self._warnings:
+            batch.warnings = batch.warnings + self._warnings
+            self._warnings = []
+        if self._findings is not None:
+            batch.findings, self._findings = self._findings, None
+        self.deliver(batch)

@@ -1,0 +1,119 @@
+"""A file viewed is decoded in a process of its own (analyzer/tui/decode_apart.py)
+that hands the screen columns. The screen shows what the file holds (the rows
+``decode`` gives, the doctor's findings); the wiring doctor starts beside the
+decoding where there are cores enough and after the load where there are not;
+a decoding process that dies leaves the rows that came, the reason said; and
+quitting while a file loads ends the process."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+
+import analyzer
+from analyzer.simulation.traffic import generate
+from analyzer.tui import decode_apart
+from analyzer.tui.decode_apart import DecodeApart
+from analyzer.tui.doctor_apart import DoctorApart
+from analyzer.tui.run import make_app, stop_feed
+from tests.conftest import CTL, DEV, run_cli
+from tests.ui.test_pilot import settle
+
+
+def drive(app, until, then=None, size=(100, 30)):
+    async def run():
+        async with app.run_test(size=size) as pilot:
+            await settle(pilot, app, until, what=lambda a: f"done {a.model.done}, shown {a.model.shown}")
+            return then(app) if then else None
+    try:
+        return asyncio.run(run())
+    finally:
+        stop_feed(app)
+
+
+def big_capture(tmp_path) -> str:
+    """Two raw dumps of tens of thousands of events: a load of a second or so."""
+    tr = generate(20_000, baud=115200, seed=3, bit_error_rate=0.001)
+    (tmp_path / "ctl.bin").write_bytes(tr.line_bytes("A"))
+    (tmp_path / "dev.bin").write_bytes(tr.line_bytes("B"))
+    return str(tmp_path / "ctl.bin"), str(tmp_path / "dev.bin")
+
+
+def order_of_starts(monkeypatch) -> list[str]:
+    """What happened, in order: the screen handed a last batch ("done"), the
+    doctor's process started ("doctor")."""
+    log: list[str] = []
+    start, pass_on = DoctorApart.start, DecodeApart._pass_on
+
+    def started(self):
+        log.append("doctor")
+        return start(self)
+
+    def passed(self, batch):
+        if batch.done and "done" not in log:
+            log.append("done")
+        return pass_on(self, batch)
+    monkeypatch.setattr(DoctorApart, "start", started)
+    monkeypatch.setattr(DecodeApart, "_pass_on", passed)
+    return log
+
+
+def test_the_rows_are_the_files_events():
+    app = make_app(analyzer.open(CTL, DEV), mode="view")
+    rows = drive(app, lambda a: a.model.done,
+                 lambda a: (type(a.feed), [json.loads(json.dumps(a.model.event(n).to_dict()))
+                                            for n in range(1, a.model.shown + 1)]))
+    kind, got = rows
+    assert kind is DecodeApart
+    want = [json.loads(line) for line in run_cli("decode", CTL, DEV, "--format", "jsonl").stdout.splitlines()]
+    assert len(got) == len(want) == 1012
+    assert got == want
+
+
+def test_on_few_cores_the_doctor_starts_once_the_file_has_loaded(monkeypatch):
+    monkeypatch.setattr(decode_apart, "DOCTOR_BESIDE_CORES", 10 ** 6)
+    log = order_of_starts(monkeypatch)
+    app = make_app(analyzer.open(CTL, DEV), mode="view")
+    found = drive(app, lambda a: a.model.done and a.model.findings,
+                  lambda a: sorted((f.code, f.subject) for f in a.model.findings))
+    assert ("noisy_link", "B") in found
+    assert log == ["done", "doctor"]
+
+
+def test_with_cores_enough_the_doctor_starts_beside_the_decoding(monkeypatch):
+    monkeypatch.setattr(decode_apart, "DOCTOR_BESIDE_CORES", 1)
+    log = order_of_starts(monkeypatch)
+    app = make_app(analyzer.open(CTL, DEV), mode="view")
+    found = drive(app, lambda a: a.model.done and a.model.findings,
+                  lambda a: sorted((f.code, f.subject) for f in a.model.findings))
+    assert ("noisy_link", "B") in found
+    assert log == ["doctor", "done"]
+
+
+def test_a_decoding_process_that_dies_leaves_the_rows_that_came(tmp_path):
+    paths = big_capture(tmp_path)
+    total = sum(1 for _ in analyzer.open(*paths))
+    app = make_app(analyzer.open(*paths), mode="view")
+    killed = []
+
+    def deliver_then_kill(deliver):
+        def first(batch):
+            deliver(batch)
+            if not killed and batch.chunk is not None and len(batch.chunk.stored.columns["kind"]):
+                app.feed.process.kill()   # as the kernel's OOM killer would
+                killed.append(len(batch.chunk.stored.columns["kind"]))
+        return first
+
+    factory = app._feed_factory
+    app._feed_factory = lambda deliver: factory(deliver_then_kill(deliver))
+    shown, messages = drive(app, lambda a: a.model.done, lambda a: (a.model.shown, list(a.messages)))
+    assert killed and killed[0] <= shown < total
+    assert "capture stopped: the decoding process ended without a word" in messages
+    assert "capture stopped: the decoding process ended without a word" in app.feed.notes
+
+
+def test_quitting_while_loading_ends_the_decoding_process(tmp_path):
+    paths = big_capture(tmp_path)
+    app = make_app(analyzer.open(*paths), mode="view")
+    process = drive(app, lambda a: a.model.shown > 0, lambda a: a.feed.process)
+    assert not process.is_alive()
