@@ -150,6 +150,7 @@ class GimbalscopeApp(App):
             m.add(b.events, b.unsettled)
         if b.findings is not None:
             m.findings = b.findings
+            m.findings_known = True
         self.last = b
         self.status_bar.batch(b)
         if b.done and not m.done:

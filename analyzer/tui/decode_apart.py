@@ -34,8 +34,8 @@ from .feed import FILE_INTERVAL, FeedBatch, LineStatus
 from .model.chunks import ChunkMaker
 
 # cores enough for the wiring doctor's process beside the decoding one and the
-# screen: with fewer, the doctor waits until the file has loaded (on two cores
-# it beside the load cost the load a quarter of its speed)
+# screen: with fewer, the doctor waits until the file has loaded (on two cores,
+# running beside the load, it cost the load a quarter of its speed)
 DOCTOR_BESIDE_CORES = 4
 
 

@@ -22,7 +22,7 @@ class FindingsScreen(Redrawn):
     def __init__(self, model: CaptureModel) -> None:
         super().__init__()
         self.model = model
-        self._shown: list | None = None
+        self._shown: tuple | None = None
 
     def compose(self) -> ComposeResult:
         from textual.widgets import Tree
@@ -37,15 +37,17 @@ class FindingsScreen(Redrawn):
     def redraw(self) -> None:
         from textual.widgets import Tree
 
-        findings = self.model.findings
-        if findings is self._shown:
+        m = self.model
+        findings = m.findings
+        shown = (id(findings), m.findings_known, m.done)
+        if shown == self._shown:
             return
-        self._shown = findings
+        self._shown = shown
         tree = self.query_one("#findings", Tree)
         tree.clear()
         tree.show_root = False
         if not findings:
-            tree.root.add_leaf(Text("no findings yet: the doctor checks the traffic once a second", style="dim"))
+            tree.root.add_leaf(Text(self._nothing_yet(), style="dim"))
         for f in findings:
             label = Text(f"{f.severity.upper():8}", style=SEVERITY_STYLE.get(f.severity, ""))
             label.append(f" {f.title}", style="bold")
@@ -61,6 +63,14 @@ class FindingsScreen(Redrawn):
                 for n in f.evidence:
                     ev.add_leaf(Text(f"#{n}", style="underline cyan"), data=n)
         tree.root.expand()
+
+    def _nothing_yet(self) -> str:
+        m = self.model
+        if not m.findings_known:   # a file's doctor reads it in a process of its own, maybe after the load
+            return "no findings yet: the wiring doctor is still reading the capture"
+        if m.done:
+            return "no findings: the wiring doctor found nothing wrong"
+        return "no findings yet: the doctor checks the traffic once a second"
 
     def on_tree_node_selected(self, event) -> None:
         if isinstance(event.node.data, int):
