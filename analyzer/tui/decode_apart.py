@@ -24,11 +24,11 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import sys
 import threading
 import time
 from typing import Callable
 
+from .apart import quiet, spawn
 from .doctor_apart import ApartFindings, DoctorApart
 from .feed import FILE_INTERVAL, FeedBatch, LineStatus
 from .model.chunks import ChunkMaker
@@ -76,10 +76,7 @@ class _Sender:
 
 
 def _child(inputs, options, command, conn) -> None:
-    # nothing of this process may reach the terminal the screen is drawn on
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
+    quiet()
     try:
         from ..capture import open as open_capture
         from ..info import CaptureInfo
@@ -127,25 +124,10 @@ class DecodeApart:
 
     def spawn(self) -> bool:
         """Start the decoding process; False if no process can be had."""
-        import multiprocessing
-        # spawn: a fresh interpreter (fork would copy the screen's threads mid-flight)
-        ctx = multiprocessing.get_context("spawn")
-        parent, child = ctx.Pipe(duplex=False)
-        self.process = ctx.Process(target=_child, args=(self.inputs, self.options, self.command, child),
-                                   name="gimbalscope-decode", daemon=True)
-        # the screen captures standard output and error (no descriptors): a new
-        # process is given the real ones, which it then points at /dev/null
-        saved = sys.stdout, sys.stderr
-        sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
-        try:
-            self.process.start()
-        except (OSError, ValueError):
-            parent.close()
+        started = spawn(_child, (self.inputs, self.options, self.command), "gimbalscope-decode")
+        if started is None:
             return False
-        finally:
-            sys.stdout, sys.stderr = saved
-            child.close()
-        self._conn = parent
+        self.process, self._conn = started
         if _cores() >= DOCTOR_BESIDE_CORES:
             self._start_doctor()
         return True

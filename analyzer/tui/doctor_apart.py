@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import os
 import stat
-import sys
 import threading
 from typing import Callable
+
+from .apart import quiet, spawn
 
 NICENESS = 10   # the doctor's process yields to the screen's and the load's
 
@@ -52,10 +53,7 @@ def findings_of(inputs: tuple[str, ...], options, command: str = "view") -> list
 
 
 def _child(inputs, options, command, conn) -> None:
-    # nothing of this process may reach the terminal the screen is drawn on
-    devnull = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(devnull, 1)
-    os.dup2(devnull, 2)
+    quiet()
     try:
         os.nice(NICENESS)
     except OSError:
@@ -87,25 +85,11 @@ class DoctorApart:
             return not self._stopped.is_set() and self._start()
 
     def _start(self) -> bool:
-        import multiprocessing
-        # spawn: a fresh interpreter (fork would copy the screen's threads mid-flight)
-        ctx = multiprocessing.get_context("spawn")
-        parent, child = ctx.Pipe(duplex=False)
-        self.process = ctx.Process(target=_child, args=(self.inputs, self.options, self.command, child),
-                                   name="gimbalscope-doctor", daemon=True)
-        # the screen captures standard output and error (no descriptors): a new
-        # process is given the real ones, which it then points at /dev/null
-        saved = sys.stdout, sys.stderr
-        sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
-        try:
-            self.process.start()
-        except (OSError, ValueError):
-            parent.close()
+        started = spawn(_child, (self.inputs, self.options, self.command), "gimbalscope-doctor")
+        if started is None:
             return False
-        finally:
-            sys.stdout, sys.stderr = saved
-            child.close()
-        threading.Thread(target=self._wait, args=(parent,), name="gimbalscope-doctor-wait", daemon=True).start()
+        self.process, conn = started
+        threading.Thread(target=self._wait, args=(conn,), name="gimbalscope-doctor-wait", daemon=True).start()
         return True
 
     @property

@@ -16,9 +16,8 @@ from analyzer.simulation.traffic import generate
 from analyzer.tui.model import CaptureModel
 from analyzer.tui.model.chunks import ChunkMaker
 from analyzer.tui.store import COLUMNS, EventStore
-from dissectors.event import COMMAND, NOISE, Event
-from tests.conftest import frame
-from tests.pure.test_tui_store import SAMPLES, same
+from dissectors.event import NOISE, Event
+from tests.pure.test_tui_store import SAMPLES, commands_to_many_devices, same
 
 
 def by_chunks(events: list[Event], sizes: list[int], filter_text: str = "") -> CaptureModel:
@@ -101,13 +100,7 @@ def test_a_chunk_wider_than_the_store_widens_it():
 
 
 def test_70000_devices_across_chunks():
-    events = []
-    for n in range(1, 70_001):
-        dst = (n >> 16, (n >> 8) & 0xFF, n & 0xFF)
-        raw = frame(dst, 0, "HO")
-        ev = Event("A", n * len(raw), COMMAND, raw, None, None, dst, 0, b"HO", True)
-        ev.number = n
-        events.append(ev)
+    events = commands_to_many_devices()
     model = by_chunks(events, [30_000, 30_000])
     assert model.store.device.itemsize >= 4
     for i in (0, 65_534, 65_535, 69_999):

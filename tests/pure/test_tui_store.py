@@ -106,15 +106,20 @@ def test_offsets_past_4_gb_widen_their_column():
     assert store.event(1).offset == 5_000_000_000 and store.event(0).offset == 7
 
 
-def test_more_devices_than_a_16_bit_code_widens_the_column():
-    # garbled input can name any of 256³ addresses: 70,000 of them here
+def commands_to_many_devices(n: int = 70_000) -> list[Event]:
+    """``HO`` to ``n`` addresses, one each: garbled input can name any of 256³."""
     events = []
-    for n in range(1, 70_001):
-        dst = (n >> 16, (n >> 8) & 0xFF, n & 0xFF)
+    for k in range(1, n + 1):
+        dst = (k >> 16, (k >> 8) & 0xFF, k & 0xFF)
         raw = frame(dst, 0, "HO")
-        ev = Event("A", n * len(raw), COMMAND, raw, None, None, dst, 0, b"HO", True)
-        ev.number = n
+        ev = Event("A", k * len(raw), COMMAND, raw, None, None, dst, 0, b"HO", True)
+        ev.number = k
         events.append(ev)
+    return events
+
+
+def test_more_devices_than_a_16_bit_code_widens_the_column():
+    events = commands_to_many_devices()
     store = EventStore()
     store.append(events[:60_000])
     store.append(events[60_000:])

@@ -10,6 +10,8 @@ from __future__ import annotations
 import asyncio
 import json
 
+import pytest
+
 import analyzer
 from analyzer.simulation.traffic import generate
 from analyzer.tui import decode_apart
@@ -70,24 +72,16 @@ def test_the_rows_are_the_files_events():
     assert got == want
 
 
-def test_on_few_cores_the_doctor_starts_once_the_file_has_loaded(monkeypatch):
-    monkeypatch.setattr(decode_apart, "DOCTOR_BESIDE_CORES", 10 ** 6)
+@pytest.mark.parametrize("cores_needed, order", [(10 ** 6, ["done", "doctor"]), (1, ["doctor", "done"])],
+                         ids=["few cores: after the load", "cores enough: beside the decoding"])
+def test_the_doctor_starts_after_the_load_on_few_cores_beside_it_on_enough(monkeypatch, cores_needed, order):
+    monkeypatch.setattr(decode_apart, "DOCTOR_BESIDE_CORES", cores_needed)
     log = order_of_starts(monkeypatch)
     app = make_app(analyzer.open(CTL, DEV), mode="view")
     found = drive(app, lambda a: a.model.done and a.model.findings,
                   lambda a: sorted((f.code, f.subject) for f in a.model.findings))
     assert ("noisy_link", "B") in found
-    assert log == ["done", "doctor"]
-
-
-def test_with_cores_enough_the_doctor_starts_beside_the_decoding(monkeypatch):
-    monkeypatch.setattr(decode_apart, "DOCTOR_BESIDE_CORES", 1)
-    log = order_of_starts(monkeypatch)
-    app = make_app(analyzer.open(CTL, DEV), mode="view")
-    found = drive(app, lambda a: a.model.done and a.model.findings,
-                  lambda a: sorted((f.code, f.subject) for f in a.model.findings))
-    assert ("noisy_link", "B") in found
-    assert log == ["doctor", "done"]
+    assert log == order
 
 
 def test_a_decoding_process_that_dies_leaves_the_rows_that_came(tmp_path):

@@ -1,0 +1,37 @@
+"""What the screen's helper processes share (decode_apart.py, doctor_apart.py):
+starting one, and keeping it off the terminal the screen is drawn on."""
+
+from __future__ import annotations
+
+import os
+import sys
+
+
+def spawn(target, args: tuple, name: str):
+    """Start ``target(*args, conn)`` in a new process; (process, the end of a
+    one-way pipe it sends on), or None if no process can be had."""
+    import multiprocessing
+    # spawn: a fresh interpreter (fork would copy the screen's threads mid-flight)
+    ctx = multiprocessing.get_context("spawn")
+    parent, child = ctx.Pipe(duplex=False)
+    process = ctx.Process(target=target, args=(*args, child), name=name, daemon=True)
+    # the screen captures standard output and error (no descriptors): a new
+    # process is given the real ones, which it then points at /dev/null (``quiet``)
+    saved = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
+    try:
+        process.start()
+    except (OSError, ValueError):
+        parent.close()
+        return None
+    finally:
+        sys.stdout, sys.stderr = saved
+        child.close()
+    return process, parent
+
+
+def quiet() -> None:
+    """In a helper process: nothing of it may reach the terminal the screen is drawn on."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)
+    os.dup2(devnull, 2)
