@@ -118,6 +118,7 @@ class DecodeApart:
         self._thread = threading.Thread(target=self._receive, daemon=True, name="gimbalscope-decode-wait")
         self._end_lock = threading.Lock()
         self._ended = False
+        self._stopping = False
         self._last: FeedBatch | None = None
         self._warnings: list[str] = []
         self._findings: list | None = None
@@ -147,6 +148,7 @@ class DecodeApart:
 
     def stop(self) -> None:
         """End the decoding (the screen is closing): nothing of it needs finishing."""
+        self._stopping = True   # its silence is then no news
         p = self.process
         if p is not None and p.is_alive():
             p.terminate()
@@ -188,8 +190,7 @@ class DecodeApart:
             try:
                 batch = conn.recv()
             except (EOFError, OSError):   # killed, or out of memory: keep what came
-                error = "the decoding process ended without a word"
-                self.notes.append(f"capture stopped: {error}")
+                error = None if self._stopping else "the decoding process ended without a word"
                 batch = FeedBatch([], [], list(self.lines.values()), done=True, error=error)
             if batch.error:
                 self.notes.append(f"capture stopped: {batch.error}")
