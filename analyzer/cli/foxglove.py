@@ -10,7 +10,9 @@ with ``foxglove.layouts`` from the Foxglove SDK:
   the reported position, azimuth and elevation, from
   ``/gimbal/<group.port.device>/position`` (analyzer/analysis/positions.py);
 - Table panels on ``/events`` and ``/transactions``, and a Raw Messages panel per
-  line (``/serial/A/raw`` and ``/serial/B/raw``, or ``/serial/AB/raw``).
+  line (``/serial/A/raw`` and ``/serial/B/raw``, or ``/serial/AB/raw``); for a
+  lean recording (``--lean``: no ``/events``), the transactions' table and one Raw
+  Messages panel on ``/serial/reads``.
 
 The gimbals and lines are those of CAPTURE, anything ``decode`` reads. A
 gimbalscope recording names its gimbals in its channels (a position topic is
@@ -97,8 +99,8 @@ def run_layout(args: argparse.Namespace) -> int:
     if args.output is not None:
         check_output(args.output, args.inputs, force=args.force)   # before any work
     if args.inputs:
-        devices, lines = capture_contents(open_inputs(args))
-        layout = build_layout(devices, lines)
+        devices, lines, lean = capture_contents(open_inputs(args))
+        layout = build_layout(devices, lines, lean=lean)
     else:
         layout = build_layout([TEMPLATE_DEVICE], TEMPLATE_LINES, template=True)
     text = json.dumps(json.loads(layout.to_json()), indent=2, ensure_ascii=False)
@@ -113,16 +115,18 @@ def run_layout(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------ what a capture holds
 
-def capture_contents(capture: Capture) -> tuple[list[str], tuple[str, ...]]:
-    """(the gimbals with positions, in address order; the capture's lines). A
-    capture without positions is said on standard error."""
+def capture_contents(capture: Capture) -> tuple[list[str], tuple[str, ...], bool]:
+    """(the gimbals with positions, in address order; the capture's lines; whether
+    it is a lean recording: its raw reads on /serial/reads, no /events). A capture
+    without positions is said on standard error."""
     info = CaptureInfo.of(capture, command=COMMAND)
     lines = tuple(capture.lines)
     try:
-        recorded = None if capture.options.explicit else recorded_devices(capture.source)
+        recorded, topics = (None, set()) if capture.options.explicit else recorded_devices(capture.source)
     except BaseException:
         capture.source.close()   # a temporary copy of a piped recording goes with it
         raise
+    lean = S.READS_TOPIC in topics and S.EVENTS_TOPIC not in topics
     if recorded is not None:
         capture.source.close()
         devices = recorded
@@ -133,7 +137,7 @@ def capture_contents(capture: Capture) -> tuple[list[str], tuple[str, ...]]:
     if not devices:
         warn(f"{info.source}: no gimbal positions in this capture (no P command or P? result to one "
              "gimbal): the layout has no position plots")
-    return sorted(devices, key=address_key), lines
+    return sorted(devices, key=address_key), lines, lean
 
 
 def address_key(device: str) -> tuple:
@@ -144,10 +148,11 @@ def address_key(device: str) -> tuple:
         return (1, device)
 
 
-def recorded_devices(source) -> set[str] | None:
+def recorded_devices(source) -> tuple[set[str] | None, set[str]]:
     """The gimbals of a gimbalscope recording (or of its parts) by its position
-    channels; None when ``source`` is no recording or was recorded without the
-    position topics (no gimbalscope.Position schema): it must be decoded."""
+    channels, and its topics; no gimbals (None) when ``source`` is no recording or
+    was recorded without the position topics (no gimbalscope.Position schema): it
+    must be decoded."""
     from ..sources.mcapfile import McapSource
     from ..sources.mcapparts import McapPartsSource
 
@@ -156,17 +161,19 @@ def recorded_devices(source) -> set[str] | None:
     elif isinstance(source, McapSource):
         paths = [source.path]
     else:
-        return None
+        return None, set()
     devices: set[str] = set()
+    every_topic: set[str] = set()
     with_positions = False
     for path in paths:
         schemas, topics = channel_records(path)
+        every_topic |= topics
         with_positions = with_positions or _POSITION_SCHEMA in schemas
         for topic in topics:
             m = _POSITION_TOPIC.fullmatch(topic)
             if m is not None:
                 devices.add(m.group(1))
-    return devices if with_positions or devices else None
+    return (devices if with_positions or devices else None), every_topic
 
 
 def channel_records(path: str) -> tuple[set[str], set[str]]:
@@ -235,23 +242,26 @@ def _collect(records: Iterable[tuple[int, bytes]], schemas: set[str], topics: se
 
 # ------------------------------------------------------------------ the layout
 
-def build_layout(devices: Sequence[str], lines: Sequence[str], *, template: bool = False) -> "fl.Layout":
+def build_layout(devices: Sequence[str], lines: Sequence[str], *, template: bool = False,
+                 lean: bool = False) -> "fl.Layout":
     """The layout for ``devices`` (group.port.device, in the order shown) and
     ``lines`` (``A``, ``B``, ``AB``). Position plots take two thirds of the width,
     the log and the tables the rest; with ``template`` the plots' titles say the
-    device address is to be edited."""
+    device address is to be edited. A ``lean`` recording has no /events and its
+    raw reads on one topic: no Events table, one raw panel."""
     import foxglove.layouts as fl
 
+    tabs = [] if lean else [fl.TabItem(title="Events", content=fl.TablePanel(
+        title="Events", config=fl.TableConfig(topic_path=S.EVENTS_TOPIC)))]
+    tabs += [
+        fl.TabItem(title="Transactions", content=fl.TablePanel(
+            title="Transactions", config=fl.TableConfig(topic_path=S.TRANSACTIONS_TOPIC))),
+        fl.TabItem(title="Raw reads" if lean else "Raw lines", content=_raw_reads() if lean else _raw_lines(lines)),
+    ]
     side = fl.SplitContainer(direction="column", items=[
         fl.SplitItem(proportion=1, content=fl.LogPanel(
             title="Log: anomalies and notes", config=fl.LogConfig(topic_to_render=S.LOG_TOPIC))),
-        fl.SplitItem(proportion=1, content=fl.TabContainer(selected_tab_index=0, tabs=[
-            fl.TabItem(title="Events", content=fl.TablePanel(
-                title="Events", config=fl.TableConfig(topic_path=S.EVENTS_TOPIC))),
-            fl.TabItem(title="Transactions", content=fl.TablePanel(
-                title="Transactions", config=fl.TableConfig(topic_path=S.TRANSACTIONS_TOPIC))),
-            fl.TabItem(title="Raw lines", content=_raw_lines(lines)),
-        ])),
+        fl.SplitItem(proportion=1, content=fl.TabContainer(selected_tab_index=0, tabs=tabs)),
     ])
     if not devices:
         return fl.Layout(content=side)
@@ -278,6 +288,14 @@ def _raw_lines(lines: Sequence[str]) -> "fl.Content":
     if len(panels) == 1:
         return panels[0]
     return fl.SplitContainer(direction="row", items=[fl.SplitItem(proportion=1, content=p) for p in panels])
+
+
+def _raw_reads() -> "fl.Content":
+    """A lean recording's one Raw Messages panel: every line's reads, in wire order."""
+    import foxglove.layouts as fl
+
+    return fl.RawMessagesPanel(title="Raw reads of every line",
+                               config=fl.RawMessagesConfig(topic_path=S.READS_TOPIC))
 
 
 def position_plot(device: str, *, template: bool = False) -> "fl.PlotPanel":

@@ -58,10 +58,12 @@ def expected_series(device: str) -> set[tuple[str, str]]:
     return {(f"{axis} {part}", f"{topic}.{part}.{field}") for axis, field in AXES for part in PARTS}
 
 
-def check_layout(layout: dict, devices: list[str], lines: list[str], *, template: bool = False) -> None:
+def check_layout(layout: dict, devices: list[str], lines: list[str], *, template: bool = False,
+                 lean: bool = False) -> None:
     """The layout's contract: version 1, a Log panel on /log, exactly one plot per
     gimbal (in this order) with its four series, a Raw Messages panel per line,
-    tables of the events and transactions, and plots never squeezed."""
+    tables of the events and transactions, and plots never squeezed. A lean
+    recording's: no events table, and one Raw Messages panel on /serial/reads."""
     assert layout["version"] == 1
     assert [p["config"]["topicToRender"] for p in of_type(layout, "Log")] == ["/log"]
     plots = of_type(layout, "Plot")
@@ -76,8 +78,10 @@ def check_layout(layout: dict, devices: list[str], lines: list[str], *, template
         assert len(series) == 4
         for s in series:   # a target holds until the next command
             assert s["lineInterpolation"] == ("step" if ".target." in s["value"] else "linear")
-    assert [p["config"]["topicPath"] for p in of_type(layout, "RawMessages")] == [f"/serial/{x}/raw" for x in lines]
-    assert sorted(p["config"]["topicPath"] for p in of_type(layout, "Table")) == ["/events", "/transactions"]
+    raw = ["/serial/reads"] if lean else [f"/serial/{x}/raw" for x in lines]
+    assert [p["config"]["topicPath"] for p in of_type(layout, "RawMessages")] == raw
+    tables = ["/transactions"] if lean else ["/events", "/transactions"]
+    assert sorted(p["config"]["topicPath"] for p in of_type(layout, "Table")) == tables
     check_readable(layout["content"])
     check_sdk_round_trip(layout)
 
@@ -217,6 +221,16 @@ def test_demo_recording_in_parts(tmp_path):
     parts = sorted(tmp_path.glob("site-*.mcap"))
     assert len(parts) >= 2
     check_layout(layout_of(*reversed(parts)), DEMO_ADDRESSES, ["A", "B"])
+
+
+def test_lean_recording_has_its_reads_panel_and_no_events_table(tmp_path):
+    # a lean recording (docs/mcap.md): the reads of both lines on /serial/reads, no /events
+    path = tmp_path / "lean.mcap"
+    r = run_cli("demo", "--record", path, "--lean", "--no-tui", "--seconds", "3", "--clean", timeout=120)
+    assert r.returncode == 0, r.stderr
+    check_layout(layout_of(path), DEMO_ADDRESSES, ["A", "B"], lean=True)
+    cut = without_summary(path, tmp_path / "killed.mcap")   # its channels found by the walk too
+    check_layout(layout_of(cut), DEMO_ADDRESSES, ["A", "B"], lean=True)
 
 
 def test_recording_without_summary_is_scanned(demo_recording, tmp_path):
