@@ -184,6 +184,23 @@ def test_replay_playback_shows_events_up_to_the_position(loaded):
     assert model.row_count == 13 and model.nav.next_error(4) == 5
 
 
+def test_a_replay_played_to_the_end_of_its_file_stops_there(loaded):
+    done, _ = loaded
+    t = [e.t for e in done.events]
+    model = CaptureModel()
+    model.replay.start(speed=1.0)
+    model.add(done.events, [])
+    model.replay.advance(100.0)
+    model.replay.advance(100.0 + (t[-1] - t[0]) + 5.0)   # past the last event, the file still loading
+    assert model.row_count == 13 and model.replay.playback.playing
+    model.done = True                                    # the file has ended
+    model.replay.advance(110.0 + (t[-1] - t[0]))
+    assert not model.replay.playback.playing and model.replay.position == t[-1]
+    model.replay.playback.playing = True                 # play again: from the end, it stops again
+    model.replay.advance(120.0 + (t[-1] - t[0]))
+    assert not model.replay.playback.playing and model.row_count == 13
+
+
 def test_timeline_links_command_to_answers():
     from dissectors.event import ACK, COMMAND, Event
 

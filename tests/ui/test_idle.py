@@ -60,3 +60,24 @@ def test_an_idle_live_screen_runs_no_interval_and_gets_no_batches():
         stop_feed(app)
 
     run(drive())
+
+
+def test_a_replay_played_to_its_end_stops_its_pace():
+    # a timed capture played fast: once at its last event, nothing ticks on
+    import analyzer
+    from tests.conftest import SOCAT_LOG
+
+    app = make_app(analyzer.open(SOCAT_LOG), mode="replay", speed=1000.0)
+
+    async def drive():
+        async with app.run_test(size=SIZE) as pilot:
+            await settle(pilot, app, lambda a: a.model.done and a.model.shown == len(a.model.store)
+                         and not a.model.replay.playback.playing,
+                         what=lambda a: f"shown {a.model.shown} of {len(a.model.store)}")
+            await pilot.pause()
+            return running_intervals(app), app.model.replay.position, app.model.store.t[len(app.model.store) - 1]
+    try:
+        intervals, position, last = run(drive())
+    finally:
+        stop_feed(app)
+    assert intervals == [] and position == last

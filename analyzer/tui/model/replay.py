@@ -48,7 +48,14 @@ class Replay:
             return self.model.show_first(len(store))
         if not self.model.shown and len(store) and pb.position == 0.0:
             pb.position = store.t[0]   # playing starts at the first event
-        return self.model.show_first(bisect_right(store.t, pb.tick(wall)))
+        shown = self.model.show_first(bisect_right(store.t, pb.tick(wall)))
+        n = len(store)
+        if self.model.done and n and self.model.shown == n and pb.position >= store.t[n - 1]:
+            # played to the end of a file that has ended: the playback stops there
+            # (and the screen's pace with it), as a player does
+            pb.position = store.t[n - 1]
+            pb.playing = False
+        return shown
 
     def seek(self, seconds: float) -> None:
         """Move a replay's position by ``seconds`` of capture time (either way)."""
