@@ -1,7 +1,8 @@
 """Moving between related events among the rows a model shows: the next
 error, the paired request or answer, the next event of the same device, the
-next mark, the next row holding a text. Each returns an event number, or None
-when there is none (the screen rings the bell)."""
+next mark, the next row holding a text or matching a filter expression
+(``=EXPR``, as Wireshark's "find by display filter"). Each returns an event
+number, or None when there is none (the screen rings the bell)."""
 
 from __future__ import annotations
 
@@ -13,11 +14,13 @@ from ..scan import scan_first
 from ..store import KINDS
 
 COMMAND_CODE = KINDS.index(COMMAND)
+FIND_BY_FILTER = "="   # a search text that starts with it is a filter expression
 
 
 class Navigation:
     def __init__(self, model) -> None:
         self.model = model
+        self._hits: tuple | None = None   # (expression, shown, store indices it selects): find by filter
 
     @property
     def answers(self) -> dict[int, list[int]]:
@@ -120,7 +123,12 @@ class Navigation:
 
     def search(self, text: str, after: int, forward: bool = True, *, progress=None, cancelled=None) -> int | None:
         """The next shown event whose row text contains ``text`` (case-insensitive),
-        wrapping round. Safe in a worker thread; raises Cancelled when ``cancelled()``."""
+        or, for ``=EXPR``, that the filter expression EXPR selects; wrapping round.
+        Safe in a worker thread; raises Cancelled when ``cancelled()``, FilterError
+        for a bad expression."""
+        if text.startswith(FIND_BY_FILTER):
+            return self.find_by_filter(text[len(FIND_BY_FILTER):], after, forward, progress=progress,
+                                       cancelled=cancelled)
         m = self.model
         needle = text.lower()
         row = m.row_of(after)
@@ -135,6 +143,46 @@ class Navigation:
                        progress=progress, cancelled=cancelled)
         if r is None:
             return None
+        ev = m.row(r)
+        return ev.number if ev is not None else None
+
+
+    def find_by_filter(self, expr: str, after: int, forward: bool = True, *, progress=None,
+                       cancelled=None) -> int | None:
+        """The next shown event after ``after`` that the filter expression selects,
+        wrapping round: the stored events through the store's columns
+        (``store_filter.matching``, as a filter), kept for the next ``n`` while no
+        more events are shown; the unsettled ones by the expression itself."""
+        import numpy as np
+
+        from ...analysis.filter import compile_filter
+        from ..store_filter import matching
+
+        m = self.model
+        expr = expr.strip()
+        pred = compile_filter(expr)
+        shown = m.shown
+        if self._hits is None or self._hits[:2] != (expr, shown):
+            self._hits = (expr, shown, np.frombuffer(
+                matching(pred, m.store, 0, shown, progress=progress, cancelled=cancelled).tobytes(), dtype=np.int32))
+        hits = self._hits[2]
+        view = m.filter.view
+        if view is not None:   # the rows of the stored hits the filter shows
+            shown_rows = np.frombuffer(view.tobytes(), dtype=np.int32)
+            hits = np.flatnonzero(np.isin(shown_rows, hits))
+        settled = m.filter.settled(shown)
+        held = [settled + k for k, ev in enumerate(m.filter.unsettled) if pred(ev)]
+        rows = np.concatenate([hits.astype(np.int64), np.array(held, dtype=np.int64)])
+        if not len(rows):
+            return None
+        here = m.row_of(after)
+        here = -1 if here is None else here
+        if forward:
+            k = int(np.searchsorted(rows, here, side="right"))
+            r = int(rows[k if k < len(rows) else 0])
+        else:
+            k = int(np.searchsorted(rows, here, side="left")) - 1
+            r = int(rows[k])   # -1: the last, round the end
         ev = m.row(r)
         return ev.number if ev is not None else None
 

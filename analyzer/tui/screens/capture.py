@@ -12,6 +12,7 @@ from textual.screen import Screen
 from textual.widgets import Footer
 
 from ..model import CaptureModel
+from ..model.navigation import FIND_BY_FILTER
 from ..widgets import (
     BackgroundScan, DetailTree, EventList, FilterBar, GotoBar, HexView, RecordControl, SearchBar, StatusBar,
     TimelineView)
@@ -230,7 +231,7 @@ class CaptureScreen(Screen):
     def _search(self, text: str, after: int, forward: bool) -> None:
         if not text:
             return
-        what = f"row contains {text!r}"
+        what = f"row matches {text[1:].strip()}" if text.startswith(FIND_BY_FILTER) else f"row contains {text!r}"
         nav = self.model.nav
         if self.model.row_count < BACKGROUND_ROWS:
             self.go(nav.search(text, after, forward), what)

@@ -1,5 +1,7 @@
-"""The search prompt (``ctrl+f``): a text to find in the rows; Enter asks for
-the next row holding it (``Find``). It keeps the text for ``n``/``N``."""
+"""The search prompt (``ctrl+f``): a text to find in the rows, or ``=`` and a
+filter expression to find the next row it selects; Enter asks for the next row
+(``Find``). It keeps the text for ``n``/``N``. An expression that does not
+compile is said, and the prompt stays open on it."""
 
 from __future__ import annotations
 
@@ -7,6 +9,8 @@ from textual import on
 from textual.message import Message
 from textual.widgets import Input
 
+from ...analysis.filter import FilterError, compile_filter
+from ..model.navigation import FIND_BY_FILTER
 from .prompt import Prompt
 
 
@@ -17,7 +21,8 @@ class SearchBar(Prompt):
             self.text = text
 
     def __init__(self, **kw) -> None:
-        super().__init__(placeholder="search text (Enter finds, n/N next/previous)", **kw)
+        super().__init__(placeholder=f"search text, or {FIND_BY_FILTER}filter expression (Enter finds, "
+                                     "n/N next/previous)", **kw)
         self.text = ""     # the last text searched for
 
     def open(self, value: str | None = None) -> None:
@@ -26,6 +31,13 @@ class SearchBar(Prompt):
     @on(Input.Submitted)
     def _submitted(self, event: Input.Submitted) -> None:
         event.stop()
+        if event.value.startswith(FIND_BY_FILTER):
+            try:
+                compile_filter(event.value[len(FIND_BY_FILTER):].strip())
+            except FilterError as e:
+                self.app.bell()
+                self.notify(f"not a filter: {e}", severity="error", timeout=4)
+                return
         self.text = event.value
         self.close()
         self.post_message(self.Find(event.value))
