@@ -122,7 +122,9 @@ def capture_contents(capture: Capture) -> tuple[list[str], tuple[str, ...], bool
     info = CaptureInfo.of(capture, command=COMMAND)
     lines = tuple(capture.lines)
     try:
-        recorded, topics = (None, set()) if capture.options.explicit else recorded_devices(capture.source)
+        recorded, topics = recorded_devices(capture.source)
+        if capture.options.explicit:   # options may decode it otherwise than it was recorded: decode it
+            recorded = None
     except BaseException:
         capture.source.close()   # a temporary copy of a piped recording goes with it
         raise

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 
 
 def spawn(target, args: tuple, name: str):
@@ -15,17 +16,24 @@ def spawn(target, args: tuple, name: str):
     ctx = multiprocessing.get_context("spawn")
     parent, child = ctx.Pipe(duplex=False)
     process = ctx.Process(target=target, args=(*args, child), name=name, daemon=True)
-    # the screen captures standard output and error (no descriptors): a new
-    # process is given the real ones, which it then points at /dev/null (``quiet``)
+    # the screen captures standard output and error (no descriptors): the first
+    # process started (with multiprocessing's resource tracker) is given the real
+    # ones, which it then points at /dev/null (``quiet``). Only from the screen's
+    # own thread: the streams are the whole process's, and the screen puts its
+    # own back as it closes; from another thread (a doctor started once a file has
+    # loaded) the tracker runs already and nothing needs them
+    swap = threading.current_thread() is threading.main_thread()
     saved = sys.stdout, sys.stderr
-    sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
+    if swap:
+        sys.stdout, sys.stderr = sys.__stdout__, sys.__stderr__
     try:
         process.start()
-    except (OSError, ValueError):
+    except Exception:   # no process to be had (out of processes, memory, descriptors)
         parent.close()
         return None
     finally:
-        sys.stdout, sys.stderr = saved
+        if swap:
+            sys.stdout, sys.stderr = saved
         child.close()
     return process, parent
 

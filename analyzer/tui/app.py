@@ -151,6 +151,8 @@ class GimbalscopeApp(App):
         if b.findings is not None:
             m.findings = b.findings
             m.findings_known = True
+        if b.doctor_error is not None:
+            m.doctor_error = b.doctor_error
         self.last = b
         self.status_bar.batch(b)
         if b.done and not m.done:
@@ -265,8 +267,7 @@ class GimbalscopeApp(App):
                 self.notify("play/pause is for replays", timeout=2)
             return
         if what == "play":
-            pb.playing = not pb.playing
-            pb.tick(time.monotonic())
+            pb.toggle(time.monotonic())
         elif what == "speed":
             pb.tick(time.monotonic())
             pb.speed = min(64.0, max(0.125, (pb.speed or 64.0) * amount))

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import signal
 import threading
 import time
 from typing import Callable
@@ -58,8 +59,13 @@ class _Sender:
         self.findings: list | None = None
         self.last = 0.0
         self.sent = False
+        self.failed = False   # a chunk could not be sent: the ones after it would not follow it
 
     def __call__(self, batch: FeedBatch) -> None:
+        if self.failed:   # the run ends on that failure: only its last word goes, without events
+            if batch.done:
+                self.conn.send(dataclasses.replace(batch, events=[], unsettled=[], chunk=None))
+            return
         self.maker.add(batch.events)
         self.warnings += batch.warnings
         if batch.findings is not None:
@@ -71,12 +77,23 @@ class _Sender:
         self.last = now
         warnings, self.warnings = self.warnings, []
         findings, self.findings = self.findings, None
-        self.conn.send(dataclasses.replace(batch, events=[], unsettled=[], warnings=warnings, findings=findings,
-                                           chunk=self.maker.take()))
+        try:
+            self.conn.send(dataclasses.replace(batch, events=[], unsettled=[], warnings=warnings,
+                                               findings=findings, chunk=self.maker.take()))
+        except BaseException:
+            self.failed = True
+            raise
+
+
+def _stopped(signum, frame) -> None:
+    raise SystemExit(0)
 
 
 def _child(inputs, options, command, conn) -> None:
     quiet()
+    # the screen ends this process with SIGTERM: as an exception, so that the
+    # capture is closed on the way out (a large MCAP's reader process with it)
+    signal.signal(signal.SIGTERM, _stopped)
     try:
         from ..capture import open as open_capture
         from ..info import CaptureInfo
@@ -88,6 +105,8 @@ def _child(inputs, options, command, conn) -> None:
         feed = Feed(runner, _Sender(conn), ApartFindings())
         runner.add_listener(feed)
         feed.run()   # to the last batch; a capture that fails says so in it
+    except SystemExit:   # stopped by the screen, which is closing: nothing to say
+        pass
     except BaseException as e:   # whatever it is, the screen hears of it, in one line
         conn.send(FeedBatch([], [], [], done=True, error=f"{type(e).__name__}: {e}"))
     finally:
@@ -118,10 +137,11 @@ class DecodeApart:
         self._thread = threading.Thread(target=self._receive, daemon=True, name="gimbalscope-decode-wait")
         self._end_lock = threading.Lock()
         self._ended = False
-        self._stopping = False
+        self._stopping_by_screen = False
         self._last: FeedBatch | None = None
         self._warnings: list[str] = []
         self._findings: list | None = None
+        self._doctor_error: str | None = None
 
     def spawn(self) -> bool:
         """Start the decoding process; False if no process can be had."""
@@ -148,7 +168,10 @@ class DecodeApart:
 
     def stop(self) -> None:
         """End the decoding (the screen is closing): nothing of it needs finishing."""
-        self._stopping = True   # its silence is then no news
+        self._stopping_by_screen = True   # its silence is then no news
+        self._end()
+
+    def _end(self) -> None:
         p = self.process
         if p is not None and p.is_alive():
             p.terminate()
@@ -176,6 +199,7 @@ class DecodeApart:
         with self._end_lock:
             if error is not None:
                 self._warnings.append(f"the wiring doctor stopped: {error}")
+                self._doctor_error = error
             else:
                 self.doctor.findings = findings
                 self._findings = findings
@@ -186,13 +210,27 @@ class DecodeApart:
     def _receive(self) -> None:
         conn = self._conn
         batch = None
+        expected = 0   # the next event a chunk must start at
         while True:
+            error = None
             try:
                 batch = conn.recv()
             except (EOFError, OSError):   # killed, or out of memory: keep what came
-                error = None if self._stopping else "the decoding process ended without a word"
-                batch = FeedBatch([], [], list(self.lines.values()), done=True, error=error)
-            if batch.error:
+                error = "the decoding process ended without a word"
+            except Exception as e:   # a message that cannot be read: the rest cannot be trusted
+                error = f"a batch from the decoding process could not be read: {type(e).__name__}: {e}"
+            else:
+                chunk = batch.chunk
+                if chunk is not None:
+                    if chunk.stored.start != expected:
+                        error = (f"the decoding process lost events {expected + 1} to "
+                                 f"{chunk.stored.start}")
+                    expected = chunk.stored.start + len(chunk.stored.columns["kind"])
+            if error is not None:
+                self._end()   # it may be waiting to send more
+                batch = FeedBatch([], [], list(self.lines.values()), done=True,
+                                  error=None if self._stopping_by_screen else error)
+            if batch.error and not self._stopping_by_screen:
                 self.notes.append(f"capture stopped: {batch.error}")
             self.lines = {s.line: s for s in batch.lines}
             with self._end_lock:
@@ -212,4 +250,6 @@ class DecodeApart:
             self._warnings = []
         if self._findings is not None:
             batch.findings, self._findings = self._findings, None
+        if self._doctor_error is not None:
+            batch.doctor_error, self._doctor_error = self._doctor_error, None
         self.deliver(batch)

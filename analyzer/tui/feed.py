@@ -69,6 +69,7 @@ class FeedBatch:
     read: int = 0                    # a file: bytes of its input read so far (a pipe: of its traffic); live: 0
     total: int | None = None         # a file: its input's size; None when it has none (a pipe) or live
     chunk: ModelChunk | None = None  # a file decoded apart: its events as columns (``events`` is empty)
+    doctor_error: str | None = None  # the wiring doctor's process failed: why
 
 
 class Feed(Listener):
@@ -93,6 +94,7 @@ class Feed(Listener):
         self._state: tuple | None = None     # what the last batch reported beside its events (see _send)
         self._warnings: list[str] = []
         self._findings: list | None = None
+        self._doctor_error: str | None = None
         self.recorder = recorder             # --record: made (and checked) before the screen opens
         self.record_lean = record_lean       # the record key writes lean recordings (live --lean)
         self.meter = meter                   # how far the input files have been read: asked once a batch
@@ -135,6 +137,7 @@ class Feed(Listener):
         with self._end_lock:
             if error is not None:
                 self._warnings.append(f"the wiring doctor stopped: {error}")
+                self._doctor_error = error
             else:
                 self.doctor.findings = findings   # the feed's last word, if the capture has not ended
                 self._findings = findings
@@ -229,8 +232,9 @@ class Feed(Listener):
         events, self._pending = self._pending, []
         warnings, self._warnings = self._warnings, []
         findings, self._findings = self._findings, None
+        doctor_error, self._doctor_error = self._doctor_error, None
         self.deliver(FeedBatch(events, unsettled, status, skew, path, size, warnings, findings, done, error,
-                               settings, *read))
+                               settings, *read, doctor_error=doctor_error))
         return True
 
     def _read(self) -> tuple[int, int | None]:

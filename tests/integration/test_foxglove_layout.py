@@ -229,6 +229,7 @@ def test_lean_recording_has_its_reads_panel_and_no_events_table(tmp_path):
     r = run_cli("demo", "--record", path, "--lean", "--no-tui", "--seconds", "3", "--clean", timeout=120)
     assert r.returncode == 0, r.stderr
     check_layout(layout_of(path), DEMO_ADDRESSES, ["A", "B"], lean=True)
+    check_layout(layout_of(path, "--baud", "9600"), DEMO_ADDRESSES, ["A", "B"], lean=True)   # decoded, still lean
     cut = without_summary(path, tmp_path / "killed.mcap")   # its channels found by the walk too
     check_layout(layout_of(cut), DEMO_ADDRESSES, ["A", "B"], lean=True)
 

@@ -196,9 +196,14 @@ def test_a_replay_played_to_the_end_of_its_file_stops_there(loaded):
     model.done = True                                    # the file has ended
     model.replay.advance(110.0 + (t[-1] - t[0]))
     assert not model.replay.playback.playing and model.replay.position == t[-1]
-    model.replay.playback.playing = True                 # play again: from the end, it stops again
-    model.replay.advance(120.0 + (t[-1] - t[0]))
+    model.replay.playback.toggle(120.0 + (t[-1] - t[0]))   # play again: from the end, it stops again
+    model.replay.advance(121.0 + (t[-1] - t[0]))
     assert not model.replay.playback.playing and model.row_count == 13
+    # a minute later: back to the third event and play: on from there, the pause not counted
+    model.replay.seek(-(t[-1] - t[2]))
+    model.replay.playback.toggle(200.0)
+    model.replay.advance(200.0 + (t[3] - t[2]) + 1e-6)
+    assert model.row_count == 4 and model.replay.playback.playing
 
 
 def test_timeline_links_command_to_answers():

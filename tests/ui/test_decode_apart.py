@@ -112,3 +112,71 @@ def test_quitting_while_loading_ends_the_decoding_process(tmp_path):
     process = drive(app, lambda a: a.model.shown > 0 and not a.model.done, lambda a: a.feed.process)
     assert not process.is_alive()
     assert app.feed.notes == []   # a decoding ended on purpose is no news after the screen has closed
+
+
+def receiving(sent) -> list:
+    """What the screen's side delivers of the messages ``sent(conn)`` writes to its
+    pipe (as the decoding process would), with no process behind it."""
+    import multiprocessing
+
+    got = []
+    feed = DecodeApart((CTL, DEV), None, got.append)
+    feed._conn, theirs = multiprocessing.Pipe(duplex=False)
+    feed.start()
+    sent(theirs)
+    feed.join(timeout=30)
+    assert not feed.is_alive()
+    return got, feed
+
+
+def chunks_of(n: int) -> list:
+    from analyzer.tui.model.chunks import ChunkMaker
+
+    events = list(analyzer.open(CTL, DEV))
+    maker, out = ChunkMaker(), []
+    for k in range(n):
+        maker.add(events[k * 10:(k + 1) * 10])
+        out.append(maker.take())
+    return out
+
+
+def test_a_chunk_that_does_not_follow_ends_the_load_with_the_reason():
+    from analyzer.tui.feed import FeedBatch
+
+    first, _lost, third = chunks_of(3)
+    got, feed = receiving(lambda conn: [conn.send(FeedBatch([], [], [], chunk=c)) for c in (first, third)])
+    assert [b.chunk is not None for b in got] == [True, False] and got[-1].done
+    assert got[-1].error == "the decoding process lost events 11 to 20"
+    assert feed.notes == ["capture stopped: the decoding process lost events 11 to 20"]
+
+
+def test_a_message_that_cannot_be_read_ends_the_load_with_the_reason():
+    got, feed = receiving(lambda conn: conn.send_bytes(b"not a pickle"))
+    assert len(got) == 1 and got[0].done
+    assert got[0].error.startswith("a batch from the decoding process could not be read: UnpicklingError")
+
+
+def test_after_a_chunk_that_could_not_be_sent_only_the_last_word_goes():
+    from analyzer.tui.decode_apart import _Sender
+    from analyzer.tui.feed import FeedBatch
+
+    class Conn:
+        def __init__(self):
+            self.sent, self.fail = [], True
+
+        def send(self, batch):
+            if self.fail:
+                self.fail = False
+                raise MemoryError("pickling a chunk")
+            self.sent.append(batch)
+
+    events = list(analyzer.open(CTL, DEV))
+    conn = Conn()
+    sender = _Sender(conn)
+    try:
+        sender(FeedBatch(events[:10], [], []))
+    except MemoryError:
+        pass
+    sender(FeedBatch(events[10:20], [], []))
+    sender(FeedBatch([], [], [], done=True, error="MemoryError: pickling a chunk"))
+    assert [(b.chunk, b.done, b.error) for b in conn.sent] == [(None, True, "MemoryError: pickling a chunk")]

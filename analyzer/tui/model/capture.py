@@ -43,6 +43,7 @@ class CaptureModel:
         self.slow = slow               # seconds: answers slower than this are coloured
         self.findings: list = []                  # the wiring doctor's, from the capture thread
         self.findings_known = False               # the doctor has had its say (``findings`` may be empty)
+        self.doctor_error: str | None = None      # the doctor's process failed: why
         self.done = False                         # the capture has ended
         # the parts
         self.following = Follow(follow)

@@ -17,6 +17,12 @@ class Playback:
     position: float = 0.0       # capture time (s) shown up to
     _anchor: float | None = None  # wall clock at the last update
 
+    def toggle(self, wall: float) -> None:
+        """Play or pause at ``wall``: the time paused does not count (the
+        position is brought up to ``wall`` first, at the old state)."""
+        self.tick(wall)
+        self.playing = not self.playing
+
     def tick(self, wall: float) -> float:
         if self.playing and self._anchor is not None:
             self.position += (wall - self._anchor) * self.speed

@@ -39,7 +39,7 @@ class FindingsScreen(Redrawn):
 
         m = self.model
         findings = m.findings
-        shown = (id(findings), m.findings_known, m.done)
+        shown = (id(findings), m.findings_known, m.done, m.doctor_error)
         if shown == self._shown:
             return
         self._shown = shown
@@ -66,6 +66,8 @@ class FindingsScreen(Redrawn):
 
     def _nothing_yet(self) -> str:
         m = self.model
+        if m.doctor_error is not None:
+            return f"no findings: the wiring doctor stopped ({m.doctor_error})"
         if not m.findings_known:   # a file's doctor reads it in a process of its own, maybe after the load
             return "no findings yet: the wiring doctor is still reading the capture"
         if m.done:
