@@ -119,8 +119,7 @@ class CaptureModel:
     def add(self, batch: list[Event], unsettled: list[Event]) -> int:
         """A batch from the capture thread: shown at once, or (a paced replay)
         stored for the playback to reach. Returns how many rows became visible."""
-        pb = self.replay.playback
-        if pb is None or pb.speed == 0 and self.shown == len(self.store):
+        if self._shown_as_they_come():
             return self.extend(batch) + self.set_unsettled(unsettled)
         self.store.append(batch)
         return 0
@@ -128,19 +127,24 @@ class CaptureModel:
     def add_chunk(self, chunk: ModelChunk) -> int:
         """Events as columns from a process decoding the file (``chunks.py``):
         ``add`` without event objects. Returns how many rows became visible."""
-        pb = self.replay.playback
+        if not self._shown_as_they_come():
+            self.store.append_chunk(chunk.stored)   # ``show_first`` rebuilds them when the playback is there
+            return 0
+        before = self.row_count
         start = len(self.store)
         self.store.append_chunk(chunk.stored)
-        if pb is not None and not (pb.speed == 0 and self.shown == start):
-            return 0   # a paced replay: stored for the playback to reach (``show_first`` rebuilds them)
-        before = self.row_count
         self.shown = len(self.store)
         self.checksum_errors += chunk.checksum_errors
         self.plots.merge(chunk.points)
-        self.filter.learn_stored(self.store, start, self.shown)
-        self.unsettled = []   # a decoding process holds its unsettled events until they settle
-        self.filter.hold([])
-        return self._grew(before)
+        self.filter.learn(self.store, start, self.shown)
+        # a decoding process holds its unsettled events until they settle
+        return self._grew(before) + self.set_unsettled([])
+
+    def _shown_as_they_come(self) -> bool:
+        """New events are shown as they arrive: not a paced replay's, which are
+        stored for the playback to reach."""
+        pb = self.replay.playback
+        return pb is None or pb.speed == 0 and self.shown == len(self.store)
 
     def extend(self, batch: list[Event]) -> int:
         """Store and show settled events (wire order). Returns how many rows became visible."""
@@ -158,7 +162,7 @@ class CaptureModel:
             devices = [ev.device for ev in events]
         self.checksum_errors += sum(1 for ev in events if ev.problems and checksum_problem(ev))
         self.plots.add(events, devices)
-        self.filter.learn(events, start)
+        self.filter.learn(self.store, start, self.shown)
 
     def set_unsettled(self, held: list[Event]) -> int:
         before = self.row_count

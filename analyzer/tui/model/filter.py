@@ -18,7 +18,7 @@ from typing import Callable
 from dissectors.event import Event
 
 from ...analysis.filter import compile_filter
-from ..store import ERROR, is_error
+from ..store import ERROR
 
 
 class FilterView:
@@ -34,17 +34,9 @@ class FilterView:
         """How many settled rows there are, of ``shown`` settled events."""
         return shown if self.view is None else len(self.view)
 
-    def learn(self, events: list[Event], start: int) -> None:
-        """``events``, stored from index ``start`` on, are shown now."""
-        pred = self.pred
-        if pred is not None:
-            matched = [(i, ev) for i, ev in enumerate(events, start) if pred(ev)]
-            self.view.extend([i for i, _ in matched])
-            self.errors += sum(1 for _, ev in matched if is_error(ev))
-
-    def learn_stored(self, store, start: int, stop: int) -> None:
-        """The stored events ``start``..``stop`` are shown now (they came as
-        columns, not events: the columns decide, ``store_filter``)."""
+    def learn(self, store, start: int, stop: int) -> None:
+        """The stored events ``start``..``stop`` are shown now: the columns
+        decide which match (``store_filter``), as for ``prepare``."""
         if self.pred is None or stop <= start:
             return
         from ..store_filter import matching
