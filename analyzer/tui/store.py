@@ -67,7 +67,6 @@ def is_error(ev: Event) -> bool:
 
 
 _WIDER = {"H": "I", "I": "q"}
-_WIDTH = {"H": 0, "I": 1, "q": 2}
 
 
 def _extend_wide(column: array, values: list[int]) -> array:
@@ -84,13 +83,12 @@ def _extend_wide(column: array, values: list[int]) -> array:
 
 
 def _extend_array(column: array, more: array) -> array:
-    """Extend ``column`` by ``more``, both of one of the widening typecodes (or
-    both the same): the narrower made as wide as the other first."""
-    if column.typecode != more.typecode:
-        if _WIDTH[more.typecode] > _WIDTH[column.typecode]:
-            column = array(more.typecode, column)
-        else:
-            more = array(column.typecode, more)
+    """Extend ``column`` by ``more``, both of the widening typecodes (``_WIDER``)
+    or both the same: the narrower made as wide as the other first."""
+    if more.itemsize > column.itemsize:
+        column = array(more.typecode, column)
+    elif more.typecode != column.typecode:
+        more = array(column.typecode, more)
     column.extend(more)
     return column
 
