@@ -1,9 +1,11 @@
 """What the screen's helper processes share (decode_apart.py, doctor_apart.py):
-starting one, and keeping it off the terminal the screen is drawn on."""
+starting one, its own first steps (off the terminal the screen is drawn on;
+SIGTERM as an exception), and ending it."""
 
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import threading
 
@@ -38,8 +40,23 @@ def spawn(target, args: tuple, name: str):
     return process, parent
 
 
-def quiet() -> None:
-    """In a helper process: nothing of it may reach the terminal the screen is drawn on."""
+def helper_started() -> None:
+    """A helper process's first step. Nothing of it may reach the terminal the
+    screen is drawn on; and the screen ends it with SIGTERM (``end``), taken as
+    SystemExit so that its capture is closed on the way out (a large MCAP's
+    reader process with it)."""
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)
     os.dup2(devnull, 2)
+    signal.signal(signal.SIGTERM, _ended)
+
+
+def _ended(signum, frame) -> None:
+    raise SystemExit(0)
+
+
+def end(process) -> None:
+    """End a helper process if it still runs (the screen is closing)."""
+    if process is not None and process.is_alive():
+        process.terminate()
+        process.join(timeout=5)

@@ -24,13 +24,12 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import signal
 import threading
 import time
 from typing import Callable
 
-from .apart import quiet, spawn
-from .doctor_apart import ApartFindings, DoctorApart
+from .apart import end, helper_started, spawn
+from .doctor_apart import ApartFindings, DoctorApart, HearsTheDoctorApart
 from .feed import FILE_INTERVAL, FeedBatch, LineStatus
 from .model.chunks import ChunkMaker
 
@@ -85,15 +84,8 @@ class _Sender:
             raise
 
 
-def _stopped(signum, frame) -> None:
-    raise SystemExit(0)
-
-
 def _child(inputs, options, command, conn) -> None:
-    quiet()
-    # the screen ends this process with SIGTERM: as an exception, so that the
-    # capture is closed on the way out (a large MCAP's reader process with it)
-    signal.signal(signal.SIGTERM, _stopped)
+    helper_started()
     try:
         from ..capture import open as open_capture
         from ..info import CaptureInfo
@@ -113,7 +105,7 @@ def _child(inputs, options, command, conn) -> None:
         conn.close()
 
 
-class DecodeApart:
+class DecodeApart(HearsTheDoctorApart):
     """The screen's side: what the app asks of a feed (``start``, ``stop``,
     ``join``, ``is_alive``, ``notes``; recording and swapping are for live taps),
     its batches received from the decoding process by a thread of its own and
@@ -172,10 +164,7 @@ class DecodeApart:
         self._end()
 
     def _end(self) -> None:
-        p = self.process
-        if p is not None and p.is_alive():
-            p.terminate()
-            p.join(timeout=5)
+        end(self.process)
 
     def join(self, timeout: float | None = None) -> None:
         if self._thread.is_alive():
@@ -193,18 +182,9 @@ class DecodeApart:
     def swap_lines(self) -> None:
         pass
 
-    def findings_arrived(self, findings: list | None, error: str | None) -> None:
-        """The wiring doctor's word, from the thread that waited for it: the next
-        batch carries it; once the last has gone, one more last batch does."""
-        with self._end_lock:
-            if error is not None:
-                self._warnings.append(f"the wiring doctor stopped: {error}")
-                self._doctor_error = error
-            else:
-                self.doctor.findings = findings
-                self._findings = findings
-            if self._ended:
-                self._pass_on(dataclasses.replace(self._last, chunk=None, warnings=[], error=None))
+    def _send_last(self) -> None:
+        """One more last batch: the doctor's word after the load ended (``findings_arrived``)."""
+        self._pass_on(dataclasses.replace(self._last, chunk=None, warnings=[], error=None))
 
     # --------------------------------------------------------------- thread
     def _receive(self) -> None:

@@ -21,7 +21,7 @@ import stat
 import threading
 from typing import Callable
 
-from .apart import quiet, spawn
+from .apart import end, helper_started, spawn
 
 NICENESS = 10   # the doctor's process yields to the screen's and the load's
 
@@ -53,13 +53,15 @@ def findings_of(inputs: tuple[str, ...], options, command: str = "view") -> list
 
 
 def _child(inputs, options, command, conn) -> None:
-    quiet()
+    helper_started()
     try:
         os.nice(NICENESS)
     except OSError:
         pass
     try:
         conn.send(("findings", findings_of(inputs, options, command)))
+    except SystemExit:   # stopped by the screen, which is closing: nothing to say
+        pass
     except BaseException as e:   # whatever it is, the screen hears of it, in one line
         conn.send(("error", f"{type(e).__name__}: {e}"))
     finally:
@@ -120,10 +122,30 @@ class DoctorApart:
         with self._lock:
             self._stopped.set()
         self._ready.set()
-        p = self.process
-        if p is not None and p.is_alive():
-            p.terminate()
-            p.join(timeout=5)
+        end(self.process)
+
+
+class HearsTheDoctorApart:
+    """What a feed does with the word of a doctor in a process of its own
+    (``findings_arrived``, from the thread that waited for it): the next batch
+    carries it; once the last batch has gone, one more last batch does
+    (``_send_last``). A doctor that failed is a warning on screen. The feed has
+    ``doctor`` (an ``ApartFindings``), ``_end_lock``, ``_ended``, ``_warnings``,
+    ``_findings`` and ``_doctor_error``."""
+
+    def findings_arrived(self, findings: list | None, error: str | None) -> None:
+        with self._end_lock:
+            if error is not None:
+                self._warnings.append(f"the wiring doctor stopped: {error}")
+                self._doctor_error = error
+            else:
+                self.doctor.findings = findings   # the feed's last word, if the capture has not ended
+                self._findings = findings
+            if self._ended:
+                self._send_last()
+
+    def _send_last(self) -> None:
+        raise NotImplementedError
 
 
 class ApartFindings:

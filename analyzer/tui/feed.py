@@ -30,6 +30,7 @@ from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
 from ..sources.meter import READS, ReadMeter
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import RecordingError
+from .doctor_apart import DoctorApart, HearsTheDoctorApart
 from .model.chunks import ModelChunk
 
 # events a message at most: a batch waits as event objects (about 100 bytes an
@@ -72,11 +73,13 @@ class FeedBatch:
     doctor_error: str | None = None  # the wiring doctor's process failed: why
 
 
-class Feed(Listener):
+class Feed(HearsTheDoctorApart, Listener):
     """Collects what the runner hears and hands it to ``deliver`` in batches.
     ``start()`` runs the runner in a thread of its own; the screen's thread calls
     only ``start_recording``, ``stop_recording``, ``swap_lines`` and ``stop``
     (requests to the runner)."""
+
+    doctor_apart: DoctorApart | None = None   # a file's doctor in a process of its own (run.py)
 
     def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener, *,
                  interval: float | None = None, recorder: McapWriter | None = None,
@@ -129,20 +132,9 @@ class Feed(Listener):
             self._send(done=True, error=error)
             self._ended = True
 
-    def findings_arrived(self, findings: list | None, error: str | None) -> None:
-        """The wiring doctor's word from its own process (doctor_apart.py), from the
-        thread that waited for it: the next batch carries it while the capture
-        runs; once it has ended, one more last batch does. A doctor that failed is
-        a warning on screen."""
-        with self._end_lock:
-            if error is not None:
-                self._warnings.append(f"the wiring doctor stopped: {error}")
-                self._doctor_error = error
-            else:
-                self.doctor.findings = findings   # the feed's last word, if the capture has not ended
-                self._findings = findings
-            if self._ended:
-                self._send(done=True)
+    def _send_last(self) -> None:
+        """One more last batch: the doctor's word after the capture ended (``findings_arrived``)."""
+        self._send(done=True)
 
     # ------------------------------------------------------------ controls
     @property

@@ -112,15 +112,13 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         # a file viewed: decoded in a process of its own (decode_apart.py), and the
         # doctor reads it again in another (doctor_apart.py), both off the screen's
         # thread; a live tap, a replay or a pipe: a capture thread, the doctor in its runner
-        viewed = mode == "view" and apart_possible(capture.inputs)
-        if viewed and recorder is None and not listeners:
-            feed = DecodeApart(capture.inputs, capture.options, deliver, command=info.command,
-                               doctor=DoctorApart(capture.inputs, capture.options, command=info.command))
-            if feed.spawn():
-                return feed
         apart = None
-        if viewed:
+        if mode == "view" and apart_possible(capture.inputs):
             apart = DoctorApart(capture.inputs, capture.options, command=info.command)
+            if recorder is None and not listeners:
+                feed = DecodeApart(capture.inputs, capture.options, deliver, command=info.command, doctor=apart)
+                if feed.spawn():
+                    return feed
             if not apart.start():   # no process to be had: the doctor stays in the runner
                 apart = None
         doctor = ApartFindings() if apart else DoctorListener(tui=True)
@@ -150,9 +148,8 @@ def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[s
             close()
     if feed is None:
         return []
-    apart = getattr(feed, "doctor_apart", None)
-    if apart is not None:
-        apart.stop()
+    if feed.doctor_apart is not None:
+        feed.doctor_apart.stop()
     feed.stop()
     feed.join(timeout=5.0)
     return feed.notes
