@@ -6,10 +6,9 @@ with pyserial, as the live tests; nothing here measures time."""
 
 from __future__ import annotations
 
-from analyzer.capture import open_live
 from analyzer.tui.run import make_app, stop_feed
 from analyzer.tui.screens.stats import StatsScreen
-from tests.ui.test_pilot import SIZE, exchange, pty_pair, run, settle
+from tests.ui.test_pilot import SIZE, exchange, live_on_ptys, run, settle
 
 
 def running_intervals(app) -> list[str]:
@@ -28,9 +27,7 @@ def running_intervals(app) -> list[str]:
 
 
 def test_an_idle_live_screen_runs_no_interval_and_gets_no_batches():
-    ma, _sa, pa = pty_pair()
-    mb, _sb, pb = pty_pair()
-    app = make_app(open_live([pa, pb]), mode="live", ports=[pa, pb])
+    app, ma, mb = live_on_ptys()
     batches = []
 
     async def drive():

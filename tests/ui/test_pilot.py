@@ -193,6 +193,14 @@ def pty_pair():
     return master, slave, os.ttyname(slave)
 
 
+def live_on_ptys(**kw):
+    """The live TUI on two pseudo-terminals opened with pyserial, lines A and B:
+    (app, the master ends to write A's and B's traffic to). ``kw`` for make_app."""
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
+    return make_app(open_live([pa, pb]), mode="live", ports=[pa, pb], **kw), ma, mb
+
+
 def exchange(ma, mb, dst=(1, 1, 1)):
     os.write(ma, frame(dst, 0, "HO"))
     time.sleep(0.02)
@@ -201,11 +209,8 @@ def exchange(ma, mb, dst=(1, 1, 1)):
 
 
 def test_live_follow_badge_and_record_toggle(tmp_path):
-    ma, _sa, pa = pty_pair()
-    mb, _sb, pb = pty_pair()
     rec = tmp_path / "toggled.mcap"
-    capture = open_live([pa, pb])
-    app = make_app(capture, mode="live", ports=[pa, pb], record_path=str(rec))
+    app, ma, mb = live_on_ptys(record_path=str(rec))
 
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
@@ -236,9 +241,7 @@ def test_an_ended_live_capture_stops_its_clock_and_rates():
     """Once a live capture has ended, its status line says so and stays as it was:
     the elapsed time stops, and no line rate is shown (nothing is read any more);
     the screen is not redrawn for a clock that runs on."""
-    ma, _sa, pa = pty_pair()
-    mb, _sb, pb = pty_pair()
-    app = make_app(open_live([pa, pb]), mode="live", ports=[pa, pb])
+    app, ma, mb = live_on_ptys()
     redraws = []
 
     async def drive():

@@ -1,17 +1,14 @@
 """The TUI's record key writes lean recordings when the tap was started with
 ``--lean`` (docs/mcap.md, "Lean recordings")."""
 
-from analyzer.capture import open_live
-from analyzer.tui.run import make_app, stop_feed
+from analyzer.tui.run import stop_feed
 from tests.integration.test_mcap import doctor, go_read, jsonl
-from tests.ui.test_pilot import SIZE, exchange, pty_pair, record_three_exchanges, run, settle
+from tests.ui.test_pilot import SIZE, exchange, live_on_ptys, record_three_exchanges, run, settle
 
 
 def test_the_record_key_records_lean_with_the_tap_lean(tmp_path):
-    ma, _sa, pa = pty_pair()
-    mb, _sb, pb = pty_pair()
     rec = tmp_path / "toggled.mcap"
-    app = make_app(open_live([pa, pb]), mode="live", ports=[pa, pb], record_path=str(rec), record_lean=True)
+    app, ma, mb = live_on_ptys(record_path=str(rec), record_lean=True)
 
     async def drive():
         async with app.run_test(size=SIZE) as pilot:
