@@ -57,6 +57,7 @@ except ImportError:  # pragma: no cover
     json_loads = json.loads
 
 from ..errors import CaptureError
+from ..formats.mcap_schemas import READS_TOPIC   # lean recordings: the reads of every line, batched
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
 from ..outfile import show
 from .base import ReadSettings, Source
@@ -66,7 +67,6 @@ from .mcapscan import (
     RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk, summary_records)
 from .meter import READS
 
-READS_TOPIC = "/serial/reads"   # lean recordings: the reads of every line, batched (formats/mcap_schemas.py)
 _BATCHED = "reads"              # the "line" of the reads topic's channels (each read names its own)
 _LINES = (LINE_A, LINE_B, LINE_AB)
 RAW_TOPICS = {**{f"/serial/{line}/raw": line for line in _LINES}, READS_TOPIC: _BATCHED}
