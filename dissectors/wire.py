@@ -65,7 +65,7 @@ class LineSettings:
     (``timed_by``: a deframer on its own, the simulator) has no baud."""
 
     __slots__ = ("baud", "data_bits", "parity", "stop_bits", "byte_time", "frame_gap", "_given_gap", "changes",
-                 "_watchers")
+                 "changed_at", "_watchers")
 
     def __init__(self, baud: int = 9600, data_bits: int = 8, parity: str = "N", stop_bits: float = 1,
                  frame_gap: float | None = None) -> None:
@@ -77,6 +77,7 @@ class LineSettings:
         self.byte_time = 0.0
         self.frame_gap = 0.0
         self.changes: list = []    # the rate changes followed (``analyzer.analysis.rate.RateChange``), in order
+        self.changed_at: float | None = None   # capture seconds of the latest change, when known
         self._watchers: list[Callable[[LineSettings], None]] = []
         self.set_byte_time(byte_time(baud, data_bits, parity, stop_bits))
 
@@ -88,10 +89,12 @@ class LineSettings:
         settings.set_byte_time(byte_time)
         return settings
 
-    def set_rate(self, baud: int, change: object = None) -> None:
+    def set_rate(self, baud: int, change: object = None, at: float | None = None) -> None:
         """The link's rate is ``baud`` from now on (``change``: the rate change
-        followed, kept in ``changes``); watchers are told."""
+        followed, kept in ``changes``; ``at``: when, in capture seconds, for a
+        source that reads the wire itself); watchers are told."""
         self.baud = baud
+        self.changed_at = at
         self.set_byte_time(byte_time(baud, self.data_bits, self.parity, self.stop_bits))
         if change is not None:
             self.changes.append(change)

@@ -81,7 +81,7 @@ class RateFollowing:
         source, the deframers, the merge and a live tap's ports follow them); the
         change becomes an event of the output."""
         for settings in self.settings.values():
-            settings.set_rate(change.baud, change)
+            settings.set_rate(change.baud, change, at=change.t)
         if change.taken_back:
             self.warn(f"the device answered NIC to the rate change at line {change.command.line} byte "
                       f"{change.command.offset}: back to {change.baud} bps")

@@ -8,6 +8,14 @@ whole number of bits (shorter ones fit too: half the bit time makes every
 interval an even number), refined over intervals of one to three bits, whose
 count of bits cannot be mistaken, then over all of up to ten. A clock a few per
 cent off is then measured to a tenth of a per cent from a few dozen characters.
+
+The measure is the one most intervals agree on, never the shortest interval:
+pulses under half a bit (glitches, ringing, a burst of oscillation as a device
+powers up) fit no bit time of the line and are left out, as long as they are a
+minority. On a sampled line a bit time under ``min_bit`` samples is no
+measure at all (a square wave of two-sample pulses "fits" any rate); the
+caller asks again without the floor to tell an analyser sampling too slowly
+from a line that has not started talking yet.
 """
 
 from __future__ import annotations
@@ -18,12 +26,14 @@ import numpy as np
 
 # §1.5.1's rates, and the common ones above them: a measured rate is named against
 # the nearest (what devices are set to), when it is within NEAR of it
-STANDARD_RATES = (300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 38400, 57600, 115200, 230400, 460800,
-                  921600, 1000000, 2000000)
+# (31,250: MIDI; 250,000: DMX512; both are set by their standards, not by a divisor table)
+STANDARD_RATES = (110, 150, 300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 31250, 38400, 57600, 115200,
+                  230400, 250000, 460800, 921600, 1000000, 2000000)
 NEAR = 0.08           # a rate further than 8 % from every standard one is taken as set that way
 FIT = 0.25            # an interval fits a bit time within a quarter bit
 ENOUGH_EDGES = 48     # edges before decoding starts (about three characters); twice this are measured
 MIN_EDGES = 6         # fewer: no rate can be measured (--baud decodes such a line)
+SHORT_SHARE = 0.4     # pulses under half a bit beyond this share of the intervals: not this bit time
 
 
 class Measured(NamedTuple):
@@ -32,23 +42,28 @@ class Measured(NamedTuple):
     intervals: int    # how many were measured
 
 
-def measure_bit(ticks: np.ndarray) -> Measured | None:
+def measure_bit(ticks: np.ndarray, min_bit: float = 0.0) -> Measured | None:
     """The bit time of a line from its edges (ticks), or None when they do not
-    show one (too few, or no bit time fits)."""
+    show one (too few, or no bit time of at least ``min_bit`` ticks fits)."""
     if ticks.size < MIN_EDGES:
         return None
     d = np.diff(ticks).astype(np.float64)
     d = d[d > 0]
-    if d.size < MIN_EDGES - 1:
+    pool = d[d >= min_bit] if min_bit else d
+    if pool.size < MIN_EDGES - 1:
         return None
     # candidates: the short intervals (one bit is among the commonest in any
     # traffic), largest first; glitches are short and rare, and fail the fit
-    q = np.quantile(d, np.linspace(0.0, 0.5, 41))
+    q = np.quantile(pool, np.linspace(0.0, 0.5, 41))
     for c in sorted(set(q.tolist()), reverse=True):
-        if c <= 0:
+        if c <= 0 or c < min_bit:
             continue
-        inside = d[d < 12.5 * c]         # within a character; longer is idle
-        if inside.size < max(MIN_EDGES - 1, d.size // 4):
+        short = d < c / 2                # no interval of this line is under a bit: glitches
+        n_short = int(np.count_nonzero(short))
+        if n_short > SHORT_SHARE * d.size:
+            continue
+        inside = d[~short & (d < 12.5 * c)]         # within a character; longer is idle
+        if inside.size < max(MIN_EDGES - 1, (d.size - n_short) // 4):
             continue
         r = inside / c
         k = np.rint(r)
@@ -56,7 +71,7 @@ def measure_bit(ticks: np.ndarray) -> Measured | None:
         if fits.mean() < 0.7 or np.count_nonzero(k[fits] == 1) < max(2, inside.size // 50):
             continue
         bit = _refine(inside[fits], c)
-        if bit is None:
+        if bit is None or bit < min_bit:
             continue
         return Measured(bit, float(fits.mean()), int(inside.size))
     return None

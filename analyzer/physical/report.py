@@ -28,6 +28,7 @@ class LineReport:
     data_bits: int = 8
     parity: str = "N"
     stop_bits: float = 1
+    possible_formats: list[str] = field(default_factory=list)   # formats that read the line as well (a guess)
     edges: int = 0
     characters: int = 0
     framing_errors: int = 0

@@ -1,21 +1,27 @@
 """A software UART: one line's edges in, its characters out, with their wire
 times and the receiver's errors (docs/instruments.md, "The software UART").
 
-It reads as a hardware UART does: a start bit is an edge from the idle level,
-each bit is sampled at its middle, the stop bit must be back at idle (else a
-framing error; all bits at the active level, a break). What a hardware UART
-is told, it finds out: the bit time and the idle level from the edges
-(``bitrate``), the character format from which one decodes without errors, and
-a change of rate from a run of framing errors after a silence. It also counts
-what only a waveform shows: glitches (pulses under a quarter bit, removed before
-decoding, as a receiver's majority vote would) and characters whose edges fall
-off the bit grid (two senders driving the line at once).
+It reads as a hardware UART does: a start bit is an edge from the idle level
+that is still at the active level half a bit later (else it was a pulse, not a
+start bit), each bit is sampled at its middle, the stop bit must be back at
+idle (else a framing error; all bits at the active level, a break). What a
+hardware UART is told, it finds out: the bit time and the idle level from the
+edges (``bitrate``), the character format from the characters (``charformat``),
+and a change of rate three ways: the protocol layer's word that a rate-set
+command was acknowledged (``hint_rate``), a run of framing errors after a
+silence (the link slowed down), and a burst of pulses under a quarter bit that
+reads as characters at a faster rate (the link sped up: such pulses are not
+glitches). It also counts what only a waveform shows: glitches (pulses under a
+quarter bit, removed before decoding, as a receiver's majority vote would) and
+characters whose edges fall off the bit grid (two senders driving the line at
+once).
 
 Incremental: ``feed`` takes a block of edges known up to a tick, decodes every
 character whose stop bit is inside it and keeps the rest; ``finish`` ends the
 line. The sequential part (which edge starts the next character) is a loop over
 characters with a binary search; sampling the bits is vectorised over all of a
-block's characters.
+block's characters. Nothing recurses on what the line holds: a noise burst of a
+million false starts is a million turns of one loop.
 """
 
 from __future__ import annotations
@@ -27,13 +33,20 @@ import numpy as np
 
 from dissectors.problems import LINE_BREAK, LINE_FRAMING, LINE_PARITY, Problem
 
-from .bitrate import ENOUGH_EDGES, idle_level, measure_bit, named_rate
+from .bitrate import ENOUGH_EDGES, MIN_EDGES, NEAR, Measured, idle_level, measure_bit, named_rate
+from .charformat import WIDTHS, LineFormat, Reading, Verdict, stop_bits, tell_format
 from .edges import NO_EDGES, Edges
 from .report import LineReport, RateChange
 
 OFF_GRID = 0.3         # an edge this far (in bits) from a bit boundary is off the grid
 RATE_ERRORS = 4        # framing errors in a row of characters that make the rate be measured again
 MAX_CHANGES = 4        # rate changes followed within one block of edges
+WINDOW = 2 * ENOUGH_EDGES   # edges a rate is measured on
+MAX_WINDOWS = 4096     # windows tried before a line is said to show no rate (about 200,000 edges)
+FORMAT_EDGES = 2400    # edges the format is told from (about five hundred characters: a counter
+                       # sending 0x80 to 0xFF first has shown a top bit of 0 by then)
+BURST_PULSES = 16      # pulses under a quarter bit before they may be a faster rate, not glitches
+SAME_RATE = 0.04       # bit times this close are one rate
 
 
 class Char(NamedTuple):
@@ -43,35 +56,31 @@ class Char(NamedTuple):
     fault: Problem | None = None
 
 
-class LineFormat(NamedTuple):
-    data_bits: int = 8
-    parity: str = "N"
-    stop_bits: float = 1
-
-    @property
-    def bits(self) -> int:
-        """Bits sampled after the start bit: data, parity, the first stop bit."""
-        return self.data_bits + (self.parity != "N") + 1
-
-
-CANDIDATES = (LineFormat(8, "N"), LineFormat(8, "E"), LineFormat(8, "O"), LineFormat(7, "E"), LineFormat(7, "O"))
-
-
 class SoftUart:
-    """One line's receiver. ``report`` is kept up to date as it reads."""
+    """One line's receiver. ``report`` is kept up to date as it reads.
 
-    def __init__(self, report: LineReport, bit: float | None = None, fmt: LineFormat | None = None) -> None:
+    ``min_bit``: the shortest bit time (ticks) it measures: 4 samples on a
+    sampled line, where fewer cannot be read; a line whose clean traffic runs
+    faster than that leaves its rate in ``too_fast`` (bit/s) and decodes nothing."""
+
+    def __init__(self, report: LineReport, bit: float | None = None, fmt: LineFormat | None = None,
+                 min_bit: float = 0.0) -> None:
         self.report = report
         self.rate = report.samplerate
-        self.bit = bit                            # ticks a bit: given, or measured from the first edges
+        self.bit = bit                            # ticks a bit: given, or measured from the edges
         self.fmt = fmt or LineFormat()
         self.fmt_given = fmt is not None
+        self.min_bit = min_bit
+        self.too_fast: float | None = None
         self.idle = 1
         self.ticks = NO_EDGES                     # edges not decoded yet
         self.level = 1                            # the level before ticks[0]
         self.started = False                      # measured (or given) and decoding
         self.end = 0                              # levels are known up to here
         self._clean_upto = 0                      # ticks[:this] are past the glitch filter
+        self._windows = 0                         # windows measured without finding a rate
+        self._burst_checked = -1                  # short pulses before this tick were no faster rate
+        self._hint: tuple[float, float] | None = None   # (tick, bit) the protocol layer said the rate changed
 
     # ------------------------------------------------------------------ input
     def feed(self, edges: Edges, end: int) -> list[Char]:
@@ -92,62 +101,106 @@ class SoftUart:
 
     def finish(self) -> list[Char]:
         """The end of the line: what can still be read."""
-        if not self.started and not self.measure():
+        if not self.started and not self.measure(final=True):
             return []
-        return self.decode()
+        return self.decode(final=True)
+
+    def hint_rate(self, tick: float, baud: float) -> None:
+        """The protocol layer saw the link's rate change acknowledged at ``tick``
+        (Table 4's rate-set commands): the edges from there are measured again."""
+        if self.bit is not None and baud > 0 and abs(self.rate / baud - self.bit) / self.bit >= SAME_RATE:
+            self._hint = (tick, self.rate / baud)
 
     # ------------------------------------------------------------------ measuring
-    def measure(self) -> bool:
+    def measure(self, final: bool = False) -> bool:
         """Measure the rate (unless given), the idle level and the format (unless
-        given) on the edges so far; False when they show no rate."""
+        given) on the edges so far; False when they show no rate yet."""
         r = self.report
-        m = measure_bit(self.ticks[:ENOUGH_EDGES * 2])   # the start: a later change of rate is followed apart
-        if m is not None:
-            r.measured = self.rate / m.bit
         if self.bit is None:
-            if m is None:
+            found = self._measure_window(final)
+            if found is None:
                 return False
+            start, m = found
             self.bit = m.bit
+            r.measured = self.rate / m.bit
             r.nominal = named_rate(r.measured)
         else:
+            start = 0
+            m = measure_bit(self.ticks[:WINDOW], self.min_bit)   # the clock, for the doctor
+            if m is not None:
+                r.measured = self.rate / m.bit
             r.given = True
             r.nominal = round(self.rate / self.bit)
-        self.idle, self.fmt = self._idle_and_format()
+        self.idle, verdict = self._idle_and_format(start)
+        self.fmt = verdict.fmt
         r.inverted = self.idle == 0
-        r.data_bits, r.parity = self.fmt.data_bits, self.fmt.parity
-        self._filter_glitches()
-        self.started = True
+        r.data_bits, r.parity, r.stop_bits = self.fmt
+        r.possible_formats = list(verdict.possible)
+        self.started = True      # (glitches are decode's to judge: a faster rate's pulses are none)
         return True
 
-    def _idle_and_format(self) -> tuple[int, LineFormat]:
-        """The idle level and the format that read the first characters with the
-        fewest errors (ties: the level the line rests at, then the first format:
-        8N1); a level the line clearly rests at through its silences is kept
-        unless the other reads far better. Then 7-bit and shorter characters
-        whose top bits are always 1 (a stop bit read as data)."""
-        rests, sure = idle_level(self.ticks, self.level, self.end, self.bit)
-        formats = (self.fmt,) if self.fmt_given else CANDIDATES
+    def _measure_window(self, final: bool) -> tuple[int, Measured] | None:
+        """The first window of edges that shows a rate: (its first edge, the
+        measure). A line may start with what is no traffic (a device powering
+        up oscillates, a probe touched on): windows slide past it. A window is
+        tried once it is full (the first, from ENOUGH_EDGES on, as it fills);
+        the end of the line tries the last one however full."""
+        t = self.ticks
+        step = WINDOW // 2
+        while self._windows < MAX_WINDOWS:
+            start = self._windows * step
+            full = start + WINDOW <= t.size
+            if not full and not (final or start == 0) or t.size - start < MIN_EDGES:
+                return None
+            window = t[start:start + WINDOW]
+            m = measure_bit(window, self.min_bit)
+            if m is not None:
+                return start, m
+            if self.min_bit and self.too_fast is None:
+                fast = measure_bit(window)
+                if fast is not None:
+                    self.too_fast = self.rate / fast.bit
+            if not full:
+                return None
+            self._windows += 1
+        return None
+
+    def _idle_and_format(self, start: int) -> tuple[int, Verdict]:
+        """The idle level and the format the first characters from edge ``start``
+        show (ties: the level the line rests at); a level the line clearly rests
+        at through its silences is kept unless the other reads far better."""
+        t = self.ticks[start:start + FORMAT_EDGES]
+        level = self._level_at(start)
+        end = self.end if start + FORMAT_EDGES >= self.ticks.size else int(self.ticks[start + FORMAT_EDGES])
+        rests, sure = idle_level(t, level, end, self.bit, begin=int(self.ticks[start - 1]) if start else 0)
         best = None
         for idle in (rests, 1 - rests):
             self.idle = idle
-            for rank, fmt in enumerate(formats):
-                got = self._read(self.ticks, self.level, fmt, self.bit, self.end, probe=True)[0]
-                errors = sum(1 for c in got if c.fault is not None)
-                if idle != rests and sure:
-                    errors = errors * 2 + 2
-                elif not sure:   # a line starts and ends a capture idle, most often
-                    errors += 2 * ((idle != self.level) + (idle != self._level_at(self.ticks.size)))
-                key = (errors, idle != rests, rank)
-                if best is None or key < best[0]:
-                    best = (key, idle, fmt, got)
-        _, idle, fmt, chars = best
-        values = [c.value for c in chars if c.value is not None]
-        if not self.fmt_given and fmt == CANDIDATES[0] and len(values) >= 12:
-            for width in (5, 6, 7):
-                top = 0xFF & ~((1 << width) - 1)
-                if all(v & top == top for v in values):
-                    return idle, LineFormat(width, "N")
-        return idle, fmt
+            if self.fmt_given:
+                chars = self._read(t, level, self.fmt, self.bit, end, probe=True)[0]
+                verdict = Verdict(self.fmt, sum(1 for c in chars if c.fault is not None))
+            else:
+                verdict = tell_format([self._reading(t, level, width, end) for width in WIDTHS])
+            errors = verdict.errors
+            if idle != rests and sure:
+                errors = errors * 2 + 2
+            elif not sure:   # a line starts and ends a capture idle, most often
+                errors += 2 * ((idle != level) + (idle != self._level_at(start + t.size)))
+            key = (errors, idle != rests)
+            if best is None or key < best[0]:
+                best = (key, idle, verdict)
+        _, idle, verdict = best
+        self.idle = idle
+        if not self.fmt_given:
+            chars = self._read(t, level, verdict.fmt, self.bit, end, probe=True)[0]
+            verdict = verdict._replace(fmt=verdict.fmt._replace(
+                stop_bits=stop_bits([c.tick for c in chars], verdict.fmt, self.bit)))
+        return idle, verdict
+
+    def _reading(self, ticks: np.ndarray, level: int, width: int, end: int) -> Reading:
+        chars = self._read(ticks, level, LineFormat(width), self.bit, end, probe=True)[0]
+        values = [c.value for c in chars if c.fault is None and c.value is not None]
+        return Reading(width, values, len(chars) - len(values), [c.tick for c in chars])
 
     def _filter_glitches(self) -> None:
         """Drop pulses shorter than a quarter bit, both edges (the level goes back),
@@ -155,54 +208,65 @@ class SoftUart:
         t = self.ticks
         if t.size - self._clean_upto < 1 or self.bit is None:
             return
-        lo = max(self._clean_upto - 1, 0)
-        d = np.diff(t[lo:])
-        short = np.flatnonzero(d < self.bit / 4)
-        if short.size == 0:
-            self._clean_upto = t.size
-            return
-        keep = np.ones(t.size, dtype=bool)
-        removed = 0
-        for j in short.tolist():
-            i = lo + j
-            if keep[i] and keep[i + 1]:
-                keep[i] = keep[i + 1] = False
-                removed += 1
+        self.ticks, removed = without_glitches(t, max(self._clean_upto - 1, 0), self.bit / 4)
         self.report.glitches += removed
-        self.ticks = t[keep]
         self._clean_upto = self.ticks.size
 
     # ------------------------------------------------------------------ decoding
-    def decode(self) -> list[Char]:
-        """Every character complete in the edges so far."""
-        self._filter_glitches()
+    def decode(self, final: bool = False) -> list[Char]:
+        """Every character complete in the edges so far (``final``: the line has ended)."""
         out: list[Char] = []
         changes = 0
         while True:
-            end = self.end
-            chars, used, level = self._read(self.ticks, self.level, self.fmt, self.bit, end)
             # (a few changes a block at most: noise must not send it measuring forever)
-            changed = self._rate_changed(chars) if changes < MAX_CHANGES else None
-            if changed is None:
+            if changes < MAX_CHANGES:
+                change = self._hinted() or self._faster_burst(final)
+                if change is not None:
+                    tick, new_bit = change
+                    self._decode_before(tick, out)
+                    if new_bit is None:
+                        return out
+                    self._switch(tick, new_bit)
+                    changes += 1
+                    continue
+            self._filter_glitches()
+            chars, used, level = self._read(self.ticks, self.level, self.fmt, self.bit, self.end)
+            slowed = self._slowed_down(chars) if changes < MAX_CHANGES else None
+            if slowed is None:
                 self._commit(chars, out)
                 self.ticks, self.level = self.ticks[used:], level
                 self._clean_upto = max(0, self._clean_upto - used)
                 return out
-            keep, new_bit = changed
+            keep, new_bit = slowed
             changes += 1
             # the characters before the change stand; read the rest at the new rate
             self._commit(chars[:keep], out)
-            start = chars[keep].tick
-            cut = int(np.searchsorted(self.ticks, start, side="left"))
-            self.level = self._level_at(cut)
-            self.ticks = self.ticks[cut:]
-            self._clean_upto = 0
-            r = self.report
-            r.rate_changes.append(RateChange(start / self.rate, self.rate / self.bit, self.rate / new_bit))
-            self.bit = new_bit
-            r.measured = self.rate / new_bit
-            r.nominal = named_rate(r.measured)
-            self._filter_glitches()
+            self._switch(chars[keep].tick, new_bit)
+
+    def _decode_before(self, tick: int, out: list[Char]) -> None:
+        """The characters before ``tick`` at the present rate; the edges from there stay."""
+        cut = int(np.searchsorted(self.ticks, tick, side="left"))
+        if cut == 0:
+            return
+        head, removed = without_glitches(self.ticks[:cut], max(self._clean_upto - 1, 0), self.bit / 4)
+        self.report.glitches += removed
+        chars, _, _ = self._read(head, self.level, self.fmt, self.bit, int(tick))
+        self._commit(chars, out)
+        self.level = self._level_at(cut)
+        self.ticks = self.ticks[cut:]
+        self._clean_upto = 0
+
+    def _switch(self, tick: int, new_bit: float) -> None:
+        """Read from ``tick`` on at ``new_bit`` ticks a bit (a rate change)."""
+        cut = int(np.searchsorted(self.ticks, tick, side="left"))
+        self.level = self._level_at(cut)
+        self.ticks = self.ticks[cut:]
+        self._clean_upto = 0
+        r = self.report
+        r.rate_changes.append(RateChange(tick / self.rate, self.rate / self.bit, self.rate / new_bit))
+        self.bit = new_bit
+        r.measured = self.rate / new_bit
+        r.nominal = named_rate(r.measured)
 
     def _level_at(self, index: int) -> int:
         """The level before edge ``index`` of the pending edges."""
@@ -225,18 +289,64 @@ class SoftUart:
                 r.characters += 1
         out.extend(chars)
 
-    def _rate_changed(self, chars: list[Char]) -> tuple[int, float] | None:
-        """After a silence, a run of framing errors where there were none: the
-        link's rate changed (Table 4's rate-set commands). Returns (the first
-        character at the new rate, its bit time), when the edges from there
-        measure a rate that reads them better."""
+    # ------------------------------------------------------------------ rate changes
+    def _hinted(self) -> tuple[int, float] | None:
+        """The protocol layer's rate change, as (tick, bit): the edges from its
+        tick measured again, the hinted rate where they show none near it."""
+        if self._hint is None:
+            return None
+        tick, new_bit = self._hint
+        self._hint = None
+        if abs(new_bit - self.bit) / self.bit < SAME_RATE:
+            return None       # the UART followed the change itself already
+        i = int(np.searchsorted(self.ticks, tick, side="left"))
+        m = measure_bit(self.ticks[i:i + WINDOW], self.min_bit)
+        if m is not None and abs(m.bit - new_bit) / new_bit <= NEAR:
+            new_bit = m.bit
+        return int(np.ceil(tick)), new_bit
+
+    def _faster_burst(self, final: bool) -> tuple[int, float | None] | None:
+        """A run of pulses under a quarter bit after a silence that reads as
+        characters at a faster rate: the link sped up. Returns the first edge's
+        tick and the new bit time, or None for the bit time while the burst is
+        too short to judge (its edges wait, undecoded). Glitches and ringing read
+        as no rate, or as garbage, and stay glitches."""
+        t = self.ticks
+        lo = int(np.searchsorted(t, self._burst_checked, side="right"))
+        if t.size - lo < BURST_PULSES:
+            return None
+        short = np.flatnonzero(np.diff(t[lo:]) < self.bit / 4)
+        if short.size < BURST_PULSES:
+            return None
+        first = lo + int(short[0])
+        # back to the silence before the first short pulse: a rate changes between messages
+        silence = 1.5 * (self.fmt.bits + 1) * self.bit
+        gaps = np.flatnonzero(np.diff(t[:first + 1]) > silence)
+        start = int(gaps[-1]) + 1 if gaps.size else 0
+        window = t[start:start + WINDOW]
+        if window.size < WINDOW and not final:
+            return int(t[start]), None
+        self._burst_checked = int(window[-1])
+        m = measure_bit(window, self.min_bit)
+        if m is None or m.bit > self.bit / 2:
+            return None
+        chars = self._read(window, self._level_at(start), self.fmt, m.bit, int(window[-1]), probe=True)[0]
+        if len(chars) < 4 or sum(1 for c in chars if c.fault is not None) * 8 > len(chars):
+            return None
+        return int(t[start]), m.bit
+
+    def _slowed_down(self, chars: list[Char]) -> tuple[int, float] | None:
+        """After a silence, a run of framing errors and breaks where there were
+        none: the link's rate changed (Table 4's rate-set commands; a slower
+        rate's start bit reads as a break). Returns (the first character at the
+        new rate, its bit time), when the edges from there measure a rate that
+        reads them better."""
         if self.report.given or len(chars) < RATE_ERRORS:
             return None
-        bad = [i for i, c in enumerate(chars) if c.fault is not None and c.fault.id is LINE_FRAMING]
+        bad = [i for i, c in enumerate(chars) if c.fault is not None and c.fault.id is not LINE_PARITY]
         if len(bad) < RATE_ERRORS:
             return None
         first = bad[0]
-        # back to the silence before the first error: a rate changes between messages
         gap = 2 * self.fmt.bits * self.bit
         keep = first
         while keep > 0 and chars[keep].tick - chars[keep - 1].tick < gap:
@@ -245,8 +355,8 @@ class SoftUart:
         if sum(1 for c in after if c.fault is not None) < max(RATE_ERRORS, len(after) // 4):
             return None
         start = int(np.searchsorted(self.ticks, chars[keep].tick, side="left"))
-        m = measure_bit(self.ticks[start:])
-        if m is None or abs(m.bit - self.bit) / self.bit < 0.04:
+        m = measure_bit(self.ticks[start:start + 4 * WINDOW], self.min_bit)
+        if m is None or abs(m.bit - self.bit) / self.bit < SAME_RATE:
             return None
         level = self._level_at(start)
         again = self._read(self.ticks[start:], level, self.fmt, m.bit, self.end, probe=True)[0]
@@ -254,31 +364,44 @@ class SoftUart:
             return None
         return keep, m.bit
 
+    # ------------------------------------------------------------------ reading
     def _read(self, ticks: np.ndarray, level: int, fmt: LineFormat, bit: float, end: int,
               probe: bool = False) -> tuple[list[Char], int, int]:
         """The characters whose stop bit is before ``end``: (characters, edges
         used, the level before the first edge left)."""
+        if ticks.size == 0:
+            return [], 0, level
         idle, active = self.idle, 1 - self.idle
         n = fmt.bits
         span = (n + 0.5) * bit                 # start edge to the middle of the (first) stop bit
-        if ticks.size == 0:
-            return [], 0, level
+        edges = ticks.tolist()
         after = level ^ 1 ^ (np.arange(ticks.size) & 1)     # the level after each edge
         cand = ticks[after == active].tolist()
+        half = 0.5 * bit
         starts: list[int] = []
         j = 0
-        free = -1
         while j < len(cand):
             s = cand[j]
             if s + span >= end:
                 break
+            # a receiver checks the start bit in its middle: back at idle there,
+            # the edge was a pulse (noise, ringing), and the next edge is looked at
+            k = bisect_right(edges, int(s + half)) - 1
+            if (level ^ 1 ^ (k & 1)) != active:
+                j += 1
+                continue
             starts.append(s)
-            free = s + span
-            j = bisect_right(cand, free, j + 1)
+            j = bisect_right(cand, s + span, j + 1)
+        if starts:
+            used = int(np.searchsorted(ticks, starts[-1] + span, side="right"))
+        else:
+            used = 0
+        if j < len(cand):
+            # the first edge not judged yet stays, with all after it
+            used = max(used, int(np.searchsorted(ticks, cand[j], side="left")))
+        else:
+            used = max(used, ticks.size - 1)   # every start judged: the last edge waits for the next
         if not starts:
-            # nothing complete: keep from the first start edge (all of them, if
-            # it is still the glitch filter's to judge), drop what came before
-            used = int(np.searchsorted(ticks, cand[0], side="left")) if cand else max(ticks.size - 1, 0)
             return [], used, level ^ (used & 1)
         s_arr = np.asarray(starts, dtype=np.float64)
         offs = (np.arange(n + 1) + 0.5) * bit              # the start bit's middle, then each bit's
@@ -286,11 +409,9 @@ class SoftUart:
         idx = np.searchsorted(ticks, at, side="right") - 1
         lv = np.where(idx < 0, level, level ^ 1 ^ (idx & 1))
         logical = lv if idle == 1 else 1 - lv
-        false_start = logical[:, 0] != 0
         data = logical[:, 1:1 + fmt.data_bits]
         values = (data << np.arange(fmt.data_bits)).sum(axis=1)
-        stop = logical[:, n]
-        framing = stop == 0
+        framing = logical[:, n] == 0
         if fmt.parity != "N":
             pbit = logical[:, 1 + fmt.data_bits]
             ones = data.sum(axis=1) + pbit
@@ -302,12 +423,7 @@ class SoftUart:
         if not probe:
             self._count_off_grid(ticks, s_arr, span, bit)
         chars: list[Char] = []
-        stop_at = len(starts)
-        if false_start.any():
-            # a pulse that was no start bit: read again from the edge after it
-            stop_at = int(np.argmax(false_start))
-        for i in range(stop_at):
-            s = starts[i]
+        for i, s in enumerate(starts):
             if brk[i]:
                 chars.append(Char(s, None, LINE_BREAK.problem(f"line held at the active level from {s / self.rate:.6f} s")))
             elif framing[i]:
@@ -317,14 +433,6 @@ class SoftUart:
                 chars.append(Char(s, int(values[i]), LINE_PARITY.problem(f"{fmt.parity} parity bit wrong")))
             else:
                 chars.append(Char(s, int(values[i])))
-        if stop_at < len(starts):
-            s = starts[stop_at]
-            used = int(np.searchsorted(ticks, s, side="right"))   # past the false start's edge
-            level_left = level ^ (used & 1)
-            more, used2, level2 = self._read(ticks[used:], level_left, fmt, bit, end, probe)
-            return chars + more, used + used2, level2
-        last = starts[-1] + span
-        used = int(np.searchsorted(ticks, last, side="right"))
         return chars, used, level ^ (used & 1)
 
     def _count_off_grid(self, ticks: np.ndarray, starts: np.ndarray, span: float, bit: float) -> None:
@@ -339,3 +447,19 @@ class SoftUart:
         off = (phase < span / bit) & (np.abs(phase - np.rint(phase)) > OFF_GRID)
         if off.any():
             self.report.off_grid += int(np.unique(which[off]).size)
+
+
+def without_glitches(t: np.ndarray, lo: int, shortest: float) -> tuple[np.ndarray, int]:
+    """``t`` without the pulses (from edge ``lo`` on) shorter than ``shortest``
+    ticks: both edges of each go (the level comes back), and how many went."""
+    short = np.flatnonzero(np.diff(t[lo:]) < shortest)
+    if short.size == 0:
+        return t, 0
+    keep = np.ones(t.size, dtype=bool)
+    removed = 0
+    for j in short.tolist():
+        i = lo + j
+        if keep[i] and keep[i + 1]:
+            keep[i] = keep[i + 1] = False
+            removed += 1
+    return t[keep], removed

@@ -24,12 +24,15 @@ from typing import Iterator
 
 import numpy as np
 
+from dissectors.wire import LineSettings
+
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
 from ..physical.bitrate import named_rate
+from ..physical.charformat import LineFormat
 from ..physical.edges import NO_EDGES, Block, Edges, Waveform
 from ..physical.report import LineReport
-from ..physical.uart import Char, LineFormat, SoftUart
+from ..physical.uart import Char, SoftUart
 from .base import ReadSettings, Source
 
 MIN_SAMPLES_A_BIT = 4
@@ -63,10 +66,11 @@ class SampledSource(Source):
             fmt = LineFormat(inst.data_bits or 8, inst.parity or "N", inst.stop_bits or 1)
         self.physical: dict[str, LineReport] = {}
         self._uarts: dict[str, SoftUart] = {}
+        min_bit = MIN_SAMPLES_A_BIT if waveform.sampled else 0.0
         for line, ch in self.channel_of.items():
             report = LineReport(line, waveform.channels[ch], samplerate=rate)
             self.physical[line] = report
-            self._uarts[line] = SoftUart(report, bit, fmt)
+            self._uarts[line] = SoftUart(report, bit, fmt, min_bit=min_bit)
         self.start_time = settings.start_time if settings.start_time is not None else waveform.start_time
         self._pending: dict[str, list[Char]] = {line: [] for line in self.lines}
         self._sent: dict[str, int] = {}      # bytes yielded on each line (the faults' offsets)
@@ -148,10 +152,12 @@ class SampledSource(Source):
             self._feed(block)
         self._ahead = []
         for line, uart in self._uarts.items():
-            if not uart.started and uart.ticks.size and uart.measure():
+            if not uart.started and uart.ticks.size and uart.measure(final=self._ended):
                 self._pending[line] += uart.decode()
             self._check_rate(line, uart)
-            if not uart.started and uart.report.toggles:
+            if uart.started:
+                self._say_format(line, uart.report)
+            elif uart.report.toggles and uart.too_fast is None:
                 self.warn_later(f"{self.name}: line {line} ({uart.report.channel}): its {uart.report.edges} edges "
                                 "show no bit rate; give it with --baud")
 
@@ -161,20 +167,38 @@ class SampledSource(Source):
             self._pending[line] += uart.feed(e if e is not None else Edges(NO_EDGES, uart.level), block.end)
 
     def _check_rate(self, line: str, uart: SoftUart) -> None:
+        """Under 4 samples a bit, only when the line's clean traffic says so: a
+        rate given that fast, or a line whose only well-fitting rate is that fast
+        (glitches and a burst of ringing are no rate: the UART measures past them)."""
         w = self.waveform
         if not w.sampled:
             return
-        report = uart.report
-        baud = report.nominal
-        if baud is None and uart.ticks.size > 2:
-            shortest = int(np.diff(uart.ticks).min()) or 1
-            baud = named_rate(w.samplerate / shortest)
-            if w.samplerate / baud >= MIN_SAMPLES_A_BIT:
-                return
+        baud = uart.report.nominal if uart.started else (named_rate(uart.too_fast) if uart.too_fast else None)
         if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
             raise CaptureError(
                 f"{self.name}: sampled at {hz(w.samplerate)}, under {MIN_SAMPLES_A_BIT} samples a bit at "
                 f"{baud:,} bit/s (line {line}): capture at {hz(MIN_SAMPLES_A_BIT * baud)} or more")
+
+    def _say_format(self, line: str, report: LineReport) -> None:
+        """A format taken for want of evidence is said, with the others that read as well."""
+        if report.possible_formats and not report.given:
+            self.warn_later(f"{self.name}: line {line} ({report.channel}) read as {report.format}; "
+                            f"{_either(report.possible_formats)} would read its few characters as well "
+                            "(--data-bits, --parity and --stop-bits say which)")
+
+    def read_with(self, settings: dict[str, LineSettings]) -> None:
+        """The capture's settings; a rate change it follows (an acknowledged
+        rate-set command) tells every line's UART to measure again from there."""
+        super().read_with(settings)
+        for own in settings.values():
+            own.watch(self._rate_set)
+
+    def _rate_set(self, settings: LineSettings) -> None:
+        t = settings.changed_at
+        if t is None or not settings.baud:
+            return
+        for uart in self._uarts.values():
+            uart.hint_rate(t * self.waveform.samplerate, settings.baud)
 
     def measured_settings(self) -> dict:
         """The serial settings the capture decodes with, as measured (the first
@@ -200,6 +224,10 @@ class SampledSource(Source):
                 yield Chunk(self.lines[0], b"", block.end / rate)   # time passed: timeouts expire
         for line, uart in uarts.items():
             self._pending[line] += uart.finish()
+            if not uart.started and uart.too_fast:
+                self.warn(f"{self.name}: line {line} ({uart.report.channel}): sampled at {hz(rate)}, under "
+                          f"{MIN_SAMPLES_A_BIT} samples a bit at {named_rate(uart.too_fast):,} bit/s: nothing "
+                          f"decoded; capture at {hz(MIN_SAMPLES_A_BIT * named_rate(uart.too_fast))} or more")
         yield from self._release(None, rate)
         if self.waveform.problem:
             self.warn(self.waveform.problem)
@@ -236,11 +264,19 @@ class SampledSource(Source):
                 continue
             if run_line is None:
                 run_line, run_start, run_bytes = line, tick, bytearray()
-            run_bytes.append(c.value)
-            sent[line] = sent.get(line, 0) + 1
+            if c.value > 0xFF:         # nine data bits: two bytes, high first, as sigrok's uart gives them
+                run_bytes += c.value.to_bytes(2, "big")
+                sent[line] = sent.get(line, 0) + 2
+            else:
+                run_bytes.append(c.value)
+                sent[line] = sent.get(line, 0) + 1
             last = tick
         if run_line is not None:
             yield Chunk(run_line, bytes(run_bytes), run_start / rate)
+
+
+def _either(names: list[str]) -> str:
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
 
 
 def hz(rate: float) -> str:
