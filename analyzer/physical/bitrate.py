@@ -58,9 +58,15 @@ def measure_bit(ticks: np.ndarray, min_bit: float = 0.0) -> Measured | None:
     for c in sorted(set(q.tolist()), reverse=True):
         if c <= 0 or c < min_bit:
             continue
-        short = d < c / 2                # no interval of this line is under a bit: glitches
+        # at this bit time, pulses under a quarter bit are glitches: without them
+        # the intervals they cut are whole again (one glitch in one character
+        # leaves it measurable)
+        clean, glitches = without_glitches(ticks, 0, c / 4)
+        d = np.diff(clean).astype(np.float64)
+        d = d[d > 0]
+        short = d < c / 2                # no interval of this line is under a bit: false starts
         n_short = int(np.count_nonzero(short))
-        if n_short > SHORT_SHARE * d.size:
+        if (n_short + 2 * glitches) > SHORT_SHARE * (ticks.size - 1) or d.size < MIN_EDGES - 1:
             continue
         inside = d[~short & (d < 12.5 * c)]         # within a character; longer is idle
         if inside.size < max(MIN_EDGES - 1, (d.size - n_short) // 4):
@@ -89,6 +95,22 @@ def _refine(fitting: np.ndarray, c: float) -> float | None:
             break
         bit = fitting[ok].sum() / k[ok].sum()
     return float(bit)
+
+
+def without_glitches(t: np.ndarray, lo: int, shortest: float) -> tuple[np.ndarray, int]:
+    """``t`` without the pulses (from edge ``lo`` on) shorter than ``shortest``
+    ticks: both edges of each go (the level comes back), and how many went."""
+    short = np.flatnonzero(np.diff(t[lo:]) < shortest)
+    if short.size == 0:
+        return t, 0
+    keep = np.ones(t.size, dtype=bool)
+    removed = 0
+    for j in short.tolist():
+        i = lo + j
+        if keep[i] and keep[i + 1]:
+            keep[i] = keep[i + 1] = False
+            removed += 1
+    return t[keep], removed
 
 
 def nominal_rate(rate: float) -> int | None:

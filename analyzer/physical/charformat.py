@@ -7,7 +7,7 @@ few and the stop bit lands on a data bit (framing errors on half the
 characters); read too many and the last bit read is the stop bit or the idle
 line, always 1. Whether the last of them is a parity bit or data shows in the
 characters: a parity bit agrees with the bits before it on every character
-(by chance on one in 256 for eight of them), data does not. So 7E1 is told
+(by chance on one in 32,768 for sixteen of them), data does not. So 7E1 is told
 from 8N1, and 8E1 from 8N2 and 9N1, by what the line carries, not by which
 reads with fewer errors (they all read without any).
 
@@ -25,10 +25,12 @@ import numpy as np
 
 WIDTHS = (9, 8, 7, 6, 5)  # bits between the start and the stop bit, widest first
 TOP_ONES = 12             # characters before a width whose top bit is always 1 is judged too wide
-PARITY_CHARS = 8          # characters agreeing before their top bit is judged a parity bit
+PARITY_CHARS = 16         # characters agreeing before their top bit is judged a parity bit (1 in
+                          # 32,768 by chance; a test pattern of ten bytes 0x11…0xAA all "agree")
 MIN_VARIETY = 4           # distinct characters below that: agreement tells nothing (all 0x00 "agree")
 SPREAD = 0.02             # readings within 2 % more errors than the best read as well
-TWO_STOPS_PAIRS = 8       # characters sent back to back before a second stop bit can be seen
+TWO_STOPS_PAIRS = 4       # characters sent back to back before a second stop bit can be seen
+TWO_STOPS_SHARE = 0.85    # of them spaced by two stop bits or more (a capture may start inside the first)
 
 
 class LineFormat(NamedTuple):
@@ -123,6 +125,6 @@ def stop_bits(starts: list[int], fmt: LineFormat, bit: float) -> float:
     length = 1 + fmt.bits                              # start, data, parity, one stop bit
     spacing = np.diff(np.asarray(starts, dtype=np.float64)) / bit
     close = spacing[spacing < length + 2.5]            # back to back, or nearly
-    if close.size >= TWO_STOPS_PAIRS and close.min() >= length + 0.75:
+    if close.size >= TWO_STOPS_PAIRS and np.mean(close >= length + 0.75) >= TWO_STOPS_SHARE:
         return 2
     return 1

@@ -33,7 +33,7 @@ import numpy as np
 
 from dissectors.problems import LINE_BREAK, LINE_FRAMING, LINE_PARITY, Problem
 
-from .bitrate import ENOUGH_EDGES, MIN_EDGES, NEAR, Measured, idle_level, measure_bit, named_rate
+from .bitrate import ENOUGH_EDGES, MIN_EDGES, NEAR, Measured, idle_level, measure_bit, named_rate, without_glitches
 from .charformat import WIDTHS, LineFormat, Reading, Verdict, stop_bits, tell_format
 from .edges import NO_EDGES, Edges
 from .report import LineReport, RateChange
@@ -47,6 +47,7 @@ FORMAT_EDGES = 2400    # edges the format is told from (about five hundred chara
                        # sending 0x80 to 0xFF first has shown a top bit of 0 by then)
 BURST_PULSES = 16      # pulses under a quarter bit before they may be a faster rate, not glitches
 SAME_RATE = 0.04       # bit times this close are one rate
+MIN_BIT = 1.5          # ticks: no bit time is measured from pulses of one sample
 
 
 class Char(NamedTuple):
@@ -157,7 +158,7 @@ class SoftUart:
             if m is not None:
                 return start, m
             if self.min_bit and self.too_fast is None:
-                fast = measure_bit(window)
+                fast = measure_bit(window, MIN_BIT)
                 if fast is not None:
                     self.too_fast = self.rate / fast.bit
             if not full:
@@ -374,22 +375,19 @@ class SoftUart:
         idle, active = self.idle, 1 - self.idle
         n = fmt.bits
         span = (n + 0.5) * bit                 # start edge to the middle of the (first) stop bit
-        edges = ticks.tolist()
         after = level ^ 1 ^ (np.arange(ticks.size) & 1)     # the level after each edge
-        cand = ticks[after == active].tolist()
-        half = 0.5 * bit
+        edge = ticks[after == active]
+        # a receiver checks the start bit in its middle: back at idle there, the
+        # edge was a pulse (noise, ringing), no start bit (an edge whose middle is
+        # past ``end`` is not judged yet: it ends the loop below)
+        k = np.searchsorted(ticks, (edge + 0.5 * bit).astype(np.int64), side="right") - 1
+        cand = edge[((level ^ 1 ^ (k & 1)) == active) | (edge + span >= end)].tolist()
         starts: list[int] = []
         j = 0
         while j < len(cand):
             s = cand[j]
             if s + span >= end:
                 break
-            # a receiver checks the start bit in its middle: back at idle there,
-            # the edge was a pulse (noise, ringing), and the next edge is looked at
-            k = bisect_right(edges, int(s + half)) - 1
-            if (level ^ 1 ^ (k & 1)) != active:
-                j += 1
-                continue
             starts.append(s)
             j = bisect_right(cand, s + span, j + 1)
         if starts:
@@ -448,18 +446,3 @@ class SoftUart:
         if off.any():
             self.report.off_grid += int(np.unique(which[off]).size)
 
-
-def without_glitches(t: np.ndarray, lo: int, shortest: float) -> tuple[np.ndarray, int]:
-    """``t`` without the pulses (from edge ``lo`` on) shorter than ``shortest``
-    ticks: both edges of each go (the level comes back), and how many went."""
-    short = np.flatnonzero(np.diff(t[lo:]) < shortest)
-    if short.size == 0:
-        return t, 0
-    keep = np.ones(t.size, dtype=bool)
-    removed = 0
-    for j in short.tolist():
-        i = lo + j
-        if keep[i] and keep[i + 1]:
-            keep[i] = keep[i + 1] = False
-            removed += 1
-    return t[keep], removed

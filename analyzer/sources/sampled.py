@@ -20,7 +20,7 @@ from __future__ import annotations
 import heapq
 from bisect import bisect_left
 from operator import attrgetter
-from typing import Iterator
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -74,6 +74,7 @@ class SampledSource(Source):
         self.start_time = settings.start_time if settings.start_time is not None else waveform.start_time
         self._pending: dict[str, list[Char]] = {line: [] for line in self.lines}
         self._sent: dict[str, int] = {}      # bytes yielded on each line (the faults' offsets)
+        self._said = False                   # what the UARTs could not find out is said once
         self._measure()
 
     # ------------------------------------------------------------------ opening
@@ -155,11 +156,28 @@ class SampledSource(Source):
             if not uart.started and uart.ticks.size and uart.measure(final=self._ended):
                 self._pending[line] += uart.decode()
             self._check_rate(line, uart)
-            if uart.started:
-                self._say_format(line, uart.report)
-            elif uart.report.toggles and uart.too_fast is None:
-                self.warn_later(f"{self.name}: line {line} ({uart.report.channel}): its {uart.report.edges} edges "
-                                "show no bit rate; give it with --baud")
+        if self._ended:                 # the whole capture was looked at: said before it is read
+            self._say_lines(self.warn_later)
+
+    def _say_lines(self, say: Callable[[str], None]) -> None:
+        """What each line's UART could not find out by itself, once."""
+        if self._said:
+            return
+        self._said = True
+        rate = self.waveform.samplerate
+        for line, uart in self._uarts.items():
+            r = uart.report
+            if uart.started and r.possible_formats and not r.given:
+                say(f"{self.name}: line {line} ({r.channel}) read as {r.format}; {_either(r.possible_formats)} "
+                    "would read its few characters as well (--data-bits, --parity and --stop-bits say which)")
+            elif not uart.started and uart.too_fast:
+                baud = named_rate(uart.too_fast)
+                say(f"{self.name}: line {line} ({r.channel}): sampled at {hz(rate)}, under {MIN_SAMPLES_A_BIT} "
+                    f"samples a bit at {baud:,} bit/s: nothing decoded; capture at "
+                    f"{hz(MIN_SAMPLES_A_BIT * baud)} or more")
+            elif not uart.started and r.toggles:
+                say(f"{self.name}: line {line} ({r.channel}): its {r.edges} edges show no bit rate; "
+                    "give it with --baud")
 
     def _feed(self, block: Block) -> None:
         for line, uart in self._uarts.items():
@@ -173,18 +191,13 @@ class SampledSource(Source):
         w = self.waveform
         if not w.sampled:
             return
-        baud = uart.report.nominal if uart.started else (named_rate(uart.too_fast) if uart.too_fast else None)
+        # a line not started yet may still start past its junk: judged on the whole capture only
+        too_fast = named_rate(uart.too_fast) if uart.too_fast and self._ended else None
+        baud = uart.report.nominal if uart.started else too_fast
         if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
             raise CaptureError(
                 f"{self.name}: sampled at {hz(w.samplerate)}, under {MIN_SAMPLES_A_BIT} samples a bit at "
                 f"{baud:,} bit/s (line {line}): capture at {hz(MIN_SAMPLES_A_BIT * baud)} or more")
-
-    def _say_format(self, line: str, report: LineReport) -> None:
-        """A format taken for want of evidence is said, with the others that read as well."""
-        if report.possible_formats and not report.given:
-            self.warn_later(f"{self.name}: line {line} ({report.channel}) read as {report.format}; "
-                            f"{_either(report.possible_formats)} would read its few characters as well "
-                            "(--data-bits, --parity and --stop-bits say which)")
 
     def read_with(self, settings: dict[str, LineSettings]) -> None:
         """The capture's settings; a rate change it follows (an acknowledged
@@ -224,10 +237,7 @@ class SampledSource(Source):
                 yield Chunk(self.lines[0], b"", block.end / rate)   # time passed: timeouts expire
         for line, uart in uarts.items():
             self._pending[line] += uart.finish()
-            if not uart.started and uart.too_fast:
-                self.warn(f"{self.name}: line {line} ({uart.report.channel}): sampled at {hz(rate)}, under "
-                          f"{MIN_SAMPLES_A_BIT} samples a bit at {named_rate(uart.too_fast):,} bit/s: nothing "
-                          f"decoded; capture at {hz(MIN_SAMPLES_A_BIT * named_rate(uart.too_fast))} or more")
+        self._say_lines(self.warn)
         yield from self._release(None, rate)
         if self.waveform.problem:
             self.warn(self.waveform.problem)
@@ -264,7 +274,7 @@ class SampledSource(Source):
                 continue
             if run_line is None:
                 run_line, run_start, run_bytes = line, tick, bytearray()
-            if c.value > 0xFF:         # nine data bits: two bytes, high first, as sigrok's uart gives them
+            if uart.fmt.data_bits > 8:   # nine data bits: two bytes, high first, as sigrok's uart gives them
                 run_bytes += c.value.to_bytes(2, "big")
                 sent[line] = sent.get(line, 0) + 2
             else:

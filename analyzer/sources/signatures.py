@@ -21,14 +21,17 @@ BOM = b"\xef\xbb\xbf"
 _TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.I)   # a Saleae digital CSV
 COLUMNS = ("name", "type", "start_time", "duration", "data")      # a Saleae Async Serial data table
 MAGIC = b"<SALEAE>"            # a Saleae binary export
+_SAMPLES_MEMBER = re.compile(rb"logic-\d+(-\d+)?")
 
 
 def looks_like_session(head: bytes) -> bool:
-    """A zip whose first member is sigrok's ``version`` or ``metadata``."""
+    """A zip whose first member is sigrok's ``version``, ``metadata`` or a chunk of
+    samples (``logic-1``, ``logic-1-1``: sessions saved in 2014 put them first)."""
     if not head.startswith(LOCAL) or len(head) < 30:
         return False
     name_len = struct.unpack_from("<H", head, 26)[0]
-    return head[30:30 + name_len] in (b"version", b"metadata")
+    name = head[30:30 + name_len]
+    return name in (b"version", b"metadata") or _SAMPLES_MEMBER.fullmatch(name) is not None
 
 
 def looks_like_vcd(head: bytes) -> bool:
