@@ -70,7 +70,9 @@ def tell_format(readings: list[Reading]) -> Verdict:
     least = min(r.errors for r in readings)
     fair = [r for r in readings if r.errors <= least + max(1, int(SPREAD * (len(r.values) + r.errors)))]
     # a width whose top bit is always 1 has read the stop bit (or the idle line) as data
-    narrow = [r for r in fair if not (len(r.values) >= TOP_ONES and _top_always_one(r))] or fair
+    # (every one so: the narrowest is the least too wide)
+    narrow = [r for r in fair if not (len(r.values) >= TOP_ONES and _top_always_one(r))] or \
+        [min(fair, key=lambda r: r.width)]
     sure = all(len(r.values) >= TOP_ONES for r in narrow)
     by_width = {r.width: r for r in narrow}
     if sure or PROTOCOL_FORMAT.bits - 1 not in by_width:
