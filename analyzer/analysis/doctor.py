@@ -13,7 +13,10 @@ table says which finding explains which (a root cause hides its consequences).
 What each finding rests on (spec §1.4.2: a device answers a command on its own
 line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 - lines swapped: answer bytes (ACK/NAK/NIC) on line A, command frames on line B;
-- wrong baud rate: bytes arrive but almost nothing decodes on a line;
+- wrong baud rate: bytes arrive but almost nothing decodes on a line, and they
+  are this protocol misread (analysis/signs.py; the rate is named when one
+  stands out, analysis/rate.py); not this protocol when they are not;
+- no frames: not one valid frame, and what the capture holds instead;
 - echo: line B repeats line A's frames byte for byte;
 - silent device / dead link: commands to an address, no answer ever;
 - noisy link: checksum errors, noise runs, NAKs per line and per minute, and
@@ -40,9 +43,10 @@ from ..styles import ERROR, INFO, WARNING   # the severities every view colours
 from ..words import counted
 from .findings import (
     CLOCK_OFF, CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK,
-    DEVICE_MAP, ECHO, FINDINGS, FRAMING_ERRORS, GLITCHES, LINE_INVERTED, NAK_BURST, NOISY_LINK, SILENT_AFTER_RATE,
-    SILENT_DEVICE, SLOW_ANSWERS, TWO_DRIVERS, Finding, unexplained)
-from .signs import GARBLED, MAX_EVIDENCE as _MAX_EVIDENCE, MIN_BYTES, LineTally, Tally as _Tally, WiringSigns
+    DEVICE_MAP, ECHO, FINDINGS, FRAMING_ERRORS, GLITCHES, LINE_INVERTED, NAK_BURST, NO_FRAMES, NOISY_LINK,
+    SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, TWO_DRIVERS, Finding, unexplained)
+from .signs import (
+    GARBLED, MAX_EVIDENCE as _MAX_EVIDENCE, MIN_BYTES, SAME, TEXT, LineTally, Tally as _Tally, WiringSigns, looks_of)
 from .stats import Latency
 
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}
@@ -53,6 +57,10 @@ _MAX_FAILED = 1024       # failed first attempts watched at once; the oldest is 
 _MAX_DEVICES = 256       # addresses tracked one by one; random bytes can name thousands
 _MAX_NIC = 64            # NIC'd command ids kept per device
 UNTIMED_CHECK_EVERY = 2000   # events between checks when the capture has no time
+# A live tap opened mid-frame reads a little garbage before the first frame: "no
+# frame" waits for this many bytes or seconds of them (a file is read whole).
+NO_FRAME_BYTES = 300
+NO_FRAME_SECONDS = 2.0
 
 
 @dataclass(frozen=True)
@@ -64,6 +72,7 @@ class Invocation:
     live: bool = False
     command: str | None = None    # "decode", "live", "demo", "doctor"...; None: not known
     tui: bool = False
+    baud: int | None = None       # the rate the tap read at, as given (None: from the capture's byte times)
 
     def swap_fix(self) -> str:
         """How to read the two lines the other way round, here."""
@@ -105,6 +114,23 @@ class Invocation:
                     f"(the rates of §1.5.1: 1200 to 115200); check the data bits, parity and stop bits too")
         return ("find the rate: gimbalscope doctor --scan-baud PORT listens at each standard rate; "
                 "check the data bits, parity and stop bits too")
+
+    def rate_fix(self, rate: int, read: int, waveform: bool = False) -> str:
+        """How to read, here, a line that runs at ``rate`` and was read at ``read``.
+        A byte capture holds what the tap's UART made of the line: read at the wrong
+        rate, its bytes cannot be decoded afterwards, only captured again; a
+        waveform (a logic analyser's) is decoded again at the right rate."""
+        if self.live and self.command != "demo":
+            ports = " ".join(self.inputs) if self.inputs else "PORT"
+            return (f"tap it at {rate} bps: gimbalscope live {ports} --baud {rate} (stop this tap first; "
+                    f"gimbalscope doctor --scan-baud {ports} confirms the rate)")
+        if self.live:
+            return self.baud_fix()
+        if waveform and self.inputs:
+            return f"decode it at {rate} bps: gimbalscope decode {' '.join(self.inputs)} --baud {rate}"
+        return (f"capture it again with the tap at the line's rate, {rate} bps if it read at {read} "
+                f"(gimbalscope live PORT --baud {rate}): the bytes are what the tap's UART read, and no --baud "
+                f"decodes them now")
 
 
 def _densest(times: list[float], window: float) -> int:
@@ -156,6 +182,7 @@ class WiringDoctor:
         self.ack_timeout = ack_timeout
         self.invocation = invocation or Invocation()
         self.signs = WiringSigns(lines)   # per-line tallies, and the signs of swapped lines
+        self.signs.read_baud = self.invocation.baud
         self.two_lines = self.signs.two_lines
         self.lines = self.signs.lines
         self.devices: dict[str, _Device] = {}
@@ -333,8 +360,8 @@ class WiringDoctor:
     # --------------------------------------------------------------- findings
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
-        rules = (self._waveform, self._wiring, self._echo, self._silent_after_rate, self._silent, self._noisy,
-                 self._controller, self._slow, self._device_map)
+        rules = (self._waveform, self._wiring, self._no_frames, self._echo, self._silent_after_rate, self._silent,
+                 self._noisy, self._controller, self._slow, self._device_map)
         # root causes first: what they explain is not raised with them (the table's ``hides``)
         out = unexplained(rule() for rule in rules)
         for f in out:
@@ -361,7 +388,45 @@ class WiringDoctor:
     def _wiring(self) -> list[Finding]:
         """Swapped lines, a garbled line, nothing of this protocol (analysis/signs.py)."""
         how = self.invocation
-        return self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
+        waveform = bool(self.physical)
+
+        def rate_fix(rate: int, read: int) -> str:
+            return how.rate_fix(rate, read, waveform)
+
+        return self.signs.findings(how.swap_fix(), how.baud_fix(), how.live, rate_fix)
+
+    def _no_frames(self) -> list[Finding]:
+        """Not one valid frame: say what the capture holds instead (``wrong_baud``
+        and ``not_this_protocol``, which judge 100 bytes or more, hide this)."""
+        if not self.signs.no_frames():
+            return []
+        how = self.invocation
+        carrying = [(name, line) for name, line in self.lines.items() if line.bytes]
+        total = sum(line.bytes for _name, line in carrying)
+        if how.live and total and total < NO_FRAME_BYTES and self.span < NO_FRAME_SECONDS:
+            return []     # a tap opened mid-frame: the first frame may be on its way
+        kind = FINDINGS[NO_FRAMES]
+        look = None
+        if carrying:
+            seen = ", ".join(kind.phrase("on_line", bytes=counted(line.bytes, "byte"), line=name)
+                             for name, line in carrying)
+            sample = b"".join(bytes(line.sample) for _name, line in carrying)
+            look, excerpt, value = looks_of(sample)
+            if look == TEXT:
+                looks = kind.phrase("text", excerpt=excerpt)
+            elif look == SAME:
+                looks = kind.phrase("same", value=value)
+            else:
+                head = " ".join(f"{b:02X}" for b in sample[:16]) + (" …" if len(sample) > 16 else "")
+                looks = kind.phrase("binary", head=head)
+        else:
+            seen, looks = kind.phrase("nothing"), kind.phrase("empty")
+        check = kind.phrase("check_port", baud_fix=how.baud_fix()) if how.live else kind.phrase("check_file")
+        evidence = sorted(n for _name, line in carrying for n in line.errors.evidence())
+        subject = ",".join(name for name, _line in carrying) or ",".join(self.lines)
+        f = kind.found(subject, evidence, seen=seen, looks=looks, check=check)
+        f.measured = {"looks": look, "bytes": total}
+        return [f]
 
     def _waveform(self) -> list[Finding]:
         """What a logic analyser's capture shows below the bytes, line by line."""

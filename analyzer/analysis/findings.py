@@ -35,6 +35,7 @@ from ..styles import ERROR, INFO, WARNING   # the severities every view colours
 LINES_SWAPPED = "lines_swapped"
 WRONG_BAUD = "wrong_baud"
 NOT_THIS_PROTOCOL = "not_this_protocol"
+NO_FRAMES = "no_frames"
 DEAD_LINK = "dead_link"
 SILENT_AFTER_RATE = "silent_after_rate"
 ECHO = "echo"
@@ -70,6 +71,9 @@ class Finding:
     subject: str = ""          # the line or device it is about
     first_seen: float | None = None   # capture time it was first found (None without time)
     first_seen_event: int | None = None   # events seen when it was first found
+    # what the rule measured, for scripts and tests rather than the words: wrong_baud's
+    # named rate {"baud": 9600, "read": 19200}, what bytes look like {"looks": "text"}
+    measured: dict = field(default_factory=dict)
 
     @property
     def key(self) -> tuple[str, str]:
@@ -78,7 +82,7 @@ class Finding:
     def to_dict(self) -> dict:
         return {"code": self.code, "severity": self.severity, "subject": self.subject, "title": self.title,
                 "detail": self.detail, "fix": self.fix, "evidence": self.evidence, "first_seen": self.first_seen,
-                "first_seen_event": self.first_seen_event}
+                "first_seen_event": self.first_seen_event, "measured": self.measured}
 
 
 def fields_of(template: str) -> set[str]:
@@ -123,7 +127,7 @@ class _Count(int):
         return format(int(self), spec or ",")
 
 
-PLAIN_NUMBERS = {"baud"}   # line rates are written as the spec writes them: 115200
+PLAIN_NUMBERS = {"baud", "read"}   # line rates are written as the spec writes them: 115200
 
 
 def _worded(values: dict) -> dict:
@@ -154,20 +158,51 @@ _kind(LINES_SWAPPED, ERROR,
       "{swap_fix}",           # where the traffic is read decides: Invocation.swap_fix
       hides=_WIRE_CONSEQUENCES)
 _kind(WRONG_BAUD, ERROR,
-      "bytes arrive on a line but under 30% of them decode (then `--scan-baud`)",
+      "bytes arrive on a line but under 30% of them decode, and they read like this protocol misread at another "
+      "rate (or other lines decode, or the line is a port's); names the line's rate when one stands out "
+      "(otherwise `--scan-baud`)",
       "line {line}: bytes arrive but almost nothing decodes (wrong baud rate?)",
       "{bytes} bytes, {share:.0%} in valid frames or answers, {noise_bytes} bytes of noise, "
-      "{bad_frames} frames with bad checksums",
-      "{baud_fix}",           # Invocation.baud_fix
-      hides=_WIRE_CONSEQUENCES)
+      "{bad_frames} frames with bad checksums{misread}{rhythm}",
+      "{baud_fix}",           # Invocation.baud_fix, or Invocation.rate_fix when the rate is named
+      phrases={"rate": "; they read like this protocol at {baud} bps misread by the tap at {read} bps",
+               "rate_file": "; they read like this protocol at {baud} bps misread by a tap at {read} bps, the rate "
+                            "this capture is read at (--baud, or a recording's own): the line runs at {ratio} "
+                            "the tap's rate",
+               "times": "{n} times",
+               "part": "{n}/{d} of",
+               "misread": "; they read like this protocol misread at another rate",
+               "rhythm": "; line B answered line A's bursts {exchanges} times, as devices answer commands"},
+      hides=(*_WIRE_CONSEQUENCES, NO_FRAMES))
 _kind(NOT_THIS_PROTOCOL, ERROR,
-      "a file's bytes, on every line, under 5% of them decoding: not a tap of these gimbals' lines (or every "
-      "line recorded at the wrong rate; on ports this is `wrong_baud`)",
+      "a file's bytes, on every line, under 5% of them decoding, and nothing like this protocol misread at "
+      "another rate (text, another protocol, random bytes, one byte over and over): not a tap of these "
+      "gimbals' lines (on ports this is `wrong_baud`)",
       "almost nothing decodes: not traffic of this protocol, or read at the wrong rate",
-      "{bytes} bytes, {share:.0%} in valid frames or answers",
+      "{bytes} bytes, {share:.0%} in valid frames or answers; {looks}",
       "check the input is a tap of the gimbals' serial lines (a raw dump, socat log or recording); if it is, "
       "{baud_fix}",
-      hides=(WRONG_BAUD, LINES_SWAPPED, *_WIRE_CONSEQUENCES))
+      phrases={"text": 'printable ASCII text ("{excerpt}")',
+               "same": "the byte {value} over and over",
+               "binary": "not text, and not like this protocol misread at any standard rate"},
+      hides=(WRONG_BAUD, LINES_SWAPPED, *_WIRE_CONSEQUENCES, NO_FRAMES))
+_kind(NO_FRAMES, WARNING,
+      "not one valid frame on any line, and no `wrong_baud` or `not_this_protocol` (they judge lines of 100 "
+      "bytes or more) to explain it: what the capture holds instead (nothing, text, one byte over and over, "
+      "other bytes)",
+      "{seen}, no frame of this protocol",
+      "{looks}",
+      "{check}",
+      phrases={"on_line": "{bytes} on line {line}",
+               "nothing": "no byte on any line",
+               "text": 'printable ASCII text: "{excerpt}"',
+               "same": "the byte {value} over and over",
+               "binary": "bytes that are no frame: {head}",
+               "empty": "nothing was read",
+               "check_file": "check the input is a tap of the gimbals' serial lines (a raw dump, socat log or "
+                             "recording) made while they talked",
+               "check_port": "check the tap is on the gimbals' lines (RX on the wire it listens to, ground) and "
+                             "that the controller is talking; if bytes come but no frame, {baud_fix}"})
 # ---------------------------------------------------------------- the waveform
 # Only a logic analyser's capture shows these: the software UART measured them
 # (analyzer/physical/report.py). Each is about one line.

@@ -35,7 +35,7 @@ class DoctorListener(Listener):
         runner = self.runner
         info = runner.info
         self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
-                                   Invocation(info.inputs, info.live, info.command, self.tui))
+                                   Invocation(info.inputs, info.live, info.command, self.tui, baud=info.baud))
         self.doctor.physical = runner.physical
         self._told.clear()
         self._next: float | None = None

@@ -41,7 +41,8 @@ class WiringCheck(Listener):
         if self.signs is None:
             return
         info = self.runner.info
-        how = Invocation(info.inputs, info.live, info.command)
+        how = Invocation(info.inputs, info.live, info.command, baud=info.baud)
+        self.signs.read_baud = info.baud     # the rate the tap read at: a wrong rate is named against it
         self.findings = self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
         for f in self.findings:
             text = warning_text(f)

@@ -78,7 +78,7 @@ class ParquetDatasetWriter(Listener):
     def on_start(self, runner) -> None:
         info = runner.info
         self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
-                                   Invocation(info.inputs, info.live, info.command, False))
+                                   Invocation(info.inputs, info.live, info.command, False, baud=info.baud))
         self.doctor.physical = runner.physical
 
     def on_events(self, events: list[Event]) -> None:

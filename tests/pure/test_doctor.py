@@ -225,6 +225,17 @@ def test_advice_never_names_what_the_command_rejects():
     assert "press x" not in Invocation(("a.bin", "b.bin"), tui=True).swap_fix()   # files: no swap key
     assert "--scan-baud" not in Invocation(("tap.log",)).baud_fix()              # files have no rate to scan
     assert "gimbalscope decode tap.log --baud RATE" in Invocation(("tap.log",)).baud_fix()
+    # a named rate (docs/doctor.md, "Wrong rate or not this protocol"): a byte capture holds
+    # what the tap's UART read, so no --baud decodes it again: it is captured again at the rate
+    again = Invocation(("tap.log",), command="doctor").rate_fix(9600, 19200)
+    assert "capture it again" in again and "--baud 9600" in again and "decode tap.log" not in again
+    # a logic analyser's waveform is decoded again at that rate
+    assert Invocation(("cap.sr",)).rate_fix(9600, 19200, waveform=True).endswith(
+        "gimbalscope decode cap.sr --baud 9600")
+    live = Invocation(ports, live=True, command="doctor").rate_fix(9600, 19200)
+    assert "gimbalscope live /dev/pts/7 /dev/pts/8 --baud 9600" in live
+    # demo takes no --baud
+    assert "--baud 9600" not in Invocation(ports, live=True, command="demo").rate_fix(9600, 19200)
 
 
 # ------------------------------------------------------------ the findings table
