@@ -1,8 +1,9 @@
 """The fleet on Spark (docs/spark.md), on a real local Spark (``local[2]``, Java 17):
 ``export --spark`` writes the dataset the local export writes, file for file and
 row for row; ``report --spark`` gives DuckDB's report; the Spark SQL queries of
-the docs give the answers of the README's DuckDB queries; and what cannot work
-is said in one line.
+the docs give the answers of the README's DuckDB queries; a local master's
+workers run the command's own Python, whatever PATH and PYSPARK_PYTHON say; and
+what cannot work, or fails on Spark, is said in one line.
 
 Spark starts a JVM, about ten seconds: most tests share one session of the
 module and call the jobs in this process, and a few run the command line whole."""
@@ -12,6 +13,9 @@ from __future__ import annotations
 import os
 import re
 import socket
+import struct
+import subprocess
+import sys
 
 import pyarrow.parquet as pq
 import pytest
@@ -23,6 +27,7 @@ from analyzer.dataset.query import connect
 from analyzer.dataset.report import build, to_dict
 from analyzer.dataset.spark.export import run_on_spark
 from analyzer.dataset.spark.report import SparkRows, build_on_spark, views
+from analyzer.dataset.spark.session import SparkFailed
 from tests.conftest import BUS, CTL, DEV, ROOT, SOCAT_LOG, run_cli
 from tests.integration import test_query, test_report
 from tests.integration.test_mcap_parts import record
@@ -154,6 +159,78 @@ def test_the_command_line_export_and_its_skips(tmp_path, in_parts):
     assert_same_dataset(local, on_spark)
 
 
+# ------------------------------------------------------------------ which Python the workers run
+
+@pytest.fixture(scope="module")
+def python_without_pyarrow(tmp_path_factory):
+    """A python3 that cannot import pyarrow, as the system's is beside a virtual
+    environment that is not activated: a bare virtual environment's (no packages)."""
+    bare = tmp_path_factory.mktemp("bare-python")
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(bare)], check=True)
+    python = bare / "bin" / "python3"
+    r = subprocess.run([python, "-c", "import pyarrow"], capture_output=True, text=True, cwd=bare)
+    assert r.returncode != 0 and "No module named 'pyarrow'" in r.stderr, r.stderr
+    return python
+
+
+def outside_the_venv(args, python3, **env):
+    """The command run as ``.venv/bin/gimbalscope …`` from a shell where the
+    virtual environment is not activated: its bin not on PATH, and the folder of
+    ``python3`` first on it; no Spark configuration of the user's (its log would
+    speak)."""
+    venv_bin = os.path.dirname(sys.executable)
+    script = os.path.join(venv_bin, "gimbalscope")
+    cmd = [script] if os.path.exists(script) else [sys.executable, "-m", "analyzer"]
+    path = [str(python3.parent)] + [p for p in os.environ.get("PATH", "").split(os.pathsep)
+                                    if p and os.path.realpath(p) != os.path.realpath(venv_bin)]
+    gone = ("VIRTUAL_ENV", "PYSPARK_PYTHON", "PYSPARK_DRIVER_PYTHON", "SPARK_CONF_DIR", "PYTHONPATH")
+    env = {**{k: v for k, v in os.environ.items() if k not in gone}, "PATH": os.pathsep.join(path), **env}
+    return subprocess.run(cmd + [str(a) for a in args], capture_output=True, text=True, timeout=600, cwd=ROOT,
+                          env=env)
+
+
+def not_ours(stderr: str) -> list[str]:
+    """Lines of standard error that gimbalscope did not write. The JVM's own note
+    of the incubator module Spark asks for is printed before anything runs."""
+    return [line for line in stderr.splitlines()
+            if not line.startswith(("gimbalscope:", "WARNING: Using incubator modules"))]
+
+
+def test_the_workers_run_the_commands_python_not_paths(python_without_pyarrow, tmp_path):
+    # PYSPARK_PYTHON unset: pyspark's default is PATH's python3, which here has no pyarrow (nor the package)
+    inputs = [SOCAT_LOG, f"{CTL}+{DEV}"]
+    local, on_spark = tmp_path / "local", tmp_path / "spark"
+    local_export(jobs_of(inputs, local), 1)
+    r = outside_the_venv(["export", *inputs, "-o", on_spark, "--spark", "local[2]"], python_without_pyarrow)
+    assert r.returncode == 0, r.stderr
+    assert not_ours(r.stderr) == [], r.stderr
+    assert_same_dataset(local, on_spark)
+
+
+def test_pyspark_python_set_elsewhere_and_a_capture_its_task_finds_cut_short(python_without_pyarrow, in_parts,
+                                                                             tmp_path):
+    # an inherited PYSPARK_PYTHON and PYSPARK_DRIVER_PYTHON naming a Python without pyarrow: a local master's
+    # workers still run the command's own. A recording killed while being written (half of a real one) passes
+    # the driver's listing and only its task finds it cut short: one line, the other capture written, exit 1
+    _, parts = in_parts
+    killed = tmp_path / "killed.mcap"
+    whole = open(parts[0], "rb").read()
+    killed.write_bytes(whole[:len(whole) // 2])
+    local, on_spark = tmp_path / "local", tmp_path / "spark"
+    local_export(jobs_of([SOCAT_LOG], local), 1)
+    python = str(python_without_pyarrow)
+    r = outside_the_venv(["export", SOCAT_LOG, killed, "-o", on_spark, "--spark", "local[2]"],
+                         python_without_pyarrow, PYSPARK_PYTHON=python, PYSPARK_DRIVER_PYTHON=python)
+    assert r.returncode == 1, r.stderr
+    assert not_ours(r.stderr) == [], r.stderr
+    said = [line for line in r.stderr.splitlines() if "gimbalscope: error:" in line]
+    assert len(said) == 1 and said[0].startswith(f"gimbalscope: error: skipped {killed}: cut short"), r.stderr
+    lines = r.stderr.splitlines()
+    assert lines[-2].startswith(f"gimbalscope: exported 1 of 2 captures to {on_spark}")
+    assert lines[-1] == f"gimbalscope: skipped 1: {killed}"
+    assert_same_dataset(local, on_spark)
+
+
 # ------------------------------------------------------------------ report and queries
 
 def test_the_spark_report_is_duckdbs(spark, tmp_path):
@@ -169,6 +246,23 @@ def test_the_spark_report_is_duckdbs(spark, tmp_path):
         assert to_dict(build_on_spark(spark, str(out), period)) == duck
     assert any(d["trending_worse"] for d in duck["devices"])   # the trends are compared too
     assert duck["captures"]
+
+
+def test_a_file_spark_cannot_decode_fails_the_report_in_one_line(spark, tmp_path):
+    out = tmp_path / "fleet"
+    local_export(jobs_of([SOCAT_LOG], out), 1)
+    [damaged] = [os.path.join(d, f) for d, _, files in os.walk(out / "transactions") for f in files]
+    data = bytearray(open(damaged, "rb").read())
+    # the footer (the schema, read when the views are made) whole; the pages before it, garbage from the disk
+    footer = struct.unpack("<I", data[-8:-4])[0]
+    data[4:len(data) - 8 - footer] = b"\xff" * (len(data) - 12 - footer)
+    open(damaged, "wb").write(data)
+    with pytest.raises(SparkFailed) as failed:
+        build_on_spark(spark, str(out))
+    said = str(failed.value)
+    assert "\n" not in said and said.startswith(f"{out}: Spark failed the report's query: ")
+    assert os.path.basename(damaged) in said and "SQLSTATE" not in said
+    assert failed.value.exit_code == 1
 
 
 def test_the_command_line_report_on_spark(tmp_path):

@@ -2,43 +2,54 @@
 dataset the local export writes (docs/spark.md).
 
 The driver lists the captures (analyzer/dataset/inputs.py) and makes one task of
-each: a DataFrame of one job a partition, largest inputs first so the long tasks
+each: an RDD of one job a partition, largest inputs first so the long tasks
 start first and the small ones fill in around them. Each task runs the local
 export's own job (``export.run_job``: decode, pair, the doctor, the Parquet
 writer with its whole-or-nothing commit) where the executor is, writing the
-capture's files straight into the dataset folder, and hands back through
-``mapInArrow`` only its outcome: rows written, warnings, or why it was skipped.
-So the rows never travel through the driver, and the files, their names (the
-capture key) and the rule for exporting again are the local export's.
+capture's files straight into the dataset folder, and hands back only its
+outcome: rows written, warnings, or why it was skipped. So the rows never
+travel through the driver, and the files, their names (the capture key) and the
+rule for exporting again are the local export's.
 
 A capture is one task, never split: event numbers run on across a recording's
 parts and its files, and a command in one part can be answered in the next, so a
 capture cut in two would not give the same rows.
 
-A capture that fails on an executor, for any reason, is an outcome with its
-error, as a capture that cannot be read is in the local export: the others are
-written, and the command lists it as skipped and exits 1.
+A capture that fails on an executor, for any reason its Python can catch (an
+input that cannot be read, an executor's Python without pyarrow, a bug), is an
+outcome with its error, as a capture that cannot be read is in the local export:
+the task itself succeeds, so the others are written, and the command lists it
+as skipped and exits 1. The outcomes travel as plain pickles (an RDD, not
+``mapInArrow``): Spark's Arrow transport would need pyarrow in the executor's
+Python before any of this code runs, and its absence would then fail the task,
+and with it the whole job, instead of being said of each capture. What only
+Spark sees (a Python worker that crashed, an executor lost, an executor whose
+Python cannot load this package) fails the job: one line, exit 1
+(``SparkFailed``), naming the capture whose task it was when Spark says.
 """
 
 from __future__ import annotations
 
 import os
 import pickle
-from typing import Callable, Iterator
+import re
+from typing import Callable, Iterable, Iterator
 
 from ... import uris
 from ...errors import OutputRefused
 from ...outfile import show
-from ..export import Job, Outcome, input_size, make_dataset_folder, run_job
-from .session import check, one_line, start
+from ..export import Job, Outcome, capture_name, input_size, make_dataset_folder, run_job
+from .session import SparkFailed, check, one_line, start
 
-OUTCOME_SCHEMA = "index long, outcome binary"
+# Spark's message for an aborted job: "... most recent failure: Lost task 3.0 in stage 0.0 (TID 7) ..."
+_LOST_TASK = re.compile(r"Lost task (\d+)\.\d+ in stage")
 
 
 def run_on_spark(master: str, jobs: list[Job], *, on_done: Callable[[Outcome], None] | None = None,
                  show_progress: bool = False, spark=None) -> list[Outcome]:
     """Export ``jobs`` on Spark (a session for ``master``, or ``spark`` when given);
-    the outcomes in the jobs' order, each also to ``on_done`` as the job ends."""
+    the outcomes in the jobs' order, each also to ``on_done`` as the job ends.
+    Raises ``SparkFailed`` (one line) when Spark fails the job itself."""
     own = spark is None
     if own:
         check(master)   # a master that cannot work is said before the output is made
@@ -47,7 +58,7 @@ def run_on_spark(master: str, jobs: list[Job], *, on_done: Callable[[Outcome], N
     if own:
         spark = start(master, "gimbalscope export", checked=True)
     try:
-        outcomes = _run(spark, jobs, show_progress)
+        outcomes = _run(spark, master, jobs, show_progress)
     finally:
         if own:
             spark.stop()
@@ -77,38 +88,49 @@ def check_output(root: str) -> None:
         raise OutputRefused(f"{root}: cannot write the dataset there: {uris.failure(e)}") from None
 
 
-def _run(spark, jobs: list[Job], show_progress: bool) -> list[Outcome]:
+def _run(spark, master: str, jobs: list[Job], show_progress: bool) -> list[Outcome]:
     if not jobs:
         return []
     largest_first = sorted(jobs, key=lambda job: -input_size(job))
-    rows = [(job.index, pickle.dumps(job)) for job in largest_first]
+    # the capture's name travels beside its pickled job: a job the executor cannot unpickle is still named
+    rows = [(job.index, capture_name(job.paths), pickle.dumps(job)) for job in largest_first]
     # one job a partition: each capture is a task of its own
-    frame = spark.sparkContext.parallelize(rows, len(rows)).toDF("index long, job binary")
-    results = frame.mapInArrow(export_batches, OUTCOME_SCHEMA)
-    with _progress(spark, jobs, show_progress):
-        got = {row["index"]: pickle.loads(row["outcome"]) for row in results.collect()}
+    results = spark.sparkContext.parallelize(rows, len(rows)).mapPartitions(export_partition)
+    try:
+        with _progress(spark, jobs, show_progress):
+            got = dict(results.collect())
+    except Exception as e:   # Py4JJavaError, or pyspark's own exceptions for what it converts
+        raise SparkFailed(_job_failed(master, e, largest_first)) from None
     return [got[job.index] for job in jobs]
 
 
-def export_batches(batches: Iterator) -> Iterator:
-    """On an executor: each job of ``batches`` (Arrow record batches of
-    ``index, job``) exported, its outcome handed back as one row."""
-    import pyarrow as pa
+def _job_failed(master: str, e: Exception, largest_first: list[Job]) -> str:
+    """The one line for a job Spark failed: the capture whose task failed when
+    Spark names the task (partition N is the Nth largest capture), and the cause."""
+    cause = one_line(e).rstrip(".")
+    lost = _LOST_TASK.search(str(e))
+    where = ""
+    if lost and int(lost.group(1)) < len(largest_first):
+        where = f" in the task of {show(capture_name(largest_first[int(lost.group(1))].paths))}"
+    hint = ""
+    if "ModuleNotFoundError" in cause or "ImportError" in cause:
+        hint = " (the executors' Python needs gimbalscope with the spark extra: docs/spark.md)"
+    return (f"--spark {master}: Spark failed the export{where}: {cause}{hint}; the captures done before it are "
+            f"written, export the others again")
 
-    for batch in batches:
-        indices, outcomes = [], []
-        for index, blob in zip(batch.column("index").to_pylist(), batch.column("job").to_pylist()):
-            job: Job = pickle.loads(blob)
-            try:
-                outcome = run_job(job)
-            except Exception as e:   # a bug, or the executor's machine: this capture is skipped, not the export
-                outcome = Outcome(index, "+".join(job.paths),
-                                  error=f"{'+'.join(job.paths)}: failed on a Spark executor: "
-                                        f"{type(e).__name__}: {one_line(e)}")
-            indices.append(index)
-            outcomes.append(pickle.dumps(outcome))
-        yield pa.RecordBatch.from_arrays([pa.array(indices, pa.int64()), pa.array(outcomes, pa.binary())],
-                                         names=["index", "outcome"])
+
+def export_partition(rows: Iterable[tuple[int, str, bytes]]) -> Iterator[tuple[int, Outcome]]:
+    """On an executor: each job of the partition (``index, capture, pickled job``)
+    exported, handed back as ``(index, outcome)``. Nothing a capture does fails
+    the task: whatever goes wrong is that capture's outcome, so Spark neither
+    retries it nor aborts the job's other captures."""
+    for index, name, blob in rows:
+        try:
+            outcome = run_job(pickle.loads(blob))
+        except Exception as e:   # a bug, or the executor's machine: this capture is skipped, not the export
+            outcome = Outcome(index, name, error=f"{name}: failed on a Spark executor: "
+                                                 f"{type(e).__name__}: {one_line(e)}")
+        yield index, outcome
 
 
 class _TaskMeter:

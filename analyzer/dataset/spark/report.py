@@ -15,7 +15,7 @@ from ... import uris
 from ...errors import DatasetError
 from ...formats.parquet_schema import PARTITION, TABLES
 from ..report import SPARK, Report, build
-from .session import one_line
+from .session import SparkFailed, one_line
 
 
 def views(spark, root: str) -> None:
@@ -52,14 +52,19 @@ def _no_files(e: Exception) -> bool:
 
 class SparkRows:
     """Spark SQL behind the ``execute(sql).fetchall()`` that ``report.build`` asks of
-    an engine."""
+    an engine. A query Spark fails (a Parquet file it cannot decode, an executor
+    lost) is ``SparkFailed``: one line, not Spark's stack trace."""
 
-    def __init__(self, spark) -> None:
+    def __init__(self, spark, root: str = "") -> None:
         self.spark = spark
+        self.root = root
         self._rows: list[tuple] = []
 
     def execute(self, sql: str) -> "SparkRows":
-        self._rows = [tuple(row) for row in self.spark.sql(sql).collect()]
+        try:
+            self._rows = [tuple(row) for row in self.spark.sql(sql).collect()]
+        except Exception as e:   # Py4JJavaError, or pyspark's own exceptions for what it converts
+            raise SparkFailed(f"{self.root or 'the dataset'}: Spark failed the report's query: {one_line(e)}") from None
         return self
 
     def fetchall(self) -> list[tuple]:
@@ -69,4 +74,4 @@ class SparkRows:
 def build_on_spark(spark, root: str, period: str = "day", **kw) -> Report:
     """The report of the dataset at ``root``, its figures computed by ``spark``."""
     views(spark, root)
-    return build(SparkRows(spark), period, dialect=SPARK, **kw)
+    return build(SparkRows(spark, root), period, dialect=SPARK, **kw)
