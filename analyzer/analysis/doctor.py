@@ -39,12 +39,13 @@ from statistics import median
 from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RATE, RESULT, ST_NAK, ST_NIC, Event
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
+from ..physical.bitrate import STANDARD_RATES, nominal_rate
 from ..styles import ERROR, INFO, WARNING   # the severities every view colours
 from ..words import counted
 from .findings import (
     CLOCK_OFF, CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK,
     DEVICE_MAP, ECHO, FINDINGS, FRAMING_ERRORS, GLITCHES, LINE_INVERTED, NAK_BURST, NO_FRAMES, NOISY_LINK,
-    SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, TWO_DRIVERS, Finding, unexplained)
+    RATE_NONSTANDARD, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, TWO_DRIVERS, Finding, unexplained)
 from .signs import (
     GARBLED, MAX_EVIDENCE as _MAX_EVIDENCE, MIN_BYTES, SAME, TEXT, LineTally, Tally as _Tally, WiringSigns, looks_of)
 from .stats import Latency
@@ -625,6 +626,10 @@ def _waveform_findings(name: str, r) -> list[Finding]:
         if abs(pct) >= CLOCK_ERROR:
             f.severity = ERROR
         out.append(f)
+    if r.measured and not r.given and r.characters >= 4 and nominal_rate(r.measured) is None:
+        nearest = min(STANDARD_RATES, key=lambda rate: abs(rate - r.measured) / rate)
+        out.append(FINDINGS[RATE_NONSTANDARD].found(name, [], line=name, rate=r.measured, characters=chars,
+                                                    nearest=nearest))
     errors = r.framing_errors + r.parity_errors + r.breaks
     if errors:
         kind = FINDINGS[FRAMING_ERRORS]

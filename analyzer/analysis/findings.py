@@ -51,6 +51,7 @@ DEVICE_MAP = "device_map"
 # the waveform (a logic analyser's capture: analyzer/physical)
 LINE_INVERTED = "line_inverted"
 CLOCK_OFF = "clock_off"
+RATE_NONSTANDARD = "rate_nonstandard"
 FRAMING_ERRORS = "framing_errors"
 GLITCHES = "glitches"
 TWO_DRIVERS = "two_drivers"
@@ -222,6 +223,12 @@ _kind(CLOCK_OFF, WARNING,
       "the sender's clock is off: check its crystal or clock divisor (a rate its clock cannot make exactly), "
       "or set both ends to a rate it makes better",
       hides=(NOISY_LINK,), hides_subject=False)
+_kind(RATE_NONSTANDARD, WARNING,
+      "a line's measured bit rate more than 8 % from every standard rate: decoded at the rate measured",
+      "line {line} runs at {rate:,.0f} bit/s, no standard rate",
+      "measured over {characters}; the nearest standard rate is {nearest:,} bit/s",
+      "a gimbal link runs at a rate of §1.5.1: check the sender's rate setting and clock divisor, or whether "
+      "the probe is on this protocol's line at all")
 _kind(FRAMING_ERRORS, ERROR,
       "characters whose stop bit is not at the idle level, breaks (a line held active), parity errors",
       "line {line}: {errors} in {characters} characters",

@@ -164,7 +164,7 @@ def _wildcard(ev: Event) -> bool:
 # are most like the capture's (per byte, log-likelihood against random bytes)
 # is the line's. Docs: docs/doctor.md, "Wrong rate or not this protocol".
 
-STANDARD_RATES = tuple(sorted(BAUD_CODES.values()))   # §1.5.1: 1200 … 115200
+PROTOCOL_RATES = tuple(sorted(BAUD_CODES.values()))   # §1.5.1: 1200 … 115200
 
 # typical commands (Tables 4-17) and result payloads: what the reference traffic
 # is made of. The bytes that matter are the start byte, small address bytes, the
@@ -290,7 +290,7 @@ def rate_scores(sample: bytes, read: int) -> dict[int, float]:
     counts = Counter(sample)
     n = len(sample)
     out = {}
-    for sent in STANDARD_RATES:
+    for sent in PROTOCOL_RATES:
         if sent == read:
             continue
         profile = misread_profile(sent, read)

@@ -28,7 +28,7 @@ from dissectors import dissect_command
 from dissectors.event import COMMAND, NO_RESULT, NOISE, OK, RATE, RESULT, ST_NIC, Event
 
 from .findings import FINDINGS, LINES_SWAPPED, NOT_THIS_PROTOCOL, WRONG_BAUD, Finding
-from .rate import STANDARD_RATES, rate_scores
+from .rate import PROTOCOL_RATES, rate_scores
 
 MAX_EVIDENCE = 20
 ANSWER_BYTES = {0x06, 0x15, 0x3F}   # ACK, NAK, NIC (§1.4.2)
@@ -192,7 +192,7 @@ class WiringSigns:
         if span <= 0:
             return
         baud = 10 * n / span
-        rate = min(STANDARD_RATES, key=lambda r: abs(r - baud))
+        rate = min(PROTOCOL_RATES, key=lambda r: abs(r - baud))
         if abs(rate - baud) <= 0.02 * rate:
             self._rate_votes[rate] += 1
 

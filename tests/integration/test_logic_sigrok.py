@@ -258,6 +258,24 @@ def test_the_doctor_names_a_fast_clock(tmp_path):
     assert f["title"] == "line B runs at 9,100 bit/s, 5.2 % slow"
 
 
+def test_a_rate_far_from_every_standard_one_decodes_as_measured_and_is_said(tmp_path):
+    # both lines at 12,500 bit/s: 30 % over 9600, 35 % under 19200, no standard rate
+    # near it; the conversation decodes at the rate measured, and the doctor says so
+    path = session(tmp_path, *conversation(baud_a=12500, baud_b=12500))
+    cap = analyzer.open(path)
+    assert [(e.kind, e.status) for e in cap if e.kind == "command"] == [("command", "ok")]
+    assert cap.source.physical["A"].nominal == 12500 and cap.options.baud == 12500
+    status, report = doctor_json(path)
+    f = codes(report)[("rate_nonstandard", "A")]
+    assert f["severity"] == "warning" and status == 1
+    assert f["title"] == "line A runs at 12,500 bit/s, no standard rate"
+    assert "the nearest standard rate is 14,400 bit/s" in f["detail"]
+    # MIDI's 31,250 is a standard rate: named, not said
+    path = session(tmp_path, *conversation(baud_a=31250, baud_b=31250), name="midi")
+    assert analyzer.open(path).source.physical["A"].nominal == 31250
+    assert not [f for f in doctor_json(path)[1]["findings"] if f["code"] == "rate_nonstandard"]
+
+
 def test_the_doctor_names_an_inverted_line_glitches_and_framing_errors(tmp_path):
     bit = 1 / 9600
     glitches = [0.002, 0.004, 0.006]
