@@ -36,7 +36,10 @@ def s3():
     """An S3 server on 127.0.0.1, the environment that points pyarrow at it, and
     its filesystem."""
     port = free_port()
-    server = subprocess.Popen([shutil.which("moto_server") or "moto_server", "-H", "127.0.0.1", "-p", str(port)],
+    # moto of this interpreter's environment (the test extra's), not whichever moto_server
+    # is first on PATH: an older moto elsewhere (5.2.1) names CompleteMultipartUpload's
+    # reply <CompleteMultipartUploadResponse>, which pyarrow takes for an error in a 200 OK
+    server = subprocess.Popen([sys.executable, "-m", "moto.server", "-H", "127.0.0.1", "-p", str(port)],
                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     env = dict(os.environ, AWS_ENDPOINT_URL=f"http://127.0.0.1:{port}", AWS_ACCESS_KEY_ID="test",
                AWS_SECRET_ACCESS_KEY="test", AWS_DEFAULT_REGION="us-east-1", AWS_EC2_METADATA_DISABLED="true")
