@@ -11,7 +11,8 @@ half-written, and every failure one line saying what and where.
   so a failed run leaves no partial file and the old file, if any, intact.
 - ``show(path)`` gives a file name as text that can always be printed: names are
   kept as the OS gives them (``os.fsdecode``: undecodable bytes become surrogate
-  escapes), and only shown with those bytes as ``\\xNN``.
+  escapes), and only shown with those bytes as ``\\xNN``; ``one_line(message)``
+  escapes control characters too, for the messages on standard error.
 
 A refusal (``OutputRefused``, from ``check_output``) is a usage mistake: exit 2.
 A failure while writing (``OutputError``) is exit 1.
@@ -36,6 +37,17 @@ def show(path: str | bytes | os.PathLike) -> str:
     """``path`` as printable text: undecodable bytes as ``\\xNN`` escapes."""
     name = os.fsdecode(path)
     return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
+def one_line(message: str) -> str:
+    """A message as the one line it is meant to be: undecodable bytes as
+    ``\\xNN`` (``show``) and control characters escaped (``\\x0b``, ``\\x1b``),
+    for the names it quotes come from files (a channel named with a vertical tab
+    or a terminal's escape sequence would break the line, or clear the screen)."""
+    text = show(message)
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def reason(e: OSError) -> str:

@@ -14,6 +14,7 @@ from ..errors import UsageError
 from ..info import CaptureInfo
 from ..listeners import NotePrinter
 from ..listeners.wiring_check import WiringCheck
+from ..outfile import one_line
 from ..runner import Listener, TapRunner
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
@@ -235,7 +236,7 @@ def add_quiet_arg(p: argparse.ArgumentParser) -> None:
 def warn(msg: str) -> None:
     if _quiet:
         return
-    print(f"gimbalscope: warning: {msg}", file=sys.stderr, flush=True)
+    print(f"gimbalscope: warning: {one_line(msg)}", file=sys.stderr, flush=True)
 
 
 def progress_listener(streams_stdout: bool = False) -> Listener:

@@ -12,7 +12,7 @@ import sys
 
 from ..errors import DatasetError
 from ..extras import missing_extra
-from ..outfile import OutputError, show
+from ..outfile import OutputError, one_line
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError
 from ..sources.meter import READS
@@ -63,11 +63,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def error(message: str) -> None:
-    """The one line a failure prints (names shown with undecodable bytes as \\xNN)."""
+    """The one line a failure prints (undecodable bytes and control characters escaped)."""
     if sys.stderr is None:   # with stderr closed there is nowhere to say it
         return
     try:
-        print(f"gimbalscope: error: {show(message)}", file=sys.stderr, flush=True)
+        print(f"gimbalscope: error: {one_line(message)}", file=sys.stderr, flush=True)
     except OSError:
         pass   # nor with stderr on a full disk
 

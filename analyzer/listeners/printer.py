@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Callable
 
 from dissectors.event import Event
 
+from ..outfile import one_line
 from ..runner import DOCTOR, ERROR, INFO, Listener, Note
 
 if TYPE_CHECKING:
@@ -100,7 +101,7 @@ class NotePrinter(Listener):
 
 
 def _say(line: str) -> None:
-    print(f"gimbalscope: {line}", file=sys.stderr, flush=True)
+    print(f"gimbalscope: {one_line(line)}", file=sys.stderr, flush=True)
 
 
 # a number as warnings write them: 12, -3, 12.5, 0x94, 1,024, 08:35:52

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..errors import CaptureError
 from ..physical.edges import NO_EDGES, Block, Edges, Waveform
+from ..words import counted
 from .base import ReadSettings, Source
 from .files import Input
 from .saleae_table import AsyncSerialTable
@@ -37,6 +38,7 @@ from .vcd import LEVELS_HOLD
 TICKS_A_SECOND = 1e9
 MAX_SECONDS = 1e9             # a time beyond this (or NaN) is damage: ticks stay within int64
 BLOCK_BYTES = 4 << 20
+ROW_LIMIT = 16 << 20          # a row this long is no export's (1000 channels take 2 KB): damage, not read on
 _NUMBERED = re.compile(r"^Channel (\d+)$", re.I)
 _LEVEL = {"0": 0, "1": 1, "X": -1, "x": -1}
 
@@ -68,13 +70,21 @@ class SaleaeDigitalCsv(Waveform):
         while True:
             data = self.stream.read(BLOCK_BYTES)
             ended = not data
-            data = left + data
-            cut = len(data) if ended else data.rfind(b"\n") + 1
-            if cut <= 0 and not ended:
+            data, old = left + data, len(left)
+            # left holds no line end: only the new bytes are looked through
+            cut = len(data) if ended else data.rfind(b"\n", old) + 1
+            if cut <= 0 and not ended and len(data) <= ROW_LIMIT:
                 left = data
                 continue
-            body, left = data[:cut], data[cut:]
-            times, values, bad = _parse(body, width)
+            if cut <= 0 and not ended:
+                body, left = b"", b""
+                times, values = np.zeros(0), np.zeros((0, width), dtype=np.int8)
+                bad: tuple[int, str] | None = (0, f"a row of over {ROW_LIMIT >> 20} MB")
+            else:
+                body, left = data[:cut], data[cut:]
+                times, values, unread = _parse(body, width)
+                bad = None if unread is None else (
+                    unread[0], f"cannot read {unread[1][:60]!r} (a time and {width} levels of 0, 1 or X)")
             with np.errstate(invalid="ignore"):
                 back = np.flatnonzero((np.diff(np.concatenate(([last], times))) < 0) | ~(np.abs(times) < MAX_SECONDS))
             if back.size and (bad is None or back[0] < bad[0]):
@@ -83,9 +93,7 @@ class SaleaeDigitalCsv(Waveform):
             if times.size:
                 last = float(times[-1])
             if bad is not None:
-                row, text = bad
-                why = text if text.startswith("time ") else (f"cannot read {text[:60]!r} (a time and {width} "
-                                                              "levels of 0, 1 or X)")
+                row, why = bad
                 self.problem = f"{self.name}: line {line + row}: {why}: read up to there"
             if times.size:
                 yield self._block(times, values, levels)
@@ -157,4 +165,5 @@ def open_saleae_csv(inputs: list[Input], settings: ReadSettings) -> Source:
         return AsyncSerialTable(inputs[0], settings)
     from .sampled import SampledSource
     wave = SaleaeDigitalCsv(inputs[0])
-    return SampledSource(wave, settings, inputs[0].describe(f"Saleae digital CSV, {len(wave.channels)} channels"))
+    what = f"Saleae digital CSV, {counted(len(wave.channels), 'channel')}"
+    return SampledSource(wave, settings, inputs[0].describe(what))

@@ -33,6 +33,9 @@ from .files import Input
 from .signatures import COLUMNS
 
 LOOK_AHEAD_ROWS = 4096        # rows read before choosing the lines (the analyzers' names)
+# A time or duration beyond this (or NaN) is damage, not a time: events' times stay
+# finite (as the digital CSV's, saleae_csv.MAX_SECONDS).
+MAX_SECONDS = 1e9
 _ESCAPES = {"\\0": 0, "\\a": 7, "\\b": 8, "\\t": 9, "\\n": 10, "\\v": 11, "\\f": 12, "\\r": 13,
             "\\\\": 92, "\\'": 39, '\\"': 34, "\\e": 27}
 _HEX_ESCAPE = re.compile(r"^\\x([0-9a-fA-F]{2})$")
@@ -89,7 +92,10 @@ class AsyncSerialTable(Source):
         self.start_time = settings.start_time
         self._text = io.TextIOWrapper(inp.stream(), encoding="utf-8-sig", errors="replace", newline="")
         self._rows = csv.reader(self._text)
-        header = [h.strip().lower() for h in next(self._rows, [])]
+        try:
+            header = [h.strip().lower() for h in next(self._rows, [])]
+        except csv.Error as e:     # a quote never closed, a field over csv's limit
+            raise CaptureError(f"{inp.name}: line 1: {e}: not a data table's header") from None
         missing = [c for c in COLUMNS if c not in header]
         if missing:
             raise CaptureError(f"{inp.name}: a data table without the column {missing[0]!r} "
@@ -98,20 +104,24 @@ class AsyncSerialTable(Source):
         self._width = len(header)
         self._ahead: list[tuple[int, list[str]]] = []
         self._names: list[str] = []          # the analyzers met, in order
+        self._broken: csv.Error | None = None   # what ended the reading ahead: raised where the rows are read
         self._read_ahead()
         given = dict(settings.instrument.channels)
         self.line_of = self._lines(given)
         self.lines = tuple(sorted(set(self.line_of.values())))
 
     def _read_ahead(self) -> None:
-        for row in self._rows:
-            self._ahead.append((self._rows.line_num, row))
-            if len(row) > self._col["name"]:
-                name = row[self._col["name"]]
-                if name not in self._names:
-                    self._names.append(name)
-            if len(self._ahead) >= LOOK_AHEAD_ROWS:
-                break
+        try:
+            for row in self._rows:
+                self._ahead.append((self._rows.line_num, row))
+                if len(row) > self._col["name"]:
+                    name = row[self._col["name"]]
+                    if name not in self._names:
+                        self._names.append(name)
+                if len(self._ahead) >= LOOK_AHEAD_ROWS:
+                    break
+        except csv.Error as e:
+            self._broken = e     # the rows before it are decoded, then chunks() says it
 
     def _lines(self, given: dict[str, str]) -> dict[str, str]:
         """analyzer name → line."""
@@ -139,7 +149,7 @@ class AsyncSerialTable(Source):
         ten bits), for the byte time; nothing when it is no standard rate."""
         durations = sorted(float(r[self._col["duration"]]) for _, r in self._ahead
                            if len(r) == self._width and _is_number(r[self._col["duration"]])
-                           and float(r[self._col["duration"]]) > 0)
+                           and 0 < float(r[self._col["duration"]]) < MAX_SECONDS)
         if not durations:
             return {}
         baud = nominal_rate(10 / durations[len(durations) // 2])
@@ -148,6 +158,8 @@ class AsyncSerialTable(Source):
     def _all_rows(self) -> Iterator[tuple[int, list[str]]]:
         yield from self._ahead
         self._ahead = []
+        if self._broken is not None:
+            raise self._broken
         for row in self._rows:
             yield self._rows.line_num, row
 
@@ -167,6 +179,8 @@ class AsyncSerialTable(Source):
                         continue
                     line = self.line_of.get(row[col["name"]])
                     start, length = float(row[col["start_time"]]), float(row[col["duration"]])
+                    if not (abs(start) < MAX_SECONDS and abs(length) < MAX_SECONDS):   # NaN, inf, 1e300
+                        raise ValueError
                     value = byte_of(row[col["data"]])
                 except (ValueError, IndexError):
                     self.warn(f"{self.name}: line {number}: cannot read {','.join(row)[:60]!r} (a data table "

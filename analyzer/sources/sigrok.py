@@ -79,12 +79,15 @@ class SigrokSession(PackedSamples):
                                "is not a rate (e.g. 1 MHz)") from None
         if rate <= 0:
             raise CaptureError(f"{inp.name}: the sigrok metadata gives no sample rate")
-        unitsize = int(device.get("unitsize", "1") or 1)
-        if unitsize not in (1, 2, 4):
-            raise CaptureError(f"{inp.name}: unitsize {unitsize} (1, 2 or 4 bytes a sample are read)")
+        unitsize = device.get("unitsize", "1") or "1"
+        if unitsize not in ("1", "2", "4"):
+            raise CaptureError(f"{inp.name}: unitsize {unitsize[:40]!r} (1, 2 or 4 bytes a sample are read)")
+        unitsize = int(unitsize)
         probes = sorted((int(k[5:]), v) for k, v in device.items() if re.fullmatch(r"probe\d+", k))
         if not probes:
             raise CaptureError(f"{inp.name}: the session has no logic channels")
+        if probes[0][0] < 1:   # bit N-1 of a sample: probe0 would be bit -1
+            raise CaptureError(f"{inp.name}: probe{probes[0][0]} in the metadata (sigrok numbers probes from 1)")
         too_high = [n for n, _ in probes if n > unitsize * 8]
         if too_high:
             raise CaptureError(f"{inp.name}: probe{too_high[0]} is beyond the {unitsize * 8} bits of a sample")
@@ -105,7 +108,10 @@ class SigrokSession(PackedSamples):
         for name in order:
             try:
                 yield from self.members.stream(name)
-            except (zipfile.BadZipFile, zlib.error, EOFError, OSError, struct.error) as e:
+            except Unreadable as e:
+                self.problem = f"{self.name}: {name} {e}: read up to there"
+                return
+            except DAMAGE as e:
                 self.problem = f"{self.name}: {name} is damaged ({e}): read up to there"
                 return
         if self.members.problem:
@@ -141,27 +147,34 @@ class _Members:
             return None
         try:
             return b"".join(self.stream(name))
-        except (zipfile.BadZipFile, zlib.error, EOFError, OSError, struct.error) as e:
+        except Unreadable as e:
+            raise CaptureError(f"{self.inp.name}: {name} {e}") from None
+        except DAMAGE as e:
             raise CaptureError(f"{self.inp.name}: {name} is damaged ({e})") from None
 
     def stream(self, name: str) -> Iterator[bytes]:
+        """The member's bytes; Unreadable for one no sigrok writer makes (encrypted,
+        or compressed by a method zipfile cannot undo), DAMAGE as it is read."""
         if self.zip is not None:
+            info = self.zip.getinfo(name)
+            _readable(info.flag_bits, info.compress_type, _ZIP_METHODS)
             with self.zip.open(name) as f:
                 while True:
                     data = f.read(BLOCK * 4)
                     if not data:
                         return
                     yield data
-        at, size, method = self.local[name]
+        at, size, method, flags = self.local[name]
+        _readable(flags, method, (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED))   # what _inflate undoes
         with open(self.path, "rb") as f:
             f.seek(at)
             yield from _inflate(f, size, method)
 
 
-def _walk_local_headers(path: str) -> dict[str, tuple[int, int, int]]:
-    """name → (data offset, compressed size, method) of every member whose local
-    header is whole."""
-    found: dict[str, tuple[int, int, int]] = {}
+def _walk_local_headers(path: str) -> dict[str, tuple[int, int, int, int]]:
+    """name → (data offset, compressed size, method, flags) of every member whose
+    local header is whole."""
+    found: dict[str, tuple[int, int, int, int]] = {}
     with open(path, "rb") as f:
         at = 0
         while True:
@@ -176,10 +189,31 @@ def _walk_local_headers(path: str) -> dict[str, tuple[int, int, int]]:
             name = f.read(name_len).decode("utf-8", "replace")
             data_at = at + 30 + name_len + extra_len
             if flags & 0x08:     # sizes after the data: read to the end of what is there
-                found[name] = (data_at, -1, method)
+                found[name] = (data_at, -1, method, flags)
                 return found
-            found[name] = (data_at, size, method)
+            found[name] = (data_at, size, method, flags)
             at = data_at + size
+
+
+class Unreadable(Exception):
+    """A member no sigrok writer makes, whose bytes cannot be had: the message
+    says why, after the member's name."""
+
+
+# What reading a member can raise on damaged bytes (zipfile raises BadZipFile for a
+# bad CRC or header, zlib.error for bad deflate data, EOFError for a cut one).
+DAMAGE = (zipfile.BadZipFile, zlib.error, EOFError, OSError, struct.error)
+_ZIP_METHODS = (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED, zipfile.ZIP_BZIP2, zipfile.ZIP_LZMA)
+
+
+def _readable(flags: int, method: int, methods: tuple[int, ...]) -> None:
+    """Unreadable for an encrypted member (zipfile would ask for a password) or
+    a compression method not in ``methods`` (zipfile would raise
+    NotImplementedError; sigrok deflates)."""
+    if flags & 0x01:
+        raise Unreadable("is encrypted (sigrok never encrypts a session)")
+    if method not in methods:
+        raise Unreadable(f"is compressed by zip method {method}, which cannot be read (sigrok deflates)")
 
 
 def _inflate(f: BinaryIO, size: int, method: int) -> Iterator[bytes]:

@@ -25,6 +25,7 @@ import numpy as np
 
 from ..errors import CaptureError
 from ..physical.edges import Block, Edges, Waveform
+from ..words import counted
 from .base import ReadSettings, Source
 from .files import Input
 from .sigrok import parse_samplerate
@@ -36,6 +37,9 @@ BLOCK_BYTES = 4 << 20        # body read this much at a time
 # character in flight is read (12 bits at 600 bit/s).
 LEVELS_HOLD = 0.020
 HEADER_LIMIT = 64 << 20      # a header longer than this is not a VCD's
+# Changes at one time are never split between blocks, so the body is read on until
+# a #time to cut at: this much without one is no dump's (it would be held whole).
+UNCUT_LIMIT = 64 << 20
 _TIMESCALE = re.compile(r"^\s*(1|10|100)\s*(s|ms|us|ns|ps|fs)\s*$")
 _UNIT = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "ps": 1e-12, "fs": 1e-15}
 _TIME = re.compile(rb"#([0-9]{1,18})\s")
@@ -125,6 +129,13 @@ class ValueChangeDump(Waveform):
         self.channels = list(header.channels)
         self.numbers = [str(i) for i in range(len(self.channels))]
         self.scale = 1.0                       # ticks a file time unit
+        if header.sampled_at and header.sampled_at * header.unit > 1 + 1e-9:
+            # sigrok's time unit is never shorter than a sample (1 MHz: 1 us; 24 MHz: 1 ns);
+            # finer samples than ticks are a comment not to believe, and their ticks
+            # could pass int64 (a time of 18 digits times the ratio)
+            self.notes.append(f"{inp.name}: the comment's rate of {header.sampled_at:g} Hz is finer than the "
+                              f"$timescale: times read as they are")
+            header.sampled_at = None
         if header.sampled_at:
             self.samplerate, self.sampled = header.sampled_at, True
             self.scale = header.sampled_at * header.unit
@@ -149,6 +160,7 @@ class ValueChangeDump(Waveform):
         scanner = BodyScanner(self.header.ids, len(self.channels))
         line = self.body_line
         data, ended = self.rest, False
+        searched = 0                            # data[:searched] has no #time to cut at
         while not ended:
             more = self.stream.read(BLOCK_BYTES)
             ended = not more
@@ -161,10 +173,17 @@ class ValueChangeDump(Waveform):
                     data = data[:cut_at + 1]
                 body, data = data, b""
             else:
-                cut = _before_last_time(data)
-                if cut <= 0:
+                cut = _before_last_time(data, searched)
+                if cut <= 0 and len(data) <= UNCUT_LIMIT:
+                    searched = len(data)        # the next look starts from what comes next
                     continue                    # no #time to cut at yet: read on
-                body, data = data[:cut], data[cut:]
+                if cut <= 0:
+                    self.problem = (f"{self.name}: line {line}: {UNCUT_LIMIT >> 20} MB without a #time from "
+                                    "there: read up to there")
+                    body, data, ended = b"", b"", True
+                else:
+                    body, data = data[:cut], data[cut:]
+                searched = 0
             levels = {ch: scanner.level[ch] for ch in range(len(self.channels))}
             times = scanner.scan(body)
             if scanner.bad is not None:
@@ -200,11 +219,13 @@ class ValueChangeDump(Waveform):
         self.input.close()
 
 
-def _before_last_time(data: bytes) -> int:
-    """Where the last ``#time`` token of ``data`` starts (0: none)."""
+def _before_last_time(data: bytes, since: int = 0) -> int:
+    """Where the last ``#time`` token of ``data`` starts (0: none), looking from
+    ``since`` on (before it, an earlier look found none: each look is then over
+    the new bytes only, not the whole body read so far again)."""
     at = len(data)
     while True:
-        at = data.rfind(b"#", 0, at)
+        at = data.rfind(b"#", since, at)
         if at <= 0:
             return 0
         if data[at - 1:at].isspace():
@@ -214,7 +235,7 @@ def _before_last_time(data: bytes) -> int:
 def open_vcd(inputs: list[Input], settings: ReadSettings) -> Source:
     from .sampled import SampledSource
     dump = ValueChangeDump(inputs[0])
-    what = f"VCD, {len(dump.channels)} channels" + (", sampled" if dump.sampled else "")
+    what = f"VCD, {counted(len(dump.channels), 'channel')}" + (", sampled" if dump.sampled else "")
     source = SampledSource(dump, settings, inputs[0].describe(what))
     for note in dump.notes:
         source.warn_later(note)
