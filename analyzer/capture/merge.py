@@ -69,8 +69,9 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
     release_every = merge.release_every
     since_release = 0
     # one clock: a chunk read later started no earlier than the other line's
-    # latest read (docs/time.md, "Byte order"); the deframers keep each line's order
-    one_clock = cap.clocks < 2
+    # latest read (docs/time.md, "Byte order"); the deframers keep each line's order.
+    # Times measured on the wire need no such floor: both lines send at once.
+    one_clock = cap.clocks < 2 and not cap.source.wire_times
     last_read = None
     for chunk in cap.source.chunks():
         data = chunk.data

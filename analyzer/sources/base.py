@@ -38,6 +38,10 @@ class Source(ABC):
     # clock for every line (a socat log, a single-line tap), 2 a clock per line (two
     # live adapters, whose delays differ: the only case for skew correction)
     clocks: int = 0
+    # chunk times are when each chunk's first start bit began on the wire, measured
+    # (a logic analyser's samples), not when a read returned: no read-order floor
+    # between the lines applies (docs/time.md, "Byte order")
+    wire_times: bool = False
     start_time: float | None = None    # epoch seconds of t = 0, when known
     description: str = ""
     # the line's own errors (framing, parity, break, overrun) as the source reads

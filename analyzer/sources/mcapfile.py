@@ -123,6 +123,7 @@ class McapSource(Source):
         # name could not be read
         self.metadata, self.metadata_problem = self._read_metadata()
         self.clocks = self._count_clocks()
+        self.wire_times = (self.metadata or {}).get("wire_times") == "yes"
 
     # ------------------------------------------------------------------ reading
     def _batches(self, topics: list[str], pairs: bool = False, need_t: bool | None = None,

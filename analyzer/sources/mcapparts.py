@@ -51,6 +51,7 @@ class McapPartsSource(Source):
         check_no_overlap(self.parts)
         first = self.parts[0]
         self.lines, self.timed, self.clocks = first.lines, first.timed, first.clocks
+        self.wire_times = first.wire_times
         self.metadata, self.metadata_problem = first.metadata, first.metadata_problem
         self.start_time = first.start_time
         self._shifts = _shifts(self.parts)

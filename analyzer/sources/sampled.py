@@ -44,6 +44,7 @@ LOOK_AHEAD_BLOCKS = 64       # ... or this many blocks, whichever first
 class SampledSource(Source):
     timed = True
     clocks = 1                   # one analyser samples every channel
+    wire_times = True            # a chunk's time is its first start bit's edge
 
     def __init__(self, waveform: Waveform, settings: ReadSettings, description: str) -> None:
         super().__init__()

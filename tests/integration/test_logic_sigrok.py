@@ -156,6 +156,21 @@ def test_a_rate_change_is_followed(tmp_path):
     assert changes[0].t == pytest.approx(0.030, abs=1e-4)
 
 
+def test_lines_sending_at_once_keep_their_wire_times_and_so_does_their_recording(tmp_path):
+    # the result runs on line B from 18 ms to 33.6 ms; a command on line A starts
+    # at 25 ms, inside it: a waveform's times are the start bits', not read times
+    a = uart_levels(back_to_back(COMMAND, 0.025, 9600), RATE, 9600, DURATION)
+    b = uart_levels(back_to_back(RESULT, 0.018, 9600), RATE, 9600, DURATION)
+    path = session(tmp_path, a, b)
+    events = list(analyzer.open(path))
+    command = next(e for e in events if e.kind == "command")
+    assert command.t == pytest.approx(0.025, abs=2e-6)
+    rec = tmp_path / "at-once.mcap"
+    assert run_cli("convert", path, "-o", rec).returncode == 0
+    again = next(e for e in analyzer.open(str(rec)) if e.kind == "command")
+    assert again.t == pytest.approx(0.025, abs=2e-6)
+
+
 def test_channels_by_name_or_number_and_a_bad_one_listed(tmp_path):
     a, b = conversation()
     idle = uart_levels([], RATE, 9600, DURATION)
