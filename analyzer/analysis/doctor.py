@@ -32,7 +32,7 @@ line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 
 from __future__ import annotations
 
-from collections import Counter, deque
+from collections import deque
 from dataclasses import dataclass
 from statistics import median
 

@@ -22,8 +22,6 @@ from bisect import bisect_left
 from operator import attrgetter
 from typing import Callable, Iterator
 
-import numpy as np
-
 from dissectors.wire import LineSettings
 
 from ..errors import CaptureError
