@@ -43,6 +43,7 @@ RATE_ERRORS = 4        # framing errors in a row of characters that make the rat
 MAX_CHANGES = 4        # rate changes followed within one block of edges
 WINDOW = 2 * ENOUGH_EDGES   # edges a rate is measured on
 MAX_WINDOWS = 4096     # windows tried before a line is said to show no rate (about 200,000 edges)
+KEEP_WINDOWS = 4       # windows of edges kept behind the one tried next, while no rate is found
 FORMAT_EDGES = 2400    # edges the format is told from (about five hundred characters: a counter
                        # sending 0x80 to 0xFF first has shown a top bit of 0 by then)
 BURST_PULSES = 16      # pulses under a quarter bit before they may be a faster rate, not glitches
@@ -79,7 +80,8 @@ class SoftUart:
         self.started = False                      # measured (or given) and decoding
         self.end = 0                              # levels are known up to here
         self._clean_upto = 0                      # ticks[:this] are past the glitch filter
-        self._windows = 0                         # windows measured without finding a rate
+        self._windows = 0                         # windows measured without finding a rate, of the edges kept
+        self._dropped_windows = 0                 # ... and of the edges let go since
         self._burst_checked = -1                  # short pulses before this tick were no faster rate
         self._hint: tuple[float, float] | None = None   # (tick, bit) the protocol layer said the rate changed
 
@@ -148,7 +150,7 @@ class SoftUart:
         the end of the line tries the last one however full."""
         t = self.ticks
         step = WINDOW // 2
-        while self._windows < MAX_WINDOWS:
+        while self._windows + self._dropped_windows < MAX_WINDOWS:
             start = self._windows * step
             full = start + WINDOW <= t.size
             if not full and not (final or start == 0) or t.size - start < MIN_EDGES:
@@ -164,6 +166,20 @@ class SoftUart:
             if not full:
                 return None
             self._windows += 1
+            if self._windows > KEEP_WINDOWS:
+                # edges long judged to show no rate are let go (a window's worth
+                # stays before the next): a line that never shows one holds
+                # bounded memory however long the capture
+                cut = step * (self._windows - KEEP_WINDOWS)
+                self.level = self._level_at(cut)
+                self.ticks = t = t[cut:]
+                self._windows = KEEP_WINDOWS
+                self._dropped_windows += 1
+        # no rate in all those windows: the line is said to show none, and holds
+        # only its latest edges (the level stays known)
+        cut = max(0, t.size - WINDOW)
+        self.level = self._level_at(cut)
+        self.ticks = t[cut:]
         return None
 
     def _idle_and_format(self, start: int) -> tuple[int, Verdict]:

@@ -105,3 +105,19 @@ def test_the_rate_is_measured_past_a_glitch_in_the_only_character():
                       s + 9 * bit]).astype(np.int64)
     m = measure_bit(ticks, 4)
     assert m is not None and abs(m.bit - bit) / bit < 0.03
+
+
+def test_a_line_that_never_shows_a_rate_holds_bounded_edges():
+    # random pulses of 1 to 3 samples (no rate a sampled line can be read at), fed
+    # in 200 blocks of 5,000 edges: what the UART keeps stays a few windows long
+    rng = np.random.default_rng(7)
+    report = LineReport("A", "0", samplerate=RATE)
+    u = SoftUart(report, min_bit=4)
+    at = 0
+    kept = []
+    for _ in range(200):
+        ticks = at + np.cumsum(rng.integers(1, 4, 5000))
+        at = int(ticks[-1])
+        assert u.feed(Edges(ticks.astype(np.int64), 1), at + 1) == []
+        kept.append(u.ticks.size)
+    assert not u.started and max(kept) < 10_000 and report.edges == 1_000_000
