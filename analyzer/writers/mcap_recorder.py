@@ -299,6 +299,12 @@ class McapRecorder:
         """What a finished recording says: how many messages, where."""
         return f"recorded {counted(self.messages, 'message')} to {show(self.path)}"
 
+    @property
+    def kept(self) -> int:
+        """Messages on disk in whole chunks so far: what the file holds if the tap is
+        killed now, and what a failed write leaves (the count its stop line gives)."""
+        return self._kept
+
     def __enter__(self) -> "McapRecorder":
         return self
 

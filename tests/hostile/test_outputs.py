@@ -16,7 +16,7 @@ import tty
 import pytest
 
 import analyzer
-from tests.child import PATIENCE as WAIT, wait_for
+from tests.child import LISTENING, PATIENCE as WAIT, wait_for
 from tests.conftest import ROOT, frame, run_cli
 
 SAMPLES = os.path.join(ROOT, "captures")
@@ -135,6 +135,15 @@ class Reader(threading.Thread):
         return "".join(self.lines)
 
 
+def events_on_disk(path) -> int:
+    """The events a live recording holds as it stands, read as a killed tap's file
+    is (up to its last whole chunk); 0 while it holds no chunk yet."""
+    try:
+        return sum(1 for _ in analyzer.open(str(path)))
+    except analyzer.CaptureError:
+        return 0
+
+
 def test_live_recording_onto_a_full_disk_stops_it_and_the_tap_goes_on(small_fs):
     ma, sa, pa = pty_pair()
     mb, sb, pb = pty_pair()
@@ -145,13 +154,24 @@ def test_live_recording_onto_a_full_disk_stops_it_and_the_tap_goes_on(small_fs):
     out.start()
     err.start()
     try:
-        wait_for(lambda: rec.exists() and rec.stat().st_size > 0, "the recording to start")
-        start = rec.stat().st_size
-        rounds = 0
-        while rec.stat().st_size == start:   # at least one chunk on disk (flushed about every second)
+        wait_for(lambda: LISTENING in err.text() or proc.poll() is not None, "the tap to listen")
+        assert proc.poll() is None, err.text()
+        # The disk fills only once the recording holds a whole round: the recorder
+        # keeps whole chunks (flushed about every second), and removes a recording
+        # stopped before one reached the disk. The tap prints nothing about what it
+        # kept until it stops, so the file is read as it stands. Its size says less:
+        # its header and metadata are written one after the other, and a chunk may
+        # hold part of a round. What was read may be a chunk still being written:
+        # once a later round has been printed, that write has returned (the tap
+        # records each read before it prints its events, in one thread).
+        rounds, held = 0, False
+        while True:
             one_round(ma, mb)
             rounds += 1
             wait_for(lambda: len(out.lines) == 3 * rounds, "the round's events")
+            if held:
+                break
+            held = events_on_disk(rec) >= 3
             assert rounds < 400, "the recording never flushed"
         fill(small_fs)
         deadline = time.monotonic() + WAIT
@@ -215,10 +235,16 @@ def test_tui_feed_recording_onto_a_full_disk_is_said_once_and_the_capture_goes_o
 
     feed.start()
     try:
-        start = rec.stat().st_size
-        rounds = 0
-        while rec.stat().st_size == start:
-            one_round(ma, mb)
+        # The disk fills only once the recorder says it kept a whole round (as the
+        # test above, here by its own count): it keeps whole chunks, and removes a
+        # recording stopped before one reached the disk. The file growing says
+        # less: a chunk closed on time may hold part of a round.
+        one_round(ma, mb)
+        rounds = 1
+        wait_for(lambda: events() >= 3, "the first round's events")
+        first = recorder.count   # the recorder heard the round before the feed passed it on
+        while recorder.recorder.kept < first:
+            one_round(ma, mb)   # a chunk is closed by a message that comes after the interval
             rounds += 1
             wait_for(lambda: events() >= 3 * rounds, "the round's events")
             assert rounds < 400, "the recording never flushed"
