@@ -163,17 +163,13 @@ class SampledSource(Source):
         if self._said:
             return
         self._said = True
-        rate = self.waveform.samplerate
         for line, uart in self._uarts.items():
             r = uart.report
             if uart.started and r.possible_formats and not r.given:
                 say(f"{self.name}: line {line} ({r.channel}) read as {r.format}; {_either(r.possible_formats)} "
                     "would read its few characters as well (--data-bits, --parity and --stop-bits say which)")
             elif not uart.started and uart.too_fast:
-                baud = named_rate(uart.too_fast)
-                say(f"{self.name}: line {line} ({r.channel}): sampled at {hz(rate)}, under {MIN_SAMPLES_A_BIT} "
-                    f"samples a bit at {baud:,} bit/s: nothing decoded; capture at "
-                    f"{hz(MIN_SAMPLES_A_BIT * baud)} or more")
+                say(f"{self._sampled_too_slowly(line, named_rate(uart.too_fast))}: nothing decoded")
             elif not uart.started and r.toggles:
                 say(f"{self.name}: line {line} ({r.channel}): its {r.edges} edges show no bit rate; "
                     "give it with --baud")
@@ -194,16 +190,19 @@ class SampledSource(Source):
         too_fast = named_rate(uart.too_fast) if uart.too_fast and self._ended else None
         baud = uart.report.nominal if uart.started else too_fast
         if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
-            raise CaptureError(
-                f"{self.name}: sampled at {hz(w.samplerate)}, under {MIN_SAMPLES_A_BIT} samples a bit at "
-                f"{baud:,} bit/s (line {line}): capture at {hz(MIN_SAMPLES_A_BIT * baud)} or more")
+            raise CaptureError(self._sampled_too_slowly(line, baud))
+
+    def _sampled_too_slowly(self, line: str, baud: int) -> str:
+        rate = self.waveform.samplerate
+        return (f"{self.name}: sampled at {hz(rate)}, under {MIN_SAMPLES_A_BIT} samples a bit at {baud:,} bit/s "
+                f"(line {line}): capture at {hz(MIN_SAMPLES_A_BIT * baud)} or more")
 
     def read_with(self, settings: dict[str, LineSettings]) -> None:
         """The capture's settings; a rate change it follows (an acknowledged
         rate-set command) tells every line's UART to measure again from there."""
         super().read_with(settings)
-        for own in settings.values():
-            own.watch(self._rate_set)
+        if settings:     # a change changes every line's settings: one of them tells
+            next(iter(settings.values())).watch(self._rate_set)
 
     def _rate_set(self, settings: LineSettings) -> None:
         t = settings.changed_at
