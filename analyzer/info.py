@@ -37,6 +37,9 @@ class CaptureInfo:
     # how the capture is decoded (docs/time.md): what reading its recording needs again
     clocks: int = 0                    # 0 untimed, 1 one clock, 2 a clock per line
     wire_times: bool = False           # chunk times measured on the wire (Source.wire_times)
+    # the source sees the line's own errors (Source.faults: a logic or USB capture),
+    # which its recording keeps on the raw chunks (docs/mcap.md, "Below the bytes")
+    line_errors: bool = False
     time_origin: str = ""              # where start_time came from
     swap_lines: bool = False
     follow_rate: bool = True
@@ -65,7 +68,7 @@ class CaptureInfo:
                    live=bool(getattr(src, "live", False)), timed=bool(capture.timed), baud=o.baud,
                    data_bits=o.data_bits, parity=o.parity, stop_bits=o.stop_bits,
                    start_time=src.start_time, command=command, clocks=capture.clocks,
-                   wire_times=src.wire_times,
+                   wire_times=src.wire_times, line_errors=getattr(src, "faults", None) is not None,
                    time_origin=getattr(src, "time_origin", "") or recorded.get("time_origin", ""),
                    swap_lines=o.swap_lines, follow_rate=o.follow_rate, ack_timeout=t.ack,
                    result_timeout=t.result, timeouts=tuple(sorted(t.result_by_command.items())),
@@ -95,7 +98,8 @@ class CaptureInfo:
             "baud": str(self.baud), "data_bits": str(self.data_bits), "parity": self.parity,
             "stop_bits": f"{self.stop_bits:g}", "timed": "yes" if self.timed else "no",
             "start_time": _iso(self.start_time), "time_origin": self.time_origin or "unknown",
-            "clocks": str(self.clocks), "wire_times": _yes(self.wire_times), "capture_id": self.capture_id,
+            "clocks": str(self.clocks), "wire_times": _yes(self.wire_times),
+            "line_errors": _yes(self.line_errors), "capture_id": self.capture_id,
             "swap_lines": _yes(self.swap_lines), "follow_rate": _yes(self.follow_rate),
             "ack_timeout": f"{self.ack_timeout:g}", "result_timeout": f"{self.result_timeout:g}",
             "timeouts": ",".join(f"{cmd}={secs:g}" for cmd, secs in self.timeouts),

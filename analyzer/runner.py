@@ -140,6 +140,13 @@ class TapRunner:
         return getattr(self._capture.source, "physical", None)
 
     @property
+    def faults(self) -> list | None:
+        """The line's own errors as the source tells them (``analyzer.lines.LineFault``,
+        naming the lines as wired; a list that grows while reading, each told before
+        the chunk holding its byte); None for a source that cannot see them."""
+        return getattr(self._capture.source, "faults", None)
+
+    @property
     def swapped(self) -> bool:
         """The lines are read the other way round (``--swap-lines``, the TUI's key)."""
         return self._capture.swap_lines

@@ -138,19 +138,22 @@ class Messages(WireClock):
         self._transactions = TransactionRows()
         self._position_topics: dict[str, str] = {}
 
-    def raw(self, chunk: Chunk, offset: int) -> None:
-        """Bytes read from a line (``offset`` of their first byte)."""
+    def raw(self, chunk: Chunk, offset: int, line_errors: list[dict] | None = None) -> None:
+        """Bytes read from a line (``offset`` of their first byte), with the
+        receiver's own errors on them (analyzer/formats/mcap_lines.py), if any."""
         if not chunk.data:
             return
         line = chunk.line
         self._offsets[line] = offset + len(chunk.data)
         self._seq += 1
         if self.lean:
-            self._read(line, chunk.t, base64(chunk.data), offset)
+            self._read(line, chunk.t, base64(chunk.data), offset, line_errors)
             return
         msg = {"line": line, "offset": offset, "data": base64(chunk.data)}
         if chunk.t is not None:
             msg["t"] = chunk.t
+        if line_errors:
+            msg["line_errors"] = line_errors
         self.emit(S.RAW_TOPIC.format(line=line), "raw", self.time_ns(chunk.t, self._seq, offset), msg)
 
     def end_marker(self, t: float | None, line: str) -> None:
@@ -164,7 +167,8 @@ class Messages(WireClock):
         self.emit(S.RAW_TOPIC.format(line=line), "raw", self.time_ns(t, 0),
                   {"line": line, "offset": self._offsets.get(line, 0), "t": t, "data": ""})
 
-    def _read(self, line: str, t: float | None, data: str, offset: int) -> None:
+    def _read(self, line: str, t: float | None, data: str, offset: int,
+              line_errors: list[dict] | None = None) -> None:
         """Lean: a read joins the batch in progress, which goes out when full or
         when this read is more than ``READS_SPAN`` after its first."""
         reads = self._reads
@@ -176,6 +180,8 @@ class Messages(WireClock):
             self._reads_ts = self.time_ns(t, self._seq, offset)
             self._reads_t = t
         read = {"line": line, "t": t, "data": data} if t is not None else {"line": line, "data": data}
+        if line_errors:
+            read["line_errors"] = line_errors
         reads.append(read)
 
     def flush_reads(self) -> None:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 from functools import lru_cache
 
+from dissectors import problems
 from dissectors.commands import COMMANDS, field_types
 from dissectors.event import KINDS, STATUSES
 
@@ -76,6 +77,17 @@ def _fields_schema() -> dict:
 
 
 FIELDS = _fields_schema()
+# the receiver's own errors on a chunk's bytes, as a logic or USB capture's source
+# tells them (docs/mcap.md, "Below the bytes"; analyzer/formats/mcap_lines.py)
+_LINE_ERRORS = {
+    "type": "array", "description": "the receiver's own errors on these bytes (left out: none, or a source that "
+                                    "cannot see them)",
+    "items": {"type": "object", "properties": {
+        "at": {"type": "integer", "minimum": 0, "description": "the byte's index in data"},
+        "problem": {"type": "string", "enum": [p.name for p in problems.TABLE if p.parent is problems.LINE],
+                    "description": "the problem's id"},
+        "detail": {"type": "string", "description": "the problem's text after its category"},
+    }, "required": ["at", "problem"], "additionalProperties": False}}
 _PROBLEMS = {"type": "array", "items": {"type": "string"},
              "description": "each 'category: detail' (docs/json-lines.md); empty when clean"}
 
@@ -87,6 +99,7 @@ RAW = _object(
         "offset": {"type": "integer", "minimum": 0, "description": "offset of the first byte in the line's stream"},
         "t": {**_TIME, "description": "wire time of the read, s since capture start (left out without time)"},
         "data": {**_BYTES, "description": "the bytes (empty: time ran on with nothing on the wire)"},
+        "line_errors": _LINE_ERRORS,
     },
     ("line", "offset", "data"))
 
@@ -184,6 +197,7 @@ READS = _object(
                       "line": RAW["properties"]["line"],
                       "t": RAW["properties"]["t"],
                       "data": RAW["properties"]["data"],
+                      "line_errors": _LINE_ERRORS,
                   }, "required": ["line", "data"], "additionalProperties": False}},
     },
     ("reads",))

@@ -33,6 +33,14 @@ one may have lost it. A garbled record is said in ``metadata_problem``, never
 raised: the raw chunks decode without it. Several recordings of one tap are read
 as one capture by ``mcapparts`` (docs/time.md, "Parts").
 
+What the capture's source knew below the bytes comes back as that source gave
+it (docs/mcap.md, "Below the bytes"; analyzer/formats/mcap_lines.py): a logic
+capture's line reports (``physical``, from the latest ``gimbalscope.lines``
+record that reads; one that does not is a warning), and, when the metadata says
+the source saw them (``line_errors: yes``), the line's own errors on the raw
+chunks (``faults``, each told before the chunk holding its byte, at its offset
+on its line as this recording reads it).
+
 Large files are read in a second process: decompressing and parsing the raw
 messages cost as much as dissecting them, and a second core does it meanwhile
 (re-dissection went from 42% to over 50% of raw-dump decode speed).
@@ -57,8 +65,9 @@ except ImportError:  # pragma: no cover
     json_loads = json.loads
 
 from ..errors import CaptureError
+from ..formats.mcap_lines import LINES_RECORD, faults_of, reports_of
 from ..formats.mcap_schemas import READS_TOPIC   # lean recordings: the reads of every line, batched
-from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
+from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
 from ..outfile import show
 from .base import ReadSettings, Source
 from .files import Input, open_input
@@ -124,17 +133,22 @@ class McapSource(Source):
         self.metadata, self.metadata_problem = self._read_metadata()
         self.clocks = self._count_clocks()
         self.wire_times = (self.metadata or {}).get("wire_times") == "yes"
+        # what the capture's source knew below the bytes (module doc)
+        self.physical = self._read_line_reports()
+        self.faults: list[LineFault] | None = [] if (self.metadata or {}).get("line_errors") == "yes" else None
 
     # ------------------------------------------------------------------ reading
     def _batches(self, topics: list[str], pairs: bool = False, need_t: bool | None = None,
-                 note: Note | None = None, only: str | None = None) -> Iterator[list]:
+                 note: Note | None = None, only: str | None = None,
+                 errors: list[LineFault] | None = None) -> Iterator[list]:
         """The raw chunks of ``topics`` in file order, a list per MCAP chunk: ``Chunk``s,
         or with ``pairs`` (log time in ns, ``Chunk``). ``need_t``: the recording has
         time (True), has none (False), or not known yet (None); a message that
         disagrees is not a raw chunk of this recording. Problems go to ``note``.
-        ``only``: the chunks of that line only (of a lean recording's reads)."""
+        ``only``: the chunks of that line only (of a lean recording's reads).
+        ``errors``: where the chunks' line errors go (``faults``), before their list."""
         note = note or self._say
-        p = _Pass(topics, pairs, need_t, only)
+        p = _Pass(topics, pairs, need_t, only, errors)
         with open_input(self.path) as f:
             size = os.fstat(f.fileno()).st_size
             if f.read(len(MAGIC)) != MAGIC:
@@ -210,6 +224,25 @@ class McapSource(Source):
                 + (f"; it also {said}" if said else ""))
 
     # ------------------------------------------------------------ metadata
+    def _read_line_reports(self) -> dict | None:
+        """The line reports of the logic capture the recording was made from (its
+        latest ``gimbalscope.lines`` record); None when it has none, or none that
+        reads (said once)."""
+        try:
+            with open_input(self.path) as f:
+                record, why = read_metadata(f, os.fstat(f.fileno()).st_size, LINES_RECORD, last=True)
+        except (OSError, CaptureError, struct.error):   # the file changed under us
+            return None
+        if record is not None:
+            try:
+                return reports_of(record)
+            except ValueError as e:
+                why = str(e)
+        if why:
+            self.warn_later(f"{self.label}: the {LINES_RECORD} metadata record does not read ({why}): the "
+                            "waveform's line reports are left out")
+        return None
+
     def _read_metadata(self) -> tuple[dict[str, str] | None, str | None]:
         """The ``gimbalscope`` metadata record and why it cannot be read (module
         doc); a file that cannot be opened again has none."""
@@ -251,7 +284,7 @@ class McapSource(Source):
 
     def chunks(self) -> Iterator[Chunk]:
         if os.path.getsize(self.path) < READER_PROCESS_MIN:
-            return chain.from_iterable(self._batches(self._topics(), need_t=self.timed))
+            return chain.from_iterable(self._batches(self._topics(), need_t=self.timed, errors=self.faults))
         return self._chunks_from_reader_process()
 
     def _chunks_from_reader_process(self) -> Iterator[Chunk]:
@@ -259,7 +292,8 @@ class McapSource(Source):
         # threads running, a forked child can inherit a lock one of them holds; and
         # its spawn re-imports the caller's main module).
         proc = subprocess.Popen([sys.executable, "-m", __name__, self.path, self.label, ",".join(self.lines),
-                                 "timed" if self.timed else "untimed"], stdin=subprocess.DEVNULL,
+                                 "timed" if self.timed else "untimed",
+                                 "line_errors" if self.faults is not None else "-"], stdin=subprocess.DEVNULL,
                                 stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
         try:
             while True:
@@ -269,7 +303,10 @@ class McapSource(Source):
                     raise CaptureError(f"{self.label}: the MCAP reader process ended unexpectedly") from None
                 if item is None:
                     return
-                if isinstance(item, tuple):       # ("warn" | "error" | "progress", message or bytes read)
+                if isinstance(item, tuple):       # ("warn" | "error" | "progress" | "faults", what)
+                    if item[0] == "faults":          # line errors, before the chunks holding their bytes
+                        self.faults.extend(item[1])
+                        continue
                     if item[0] == "progress":
                         READS.report(self.path, item[1])   # the progress bar's (analyzer/listeners/progress.py)
                         continue
@@ -288,7 +325,7 @@ class McapSource(Source):
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         return chain.from_iterable(self._batches([f"/serial/{line}/raw", READS_TOPIC], need_t=self.timed,
-                                                 only=line))
+                                                 only=line, errors=self.faults))
 
 
 def open_mcap(inputs: list[Input], settings: ReadSettings) -> McapSource:
@@ -335,34 +372,51 @@ _MESSAGE_LOG_TIME = 6               # in a Message record's body, after its chan
 Found = tuple[dict[str, str] | None, str | None]   # (metadata, why it cannot be read)
 
 
-def read_metadata(f, size: int) -> Found:
-    """The ``gimbalscope`` metadata record of the MCAP file ``f`` (``size`` bytes):
-    through the summary's metadata index when it has one, else by walking the
-    data section. ``(None, None)`` when there is none; ``(None, why)`` when one
-    is there but garbled. Nothing in the file is trusted and nothing raises."""
+def read_metadata(f, size: int, name: str = METADATA_NAME, last: bool = False) -> Found:
+    """The metadata record ``name`` (the ``gimbalscope`` one by default) of the MCAP
+    file ``f`` (``size`` bytes): through the summary's metadata index when it has
+    one, else by walking the data section; the first that reads, or with ``last``
+    the last one of a record written again as the recording went on (its later
+    writes named ``NAME.2``, ``NAME.3``…: analyzer/writers/mcap_recorder.py).
+    ``(None, None)`` when there is none; ``(None, why)`` when one is there but
+    garbled. Nothing in the file is trusted and nothing raises."""
     problem = None
-    offsets = _indexed_metadata(f, size)
-    for offset in offsets or ():
-        meta, why = _metadata_at(f, size, offset)
+    offsets = _indexed_metadata(f, size, name, last)
+    for offset in reversed(offsets or ()) if last else offsets or ():
+        meta, why = _metadata_at(f, size, offset, name, last)
         if meta is not None:
             return meta, None
         problem = problem or why
     if offsets is not None and problem is None:
         return None, None   # the index lists every metadata record, and none is ours
     walk = Walk(f, size)
+    found = None
     for offset, _op, body in walk.records((OP_METADATA,)):
-        if _metadata_name(body) != METADATA_NAME:
+        if not _is_named(_metadata_name(body), name, last):
             continue
-        meta, why = _metadata_of(body, offset)
+        meta, why = _metadata_of(body, offset, name)
         if meta is not None:
-            return meta, None
-        problem = problem or why
-    return None, problem
+            if not last:
+                return meta, None
+            found = meta
+        else:
+            problem = problem or why
+    return (found, None) if found is not None else (None, problem)
 
 
-def _indexed_metadata(f, size: int) -> list[int] | None:
-    """The offsets the summary's metadata index gives for our record, or None
-    when there is no index to go by (no summary, none in it, or damaged)."""
+def _is_named(found: str | None, name: str, written_again: bool = False) -> bool:
+    """Is a record named ``found`` the record ``name`` (or, ``written_again``,
+    one of its later writes, ``NAME.n``)?"""
+    if found == name:
+        return True
+    return written_again and found is not None and found.startswith(name + ".") \
+        and found[len(name) + 1:].isdigit()
+
+
+def _indexed_metadata(f, size: int, name: str, written_again: bool = False) -> list[int] | None:
+    """The offsets the summary's metadata index gives for records named ``name``
+    (``written_again``: and its later writes), in file order, or None when there
+    is no index to go by (no summary, none in it, or damaged)."""
     bodies = [body for _op, body in summary_records(f, size, (_OP_METADATA_INDEX,))]
     if not bodies:
         return None
@@ -371,15 +425,15 @@ def _indexed_metadata(f, size: int) -> list[int] | None:
         if len(body) < _INDEX_HEAD.size:
             return None
         offset, _length, name_len = _INDEX_HEAD.unpack_from(body)
-        name = body[_INDEX_HEAD.size:_INDEX_HEAD.size + name_len]
-        if len(name) != name_len:
+        named = body[_INDEX_HEAD.size:_INDEX_HEAD.size + name_len]
+        if len(named) != name_len:
             return None
-        if name == METADATA_NAME.encode():
+        if _is_named(named.decode("utf-8", "replace"), name, written_again):
             offsets.append(offset)
-    return offsets
+    return sorted(offsets)
 
 
-def _metadata_at(f, size: int, offset: int) -> Found:
+def _metadata_at(f, size: int, offset: int, name: str, written_again: bool = False) -> Found:
     """The record the metadata index points to at ``offset``."""
     where = f"the metadata index points to byte {offset}"
     if not len(MAGIC) <= offset <= size - RECORD_HEAD:
@@ -390,13 +444,13 @@ def _metadata_at(f, size: int, offset: int) -> Found:
         return None, f"{where}, past the end of the file"
     op, length = RECORD.unpack(head)
     if op != OP_METADATA:
-        return None, f"{where}, where a {op_name(op)} record is, not the gimbalscope metadata"
+        return None, f"{where}, where a {op_name(op)} record is, not the {name} metadata"
     if length > min(_MAX_METADATA, size - offset - RECORD_HEAD):
-        return None, f"the gimbalscope metadata record at byte {offset} claims {length} bytes"
+        return None, f"the {name} metadata record at byte {offset} claims {length} bytes"
     body = f.read(length)
-    if _metadata_name(body) != METADATA_NAME:
-        return None, f"{where}, where the Metadata record is not named {METADATA_NAME!r}"
-    return _metadata_of(body, offset)
+    if not _is_named(_metadata_name(body), name, written_again):
+        return None, f"{where}, where the Metadata record is not named {name!r}"
+    return _metadata_of(body, offset, name)
 
 
 def _metadata_name(body: bytes) -> str | None:
@@ -412,9 +466,9 @@ def _metadata_name(body: bytes) -> str | None:
         return None
 
 
-def _metadata_of(body: bytes, offset: int) -> Found:
-    """A record named ``gimbalscope`` read as a map of strings."""
-    where = f"the gimbalscope metadata record at byte {offset}"
+def _metadata_of(body: bytes, offset: int, name: str = METADATA_NAME) -> Found:
+    """A record named ``name`` read as a map of strings."""
+    where = f"the {name} metadata record at byte {offset}"
     if len(body) > _MAX_METADATA:
         return None, f"{where} claims {len(body)} bytes"
     try:
@@ -466,11 +520,15 @@ def _record_heads(f, size: int) -> Iterator[tuple[int, int]]:
 class _Pass:
     """What one read through the file knows so far."""
 
-    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign", "base64", "only", "batched_lines")
+    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign", "base64", "only", "batched_lines",
+                 "errors", "sent")
 
-    def __init__(self, topics: list[str], pairs: bool, need_t: bool | None, only: str | None = None) -> None:
+    def __init__(self, topics: list[str], pairs: bool, need_t: bool | None, only: str | None = None,
+                 errors: list[LineFault] | None = None) -> None:
         self.lines = {topic: RAW_TOPICS[topic] for topic in topics}
         self.pairs, self.need_t, self.only = pairs, need_t, only
+        self.errors = errors                  # where the chunks' line errors go (None: not read)
+        self.sent: dict[str, int] = {}        # and each line's bytes so far, their offsets' base
         self.batched_lines: set[str] = set()  # the lines a reads channel says it carries
         self.wanted: dict[int, tuple] = {}    # channel id → (line, decode of 'data'), for the topics asked for
         self.base64: set[int] = set()         # schema ids whose 'data' is base64 (else hex)
@@ -517,7 +575,7 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
     length, never parsed; a raw message is parsed once, its shape checked by
     what parsing it raises (``_NOT_OURS``) and a comparison of its time."""
     unpack_record, loads, append = RECORD.unpack_from, json_loads, out.append
-    wanted, pairs, need_t = p.wanted, p.pairs, p.need_t
+    wanted, pairs, need_t, errors = p.wanted, p.pairs, p.need_t, p.errors
     lo, hi = -MAX_T, MAX_T
     pos, end = 0, len(records)
     try:
@@ -553,6 +611,8 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
                     except _NOT_OURS:
                         _count_foreign(p.foreign, line, records[body + 22:nxt])
                     else:
+                        if errors is not None:   # a recording that keeps the line's own errors
+                            _line_errors(p, line, len(data), msg.get("line_errors"))
                         if pairs:
                             append((_LOG_TIME.unpack_from(records, body + 6)[0], Chunk(line, data, t)))
                         else:
@@ -585,6 +645,15 @@ def _channel(p: _Pass, channel) -> None:
         p.wanted[channel.id] = (line, _from_base64 if channel.schema_id in p.base64 else bytes.fromhex)
 
 
+def _line_errors(p: _Pass, line: str, size: int, entries) -> None:
+    """Count a raw chunk of ``size`` bytes on ``line``, and tell its line errors
+    (its ``line_errors``, if any) at their offsets on the line."""
+    base = p.sent.get(line, 0)
+    p.sent[line] = base + size
+    if entries:
+        p.errors.extend(faults_of(line, base, size, entries))
+
+
 def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
     """Append the chunks of a lean recording's reads message to ``out``, in its
     order (of ``p.only``'s line only); raises one of ``_NOT_OURS`` (appending
@@ -599,6 +668,7 @@ def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
     lo, hi = -MAX_T, MAX_T
     chunks = []
     append = chunks.append
+    counted = [] if p.errors is not None else None   # (line, size, line errors) of each read kept
     t0 = reads[0].get("t")
     for read in reads:
         line = read["line"]
@@ -613,12 +683,16 @@ def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
             raise ValueError
         if only is not None and line != only:
             continue
+        if counted is not None:
+            counted.append((line, len(data), read.get("line_errors")))
         if pairs:
             at = log_time if t is None or t0 is None else log_time + int(round(t * 1e9)) - int(round(t0 * 1e9))
             append((at, Chunk(line, data, t)))
         else:
             append(Chunk(line, data, t))
     out.extend(chunks)
+    for line, size, entries in counted or ():
+        _line_errors(p, line, size, entries)
 
 
 def _from_base64(text: str) -> bytes:
@@ -720,27 +794,39 @@ def _diagnose_reads(payload: bytes, need_t: bool | None) -> str:
     return "not gimbalscope reads"
 
 
-def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:
+def _read_in_child(path: str, label: str, lines: str, timed: str, out, line_errors: str = "-") -> None:
     """The reader process: raw chunks as pickled lists of (line, data, t) tuples,
     after each list the file's bytes read so far as ("progress", n), warnings as
-    ("warn", text), a failure as ("error", text), then None."""
+    ("warn", text), a failure as ("error", text), then None. With ``line_errors``
+    ("line_errors"), the chunks' line errors as ("faults", [LineFault…]) before
+    the list holding their chunks."""
     def send(item) -> None:
         pickle.dump(item, out, protocol=pickle.HIGHEST_PROTOCOL)
+
+    told = 0
+
+    def send_chunks(batch: list) -> None:
+        nonlocal told
+        if src.faults is not None and told < len(src.faults):
+            send(("faults", src.faults[told:]))
+            told = len(src.faults)
+        send(batch)
 
     try:
         src = McapSource.__new__(McapSource)   # the survey already ran in the parent
         Source.__init__(src)
         src.path, src.label, src._said = path, label, set()
         src.lines, src.timed = tuple(lines.split(",")), timed == "timed"
+        src.faults = [] if line_errors == "line_errors" else None
         src.report_to(lambda msg: send(("warn", msg)))
         batch = []
-        for chunks in src._batches(src._topics(), need_t=src.timed):
+        for chunks in src._batches(src._topics(), need_t=src.timed, errors=src.faults):
             batch.extend(map(tuple, chunks))
             if len(batch) >= _BATCH:
-                send(batch)
+                send_chunks(batch)
                 send(("progress", READS.done()))
                 batch = []
-        send(batch)
+        send_chunks(batch)
         send(("progress", os.path.getsize(path)))   # read to its end (the summary needs no reading)
         send(None)
         out.flush()
@@ -752,6 +838,6 @@ def _read_in_child(path: str, label: str, lines: str, timed: str, out) -> None:
         send(("error", f"{label}: cannot read: {type(e).__name__}: {e}"))
 
 
-if __name__ == "__main__":   # python -m analyzer.sources.mcapfile FILE NAME LINES timed|untimed: the reader process
-    _read_in_child(*sys.argv[1:5], sys.stdout.buffer)
+if __name__ == "__main__":   # python -m analyzer.sources.mcapfile FILE NAME LINES timed|untimed line_errors|-
+    _read_in_child(*sys.argv[1:5], sys.stdout.buffer, *sys.argv[5:6])
     sys.stdout.buffer.flush()

@@ -17,6 +17,11 @@ made one after the other. The time model is docs/time.md, "Parts".
 
 Each part is an ``McapSource`` as it would be alone: damage is said per file, and
 a large part is read by its own reader process.
+
+What the capture's source knew below the bytes (docs/mcap.md, "Below the bytes")
+comes from the parts: the line reports of the latest part that has them (each
+part's count from the tap's start), and the line errors of every part, their
+offsets moved on by the bytes of the parts before it.
 """
 
 from __future__ import annotations
@@ -28,7 +33,8 @@ from itertools import chain
 from typing import Callable, Iterable, Iterator
 
 from ..errors import CaptureError
-from ..lines import Chunk
+from ..lines import Chunk, LineFault
+from ..words import counted
 from .base import ReadSettings, Source
 from .files import Input
 from .mcapfile import EPOCH, McapSource, last_log_time, open_mcap
@@ -54,9 +60,11 @@ class McapPartsSource(Source):
         self.wire_times = first.wire_times
         self.metadata, self.metadata_problem = first.metadata, first.metadata_problem
         self.start_time = first.start_time
+        self.physical = next((p.physical for p in reversed(self.parts) if p.physical), None)
+        self.faults: list[LineFault] | None = [] if any(p.faults is not None for p in self.parts) else None
         self._shifts = _shifts(self.parts)
         more = len(self.parts) - 1
-        self.description = f"{first.label} + {more} more part{'s' if more > 1 else ''} (MCAP)"
+        self.description = f"{first.label} + {counted(more, 'more part')} (MCAP)"
         unchecked = _unchecked(self.parts)
         if unchecked:
             self.warn_later(unchecked)
@@ -68,11 +76,32 @@ class McapPartsSource(Source):
             part.report_to(handler)
 
     def chunks(self) -> Iterator[Chunk]:
+        if self.faults is not None:
+            return self._with_line_errors(lambda part: part.chunks())
         return chain.from_iterable(_shifted(part.chunks(), shift) for part, shift in zip(self.parts, self._shifts))
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
+        if self.faults is not None:
+            return self._with_line_errors(lambda part: part.line_chunks(line), line)
         return chain.from_iterable(_shifted(part.line_chunks(line), shift)
                                    for part, shift in zip(self.parts, self._shifts))
+
+    def _with_line_errors(self, chunks_of: Callable[[McapSource], Iterable[Chunk]],
+                          line: str | None = None) -> Iterator[Chunk]:
+        """The parts' chunks, each part's line errors told (of ``line`` only, when
+        one line is read) before the chunk holding their byte, at their offset
+        on the line across the parts: a part counts its bytes from its own first."""
+        sent: dict[str, int] = {}
+        for part, shift in zip(self.parts, self._shifts):
+            base = dict(sent)
+            faults, taken = part.faults, 0
+            for chunk in _shifted(chunks_of(part), shift):
+                if faults is not None and taken < len(faults):
+                    self.faults.extend(f._replace(offset=f.offset + base.get(f.line, 0)) for f in faults[taken:]
+                                       if line is None or f.line == line)
+                    taken = len(faults)
+                sent[chunk.line] = sent.get(chunk.line, 0) + len(chunk.data)
+                yield chunk
 
     def close(self) -> None:
         for part in self.parts:

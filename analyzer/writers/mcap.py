@@ -20,6 +20,12 @@ its metadata record says ``profile: lean``.
 Either way, the file is created when the writer is made: a path that cannot be
 written is an error before the tap starts.
 
+Either way, what the source knows below the bytes is kept (docs/mcap.md, "Below
+the bytes"; analyzer/formats/mcap_lines.py): a logic capture's line reports as
+the ``gimbalscope.lines`` metadata record (at the end; a live recording also
+as it flushes, every ten seconds while they change), and the line's own errors
+(a logic or USB capture's) on the raw chunk holding their byte.
+
 Times follow docs/time.md: message log times are capture times (the source's
 start time plus wire time; raw dumps: from byte offsets). A rate change is an
 event on ``/events`` like any other, and each later part of a recording in parts
@@ -28,13 +34,17 @@ gives the new rate in its metadata, so a part decoded alone starts right.
 
 from __future__ import annotations
 
+from collections import deque
 from typing import BinaryIO
 
 from dissectors.event import RATE, Event
 from dissectors.wire import byte_time
 
+from ..capture.merge import SWAP
 from ..formats import mcap_schemas as S
+from ..formats.mcap_lines import LINES_RECORD, line_error, lines_record
 from ..info import CaptureInfo
+from ..lines import LineFault
 from ..runner import ERROR, INFO, RECORDING, WARNING, Note
 from ..sources import Chunk
 from .base import FileWriter, Target
@@ -73,6 +83,11 @@ class McapWriter(FileWriter):
         self.live = live
         self.lean = lean   # docs/mcap.md, "Lean recordings"; said in the metadata record
         self._runner = None
+        # the source's line errors (a list it adds to as it reads; None: it sees none),
+        # how many of them were taken, and those taken waiting for their byte, by line
+        self._faults: list[LineFault] | None = None
+        self._taken = 0
+        self._waiting: dict[str, deque[LineFault]] = {}
         self._extra = {**(metadata or {}), **({"profile": S.LEAN} if lean else {})}
         self._rotate = (rotate_bytes, rotate_seconds) if rotate_bytes or rotate_seconds else None
         # live (and in parts): in place, the recorder's own files (module doc)
@@ -82,7 +97,7 @@ class McapWriter(FileWriter):
         """A live recording, or one in parts: the recorder opens its files itself,
         in place, flushes them every second when live, and after a failed write
         closes them as well as it can (analyzer/writers/mcap_recorder.py)."""
-        kw = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean)
+        kw = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean, records=self._records)
         if self.live:
             kw.update(metadata=self.info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
         else:
@@ -98,7 +113,7 @@ class McapWriter(FileWriter):
         """A recording into the target's file (a conversion)."""
         if self.file is not None:
             self.recorder = McapRecorder(self.path, metadata={}, file=self.file, lines=self.info.lines,
-                                         lean=self.lean, **message_clock(self.info))
+                                         lean=self.lean, records=self._records, **message_clock(self.info))
 
     @property
     def failed(self) -> str | None:
@@ -124,9 +139,44 @@ class McapWriter(FileWriter):
     # ------------------------------------------------------------ listener
     def on_start(self, runner) -> None:
         self._runner = runner
+        self._faults = runner.faults
 
     def on_chunk(self, chunk: Chunk, offset: int) -> None:
-        self.recorder.raw(chunk, offset)
+        errors = self._line_errors(chunk, offset) if self._faults is not None else None
+        self.recorder.raw(chunk, offset, errors)
+
+    def _line_errors(self, chunk: Chunk, offset: int) -> list[dict] | None:
+        """The line errors on ``chunk``'s bytes (``offset``: its first byte's on its
+        line), as its raw message keeps them. The source tells each before the
+        chunk holding its byte, naming the line as wired; one whose byte was read
+        before the recording started is left out."""
+        faults = self._faults
+        if self._taken < len(faults):
+            for f in faults[self._taken:]:
+                self._waiting.setdefault(f.line, deque()).append(f)
+            self._taken = len(faults)
+        if not chunk.data:
+            return None
+        line = chunk.line
+        queue = self._waiting.get(SWAP.get(line, line) if self._runner.swapped else line)
+        if not queue:
+            return None
+        end = offset + len(chunk.data)
+        out = []
+        while queue and queue[0].offset < end:
+            f = queue.popleft()
+            if f.offset >= offset:
+                out.append(line_error(f.problem, f.offset - offset))
+        return out or None
+
+    def _records(self) -> dict[str, dict[str, str]]:
+        """The metadata records the recording learns as it goes: a logic capture's
+        line reports, under the lines its bytes are recorded on."""
+        runner = self._runner
+        reports = runner.physical if runner is not None else None
+        if not reports:
+            return {}
+        return {LINES_RECORD: lines_record(reports, runner.swapped)}
 
     def on_events(self, events: list[Event]) -> None:
         event = self.recorder.event

@@ -6,6 +6,14 @@ chunks. With ``flush_interval`` set (live taps), the chunk in progress is closed
 and written at least that often, so a killed tap loses at most about that much;
 such a file has no summary and still reads (``analyzer.sources.mcapfile``).
 
+Metadata records the recording only knows as it goes (``records``: the line
+reports of a logic capture, analyzer/formats/mcap_lines.py) are written when the
+recording closes, and by a live one also as it flushes, at most every
+``RECORDS_EVERY`` seconds and only when they changed: the latest one written is
+the one that counts, so a killed tap's recording keeps them as of then. MCAP
+checkers flag two metadata records of one name, so a record's n-th write from
+the second on is named ``NAME.n`` (``gimbalscope.lines.2``).
+
 The messages, their topics and their times are built by ``messages.Messages``,
 the same as a live Foxglove server's; this module writes them.
 
@@ -69,6 +77,7 @@ class _Zstd:
 mcap.writer.zstandard = _Zstd
 
 SMALL_CHUNK = 4096   # bytes: a chunk this small is compressed only if that makes it smaller
+RECORDS_EVERY = 10.0   # seconds between a live recording's writes of its changing metadata records
 
 
 class _Writer(Writer):
@@ -182,8 +191,11 @@ class McapRecorder:
                  flush_interval: float | None = None, clock: Callable[[], float] = time.monotonic,
                  lines: tuple[str, ...] = ("A", "B"), file: BinaryIO | None = None,
                  on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None,
-                 lean: bool = False) -> None:
+                 lean: bool = False, records: Callable[[], dict[str, dict[str, str]]] | None = None) -> None:
         self.path = path
+        # metadata records known as the recording goes (module doc): name → values, as of now
+        self._records = records
+        self._records_due = 0.0
         self.lean = lean   # docs/mcap.md, "Lean recordings": no /events, raw reads batched
         self._flushing = False
         self.wire_byte_time = wire_byte_time   # untimed input: seconds per byte offset
@@ -232,6 +244,8 @@ class McapRecorder:
         for topic, key in ((S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")):
             self._channel(topic, key)
         self._lines = lines
+        self._records_written: dict[str, dict[str, str]] = {}   # by name: the values last written
+        self._records_count: dict[str, int] = {}                 # and how many times
         if metadata:   # written first, so a killed recording still says what it is
             self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
 
@@ -240,10 +254,11 @@ class McapRecorder:
         return channel
 
     # ---------------------------------------------------------------- input
-    def raw(self, chunk: Chunk, offset: int) -> None:
-        """Record bytes read from a line (``offset`` of their first byte)."""
+    def raw(self, chunk: Chunk, offset: int, line_errors: list[dict] | None = None) -> None:
+        """Record bytes read from a line (``offset`` of their first byte), with the
+        receiver's own errors on them (analyzer/formats/mcap_lines.py)."""
         if not self._closed:
-            self._messages.raw(chunk, offset)
+            self._messages.raw(chunk, offset, line_errors)
             if self.lean:   # reads wait in a batch: flush on time here too
                 self._maybe_flush()
 
@@ -279,6 +294,8 @@ class McapRecorder:
             if metadata:
                 self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
                 data_end = self._out.good
+            self._write_records()
+            data_end = self._out.good
             self._writer.finish()
             self._out.sync()
         except OSError as e:
@@ -366,6 +383,29 @@ class McapRecorder:
             return
         self._kept = self.messages
         self._last_flush = self._clock()
+        if self._records is not None and self._last_flush >= self._records_due:
+            self._records_due = self._last_flush + RECORDS_EVERY
+            before = self._out.good
+            try:
+                if self._write_records():
+                    self._out.sync()
+            except OSError as e:
+                self._fail(e, before, self.messages)
+
+    def _write_records(self) -> bool:
+        """The metadata records known so far (module doc) that changed since
+        they were last written; whether any was."""
+        if self._records is None:
+            return False
+        wrote = False
+        for name, values in self._records().items():
+            values = encodable(values)
+            if self._records_written.get(name) != values:
+                n = self._records_count.get(name, 0) + 1
+                self._writer.add_metadata(name if n == 1 else f"{name}.{n}", values)
+                self._records_written[name], self._records_count[name] = values, n
+                wrote = True
+        return wrote
 
     def _fail(self, e: OSError, before: int, pending: int, cut_at: int | None = None) -> None:
         """A write failed: stop. ``pending`` messages were handed to the writer; if
@@ -379,7 +419,7 @@ class McapRecorder:
             raise RecordingError(f"{show(self.path)}: cannot write: {self.failed}", self.failed) from None
         self._salvage(self._out.good if cut_at is None else cut_at)
         kept = "nothing kept, file removed" if self.removed else \
-            f"{self.messages} message{'' if self.messages == 1 else 's'} kept"
+            f"{counted(self.messages, 'message')} kept"
         self.on_error(f"{show(self.path)}: recording stopped: {self.failed} ({kept})")
 
     def _salvage(self, cut_at: int) -> None:
@@ -474,7 +514,7 @@ class RotatingRecorder:
         self.kw["metadata"] = {**self.kw.get("metadata", {}), **changes}
 
     def _kept(self) -> str:
-        return f"{self.messages} message{'' if self.messages == 1 else 's'} kept in {len(self.paths)} files"
+        return f"{counted(self.messages, 'message')} kept in {counted(len(self.paths), 'file')}"
 
     def _part_failed(self, message: str) -> None:
         cur = self.current
@@ -501,9 +541,9 @@ class RotatingRecorder:
             if not self.failed:
                 self._open()
 
-    def raw(self, chunk: Chunk, offset: int) -> None:
+    def raw(self, chunk: Chunk, offset: int, line_errors: list[dict] | None = None) -> None:
         if self.current is not None:
-            self.current.raw(chunk, offset)
+            self.current.raw(chunk, offset, line_errors)
             self._maybe_rotate()
 
     def event(self, ev: Event) -> None:
