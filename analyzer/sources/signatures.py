@@ -15,6 +15,7 @@ from ..errors import CaptureError
 from .files import Input
 
 LOCAL = b"PK\x03\x04"          # a zip's local file header: a sigrok session
+CENTRAL = b"PK\x01\x02"        # an entry of a zip's central directory
 # a VCD starts with one of its sections
 STARTS = (b"$date", b"$version", b"$timescale", b"$comment", b"$scope", b"$var", b"$enddefinitions")
 BOM = b"\xef\xbb\xbf"
@@ -22,16 +23,27 @@ _TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.I)   # a Saleae digi
 COLUMNS = ("name", "type", "start_time", "duration", "data")      # a Saleae Async Serial data table
 MAGIC = b"<SALEAE>"            # a Saleae binary export
 _SAMPLES_MEMBER = re.compile(rb"logic-\d+(-\d+)?")
+# the start of such a name, cut short
+_CUT_NAME = re.compile(rb"v|ve|ver|vers|versi|versio|m|me|met|meta|metad|metada|l|lo|log|logi|logic|logic-\d*|"
+                       rb"logic-\d+-\d*")
+_FIRST_NAMES = (b"version", b"metadata")
 
 
 def looks_like_session(head: bytes) -> bool:
     """A zip whose first member is sigrok's ``version``, ``metadata`` or a chunk of
-    samples (``logic-1``, ``logic-1-1``: sessions saved in 2014 put them first)."""
-    if not head.startswith(LOCAL) or len(head) < 30:
+    samples (``logic-1``, ``logic-1-1``: sessions saved in 2014 put them first);
+    or the start of one, cut before that name ends (the file is all of the head
+    then): the session reader says it is cut short."""
+    if len(head) < 30:   # a file shorter than one local header: a zip's start, cut
+        n = min(len(head), len(LOCAL))
+        return n > 0 and head[:n] == LOCAL[:n]
+    if not head.startswith(LOCAL):
         return False
     name_len = struct.unpack_from("<H", head, 26)[0]
     name = head[30:30 + name_len]
-    return name in (b"version", b"metadata") or _SAMPLES_MEMBER.fullmatch(name) is not None
+    if name in _FIRST_NAMES or _SAMPLES_MEMBER.fullmatch(name) is not None:
+        return True
+    return len(name) < name_len and (name == b"" or _CUT_NAME.fullmatch(name) is not None)
 
 
 def looks_like_vcd(head: bytes) -> bool:

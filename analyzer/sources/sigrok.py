@@ -11,11 +11,14 @@ member ``logic-1`` (version 1) or chunks ``logic-1-1``, ``logic-1-2``, …
 The chunks are read in order and streamed (a capture of minutes at MHz rates is
 hundreds of megabytes of samples). A damaged zip is read as far as its members
 go: a file cut short (no central directory) is walked by its local headers, and
-what came before the damage is decoded, the damage said in one line.
+what came before the damage is decoded, the damage said in one line. A file cut
+before anything can be read of it (in its metadata, or before the samples show
+a character) is an error that says it is cut short, and where.
 """
 
 from __future__ import annotations
 
+import os
 import re
 import struct
 import zipfile
@@ -23,11 +26,11 @@ import zlib
 from typing import BinaryIO, Iterator
 
 from ..errors import CaptureError
-from ..physical.edges import PackedSamples
+from ..physical.edges import Block, PackedSamples
 from ..words import counted
 from .base import ReadSettings, Source
 from .files import BLOCK, Input
-from .signatures import LOCAL
+from .signatures import CENTRAL, LOCAL
 
 _RATE = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*([kKmMgG]?)(?:Hz|hz|HZ)?\s*$")
 _SCALE = {"": 1.0, "k": 1e3, "m": 1e6, "g": 1e9}
@@ -65,8 +68,12 @@ class SigrokSession(PackedSamples):
     def __init__(self, inp: Input) -> None:
         self.input = inp
         self.members = _Members(inp)
+        self.exhausted = False      # the samples were read to their end (or to the damage)
+        self.edges_seen = 0
         meta_text = self.members.read("metadata")
         if meta_text is None:
+            if self.members.cut:
+                raise CaptureError(self.cut_short("before sigrok's metadata: nothing to read"))
             raise CaptureError(f"{inp.name}: a zip without sigrok's metadata: not a sigrok session")
         meta = parse_metadata(meta_text.decode("utf-8", "replace"))
         device = next((s for name, s in meta.items() if name.startswith("device") and "capturefile" in s), None)
@@ -97,19 +104,39 @@ class SigrokSession(PackedSamples):
         self.numbers = [str(n - 1) for n, _ in probes]   # sigrok-cli numbers channels from 0
         self.version = (self.members.read("version") or b"?").strip().decode("ascii", "replace")
 
+    def cut_short(self, where: str) -> str:
+        """The one line of a session cut short (``where``: where, and what that leaves)."""
+        return f"{self.input.name}: cut short at byte {self.members.size:,}, {where}"
+
+    def blocks(self) -> Iterator[Block]:
+        # the edges are counted: a session cut before any shows nothing to decode
+        for block in super().blocks():
+            self.edges_seen += sum(int(e.ticks.size) for e in block.edges.values())
+            yield block
+
     def _samples(self, capturefile: str) -> Iterator[bytes]:
+        try:
+            yield from self._members_of(capturefile)
+        finally:
+            self.exhausted = True
+
+    def _members_of(self, capturefile: str) -> Iterator[bytes]:
         names = self.members.names
         parts = sorted((int(n[len(capturefile) + 1:]), n) for n in names
                        if n.startswith(capturefile + "-") and n[len(capturefile) + 1:].isdigit())
         order = [n for _, n in parts] or ([capturefile] if capturefile in names else [])
         if not order:
-            self.problem = f"{self.name}: no samples ({capturefile} is not in the session)"
+            self.problem = (self.cut_short("before the samples") if self.members.cut
+                            else f"{self.name}: no samples ({capturefile} is not in the session)")
             return
         for name in order:
             try:
                 yield from self.members.stream(name)
             except Unreadable as e:
                 self.problem = f"{self.name}: {name} {e}: read up to there"
+                return
+            except Cut:
+                self.problem = self.cut_short(f"in {name}: read up to there")
                 return
             except DAMAGE as e:
                 self.problem = f"{self.name}: {name} is damaged ({e}): read up to there"
@@ -128,15 +155,17 @@ class _Members:
     def __init__(self, inp: Input) -> None:
         self.inp = inp
         self.problem: str | None = None
+        self.cut = False       # the file ends inside the zip: it was cut short
         path, _temp = inp.as_regular_file()
         self.path = path
         try:
+            self.size = os.path.getsize(path)
             self.zip: zipfile.ZipFile | None = zipfile.ZipFile(path)
             self.names = self.zip.namelist()
             self.local: dict[str, tuple[int, int, int]] = {}
         except zipfile.BadZipFile:
             self.zip = None
-            self.local = _walk_local_headers(path)
+            self.local, self.cut = _walk_local_headers(path)
             self.names = list(self.local)
             self.problem = f"{inp.name}: the zip is cut short or damaged (no central directory): read up to there"
         except OSError as e:
@@ -149,6 +178,9 @@ class _Members:
             return b"".join(self.stream(name))
         except Unreadable as e:
             raise CaptureError(f"{self.inp.name}: {name} {e}") from None
+        except Cut:
+            raise CaptureError(f"{self.inp.name}: cut short at byte {self.size:,}, in {name}: nothing to "
+                               "read") from None
         except DAMAGE as e:
             raise CaptureError(f"{self.inp.name}: {name} is damaged ({e})") from None
 
@@ -171,28 +203,47 @@ class _Members:
             yield from _inflate(f, size, method)
 
 
-def _walk_local_headers(path: str) -> dict[str, tuple[int, int, int, int]]:
+def _walk_local_headers(path: str) -> tuple[dict[str, tuple[int, int, int, int]], bool]:
     """name → (data offset, compressed size, method, flags) of every member whose
-    local header is whole."""
+    local header is whole; and whether the walk ran into the file's end (a local
+    header, or the central directory, cut short) rather than bytes that are no
+    header (damage)."""
     found: dict[str, tuple[int, int, int, int]] = {}
+    end = os.path.getsize(path)
     with open(path, "rb") as f:
         at = 0
         while True:
             f.seek(at)
             head = f.read(30)
             if len(head) < 30 or not head.startswith(LOCAL):
-                return found
+                # what is left is the start of a header, or the central directory
+                # (whole, it would have been read as the zip's)
+                return found, at >= end or (len(head) < 30 and _starts(head, LOCAL)) or _starts(head, CENTRAL)
             flags, method, size, name_len, extra_len = (struct.unpack_from("<H", head, 6)[0],
                                                         struct.unpack_from("<H", head, 8)[0],
                                                         struct.unpack_from("<I", head, 18)[0],
                                                         *struct.unpack_from("<HH", head, 26))
-            name = f.read(name_len).decode("utf-8", "replace")
+            raw_name = f.read(name_len)
             data_at = at + 30 + name_len + extra_len
+            if len(raw_name) < name_len or data_at > end:   # the file ends in the header
+                return found, True
+            name = raw_name.decode("utf-8", "replace")
             if flags & 0x08:     # sizes after the data: read to the end of what is there
                 found[name] = (data_at, -1, method, flags)
-                return found
+                return found, False
             found[name] = (data_at, size, method, flags)
             at = data_at + size
+
+
+def _starts(head: bytes, signature: bytes) -> bool:
+    """Does ``head`` start with ``signature``, or is it the start of one, cut?"""
+    n = min(len(head), len(signature))
+    return n > 0 and head[:n] == signature[:n]
+
+
+class Cut(EOFError):
+    """A member's data ends with the file before its size (or its deflate
+    stream) does: the file was cut short."""
 
 
 class Unreadable(Exception):
@@ -222,7 +273,9 @@ def _inflate(f: BinaryIO, size: int, method: int) -> Iterator[bytes]:
     while left > 0:
         data = f.read(min(BLOCK * 4, left))
         if not data:
-            return
+            if size < 0 and d is None:   # stored, its size after the data: its end is the file's
+                return
+            raise Cut()
         left -= len(data)
         out = d.decompress(data) if d is not None else data
         if out:
@@ -234,5 +287,17 @@ def _inflate(f: BinaryIO, size: int, method: int) -> Iterator[bytes]:
 def open_sigrok(inputs: list[Input], settings: ReadSettings) -> Source:
     from .sampled import SampledSource
     session = SigrokSession(inputs[0])
-    return SampledSource(session, settings, inputs[0].describe(
-        f"sigrok session (version {session.version}, {counted(len(session.channels), 'channel')})"))
+    try:
+        source = SampledSource(session, settings, inputs[0].describe(
+            f"sigrok session (version {session.version}, {counted(len(session.channels), 'channel')})"))
+    except CaptureError:
+        # a session cut before its samples show an edge: the cut is why, not the probes
+        if session.members.cut and session.exhausted and not session.edges_seen:
+            session.close()
+            raise CaptureError(session.cut_short("before the samples show any traffic")) from None
+        raise
+    if session.members.cut and session.exhausted and not any(r.nominal for r in source.physical.values()):
+        # all that was left was looked at while opening, and no line shows a rate in it
+        source.close()
+        raise CaptureError(session.cut_short(f"after {counted(session.edges_seen, 'edge')}: too few to read"))
+    return source
