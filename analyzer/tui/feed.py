@@ -32,6 +32,7 @@ from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import RecordingError
 from .doctor_apart import DoctorApart, HearsTheDoctorApart
 from .model.chunks import ModelChunk
+from .model.sampled import SampledInput, split_description
 
 # events a message at most: a batch waits as event objects (about 100 bytes an
 # event once stored, several times that before), so a big one raises the peak
@@ -71,6 +72,7 @@ class FeedBatch:
     total: int | None = None         # a file: its input's size; None when it has none (a pipe) or live
     chunk: ModelChunk | None = None  # a file decoded apart: its events as columns (``events`` is empty)
     doctor_error: str | None = None  # the wiring doctor's process failed: why
+    sampled: SampledInput | None = None   # a logic capture: its input, and each line's channel and measure
 
 
 class Feed(HearsTheDoctorApart, Listener):
@@ -98,6 +100,7 @@ class Feed(HearsTheDoctorApart, Listener):
         self._warnings: list[str] = []
         self._findings: list | None = None
         self._doctor_error: str | None = None
+        self._named: tuple[str, str] | None = None   # a logic capture's input, named (``_sampled``)
         self.recorder = recorder             # --record: made (and checked) before the screen opens
         self.record_lean = record_lean       # the record key writes lean recordings (live --lean)
         self.meter = meter                   # how far the input files have been read: asked once a batch
@@ -216,7 +219,9 @@ class Feed(HearsTheDoctorApart, Listener):
         size = os.path.getsize(path) if path and os.path.exists(path) else 0
         unsettled = [] if done else self.runner.unsettled()
         status, skew, settings, read = self._status(), self.runner.skew, self.runner.serial_settings, self._read()
-        state = ([id(e) for e in unsettled], [(s.state, s.rate) for s in status], skew, path, size, settings, read)
+        sampled = self._sampled()
+        state = ([id(e) for e in unsettled], [(s.state, s.rate) for s in status], skew, path, size, settings, read,
+                 sampled)
         if changed_only and not (self._pending or self._warnings or self._findings is not None) \
                 and state == self._state:
             return False
@@ -226,8 +231,18 @@ class Feed(HearsTheDoctorApart, Listener):
         findings, self._findings = self._findings, None
         doctor_error, self._doctor_error = self._doctor_error, None
         self.deliver(FeedBatch(events, unsettled, status, skew, path, size, warnings, findings, done, error,
-                               settings, *read, doctor_error=doctor_error))
+                               settings, *read, doctor_error=doctor_error, sampled=sampled))
         return True
+
+    def _sampled(self) -> SampledInput | None:
+        """A logic capture's input and what each line's UART has measured so far
+        (its reports are updated in this thread, as it decodes); None for bytes."""
+        reports = self.runner.physical
+        if reports is None:
+            return None
+        if self._named is None:
+            self._named = split_description(self.runner.info.source)
+        return SampledInput.of(self.runner.info.source, reports.values(), self.runner.swapped, self._named)
 
     def _read(self) -> tuple[int, int | None]:
         """Bytes of the input read so far, of its size (None: it has none)."""

@@ -9,6 +9,8 @@ parts it is made of, each a class of its own module:
 - ``PositionPlots`` (plots.py), fed the events; the statistics (``Stats``,
   analyzer/analysis/stats.py) and the device map (``DeviceInfo``, devices.py),
   worked out from the store's columns when asked (analyzer/tui/store_stats.py)
+- ``SampledInput`` (sampled.py): a logic capture's input and each line's
+  channel and measured rate and format, as the feed's batches carry them
 
 The widgets only read them; tests/pure checks them without a screen.
 """

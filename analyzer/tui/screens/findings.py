@@ -9,6 +9,7 @@ from textual.binding import Binding
 from textual.widgets import Footer
 
 from ...styles import INFO, SEVERITY_STYLE
+from ...words import counted
 from ..model import CaptureModel
 from .redraw import Redrawn
 
@@ -59,7 +60,7 @@ class FindingsScreen(Redrawn):
             if f.fix:
                 node.add_leaf(Text("try: " + f.fix, style="green"))
             if f.evidence:
-                ev = node.add(Text(f"evidence ({len(f.evidence):,} events)", style="dim"), expand=True)
+                ev = node.add(Text(f"evidence ({counted(len(f.evidence), 'event')})", style="dim"), expand=True)
                 for n in f.evidence:
                     ev.add_leaf(Text(f"#{n}", style="underline cyan"), data=n)
         tree.root.expand()

@@ -28,7 +28,10 @@ class Redrawn(Screen):
 
     def capture_changed(self) -> None:
         if self._due is None:
-            wait = max(0.0, self._drawn + EVERY - time.monotonic())
+            wait = self._drawn + EVERY - time.monotonic()
+            if wait <= 0:   # drawn long enough ago: now (Textual's timer of no time never fires)
+                self._redraw_now()
+                return
             self._due = self.set_timer(wait, self._redraw_now, name="redraw")
 
     def _redraw_now(self) -> None:

@@ -15,6 +15,7 @@ from textual.widgets import Footer, Static
 
 from ...listeners.stats import counts_table, summary
 from ...output import fmt_seconds
+from ...words import counted
 from ..model import CaptureModel
 from .back import BACK
 from .redraw import Redrawn
@@ -80,7 +81,8 @@ class StatsScreen(Redrawn):
         # the words and columns of `gimbalscope stats` (analyzer/listeners/stats.py)
         head = Text()
         if m.filter_text:
-            head.append(f"the {m.filter.settled(m.shown):,} rows of the filter: {m.filter_text}\n", style="bold cyan")
+            head.append(f"the {counted(m.filter.settled(m.shown), 'row')} of the filter: {m.filter_text}\n",
+                        style="bold cyan")
         self.query_one("#summary", Static).update(head + Text("\n".join(summary(d))))
         self.query_one("#by-command", Static).update(counts_table("command", d["by_command"], "per command"))
         self.query_one("#by-device", Static).update(

@@ -14,6 +14,7 @@ from textual.message import Message
 from textual.widget import Widget
 from textual.worker import get_current_worker
 
+from ...words import counted
 from ..scan import Cancelled
 
 
@@ -39,7 +40,7 @@ class BackgroundScan(Widget):
             now = time.monotonic()
             if now - last[0] >= 0.1:   # a message at most ten times a second
                 last[0] = now
-                self.post_message(self.Progress(f"{what} {n:,} of {total:,} events "
+                self.post_message(self.Progress(f"{what} {n:,} of {counted(total, 'event')} "
                                                 f"({100 * n // max(1, total)}%), Esc stops"))
 
         def run() -> None:

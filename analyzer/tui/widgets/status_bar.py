@@ -1,10 +1,13 @@
 """The status bar: a file and how much of it has loaded (bytes read of its
 size), or ports and their state, bytes/s per line; settings, skew, the
-recording and its size, elapsed time (line 1); events, errors, checksum
-errors, the doctor's findings, the filter, replay position and speed, follow
-state or "+N new", a running scan's progress or the feed's last warning
-(line 2). It only shows: it reads the model and what the app hands it, and
-has no messages of its own. Counts have thousands separators (8,671), as
+recording and its size, elapsed time (line 1). A logic capture (a sample
+stream, a sigrok session, a VCD or Saleae export) names its input once, with
+what it is, then each line's channel and the rate and format its software UART
+measured ("measuring" until it has; model/sampled.py) in place of the ports
+and the settings. Line 2: events, errors, checksum errors, the doctor's
+findings, the filter, replay position and speed, follow state or "+N new", a
+running scan's progress or the feed's last warning. It only shows: it reads
+the model and what the app hands it, and has no messages of its own. Counts have thousands separators (8,671), as
 everywhere on the TUI.
 
 It is two rows at any width: each line is made of parts with a rank (what a
@@ -13,8 +16,12 @@ shortens its paths (keeping their ends), then, rank by rank from the lowest,
 shortens free texts (a note, a finding's title, the filter) with an ellipsis and
 leaves out parts (settings, the clock, skew, port names, the checksum count,
 rates); the lines' states, the recording, the counts, follow and "capture
-ended" stay, cropped last. A live tap's clock is redrawn once a second, and
-only while the bar is on screen; nothing else here runs on a timer."""
+ended" stay, cropped last. A logic capture's line parts shorten every line
+alike: " bit/s" goes first, then the channels, then its input's description
+is cut between words, then the formats; its input's name is never cut inside a
+word (a long path loses whole folders), nor the lines' rates. A live tap's
+clock is redrawn once a second, and only while the bar is on screen; nothing
+else here runs on a timer."""
 
 from __future__ import annotations
 
@@ -31,6 +38,7 @@ from ...styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
 from ...words import counted
 from ..feed import FeedBatch
 from ..model import CaptureModel
+from ..model.sampled import SampledInput
 
 ELLIPSIS = "…"
 SHORTEST = 8        # cells a shortened free text keeps at least (its ellipsis included)
@@ -52,6 +60,8 @@ class Part:
     cut_start: bool = False
     sep_style: str | None = None     # the separator's style (None: the part's; PREVIOUS: the part before's)
     cut_rank: int | None = None      # the rank at which the free text is shortened (None: ``rank``)
+    words: bool = False              # the free text is cut between words (a path: between folders), never in one
+    group: str = ""                  # parts of one group are left out together (every line's channel)
 
     def __post_init__(self) -> None:
         self.full = self.free
@@ -65,17 +75,21 @@ class Part:
         """The free text ``by`` cells shorter (a negative ``by``: longer, up to
         its whole), and no shorter than SHORTEST."""
         now, whole = cell_len(self.free), cell_len(self.full)
-        self.free = _cut(self.full, min(whole, max(min(whole, SHORTEST), now - by)), self.cut_start)
+        self.free = _cut(self.full, min(whole, max(min(whole, SHORTEST), now - by)), self.cut_start, self.words)
 
 
 MUST = 9            # a part of this rank is never left out, only cropped
 PREVIOUS = "previous"
 
 
-def _cut(text: str, width: int, start: bool) -> str:
-    """``text`` in ``width`` cells with an ellipsis where it was cut (its start or its end)."""
+def _cut(text: str, width: int, start: bool, words: bool = False) -> str:
+    """``text`` in ``width`` cells with an ellipsis where it was cut (its start or its end);
+    ``words``: cut only between words (at its start, between folders too), so
+    that no word is cut in two: as near ``width`` as that allows."""
     if cell_len(text) <= width:
         return text
+    if words:
+        return _cut_words(text, width, start)
     chars = list(text)
     if start:
         while chars and cell_len("".join(chars)) > width - 1:
@@ -84,6 +98,24 @@ def _cut(text: str, width: int, start: bool) -> str:
     while chars and cell_len("".join(chars)) > width - 1:
         chars.pop()
     return "".join(chars).rstrip() + ELLIPSIS
+
+
+def _cut_words(text: str, width: int, start: bool) -> str:
+    """``_cut`` between words: the most whole words (a path's end: whole folders
+    and the file's name) that fit with the ellipsis; when not even one does, the
+    one word nearest the kept end, whole (the line is cropped last, in ``fit``)."""
+    if start:
+        # "…/rig-7/tap.sr": a path keeps the slash before the folders it keeps
+        cuts = [i + (c == " ") for i, c in enumerate(text) if c in " /" and 0 < i < len(text) - 1]
+        kept = [text[i:].lstrip() for i in cuts]
+        fitting = [k for k in kept if cell_len(k) + 1 <= width]
+        return ELLIPSIS + (fitting[0] if fitting else kept[-1]) if kept else text
+    # not between a number and its unit ("1 MHz")
+    cuts = [i for i, c in enumerate(text) if c == " " and i > 0 and not text[i - 1].isdigit()]
+    kept = [text[:i].rstrip(" ,;:·-") for i in cuts]
+    kept = [k for k in kept if k]
+    fitting = [k for k in kept if cell_len(k) + 1 <= width]
+    return (fitting[-1] if fitting else kept[0]) + ELLIPSIS if kept else text
 
 
 def _share_cut(group: list[Part], over: int) -> None:
@@ -105,7 +137,7 @@ def fit(parts: list[Part], width: int | None) -> Text:
     """The parts on one line of at most ``width`` cells (None: any). Rank by
     rank from the lowest, while the line is too long: the free texts of that
     (cut) rank are shortened, then the parts of that rank left out (the
-    rightmost first; never a MUST part);
+    rightmost first, with the rest of its group; never a MUST part);
     a shortened text then takes back any room left; last, the line is cropped
     with an ellipsis."""
     parts = [p for p in parts if p.head or p.free or p.tail]
@@ -120,7 +152,8 @@ def fit(parts: list[Part], width: int | None) -> Text:
             for p in reversed([p for p in parts if p.rank == rank and rank < MUST]):
                 if over() <= 0:
                     break
-                parts.remove(p)
+                if any(q is p for q in parts):   # (not gone with its group)
+                    parts[:] = [q for q in parts if q is not p and not (p.group and q.group == p.group)]
         for p in sorted((p for p in parts if p.free != p.full), key=lambda p: -p.rank):
             if over() >= 0:
                 break
@@ -159,6 +192,7 @@ class StatusBar(Static):
         self.source_name = source
         self.settings = settings
         self.last: FeedBatch | None = None
+        self.sampled: SampledInput | None = None   # a logic capture: its input and lines, as last measured
         self.messages: deque[str] = deque(maxlen=100)   # the feed's warnings, newest last (the last shows)
         self.started = time.monotonic()
         self.ended = self.started        # when the capture ended (model.done)
@@ -170,6 +204,8 @@ class StatusBar(Static):
     def batch(self, batch: FeedBatch) -> None:
         """A batch from the feed: the lines' state, and what it had to say."""
         self.last = batch
+        if batch.sampled is not None:   # (a last word without it keeps what was measured)
+            self.sampled = batch.sampled
         self.messages.extend(batch.warnings)
         if batch.error:
             self.messages.append(f"capture stopped: {batch.error}")
@@ -231,7 +267,9 @@ class StatusBar(Static):
         """Line 1: where the events come from."""
         m, b, live = self.model, self.last, self.mode == "live"
         parts: list[Part] = []
-        if not live:
+        if self.sampled is not None:
+            parts += self._sampled(self.sampled)
+        elif not live:
             # a long path keeps its end, the file's name
             parts.append(Part(6, free=self.source_name, cut_start=True, cut_rank=1))
             load = self._load()
@@ -244,8 +282,9 @@ class StatusBar(Static):
                 parts.append(Part(MUST, st.state, style=PORT_STATE_STYLE.get(st.state, "white"), sep=" "))
                 if not m.done:   # nothing is read once it ended
                     parts.append(Part(5, f"{_size(st.rate)}/s", sep=" "))
-        parts.append(Part(2, b.settings if b is not None and b.settings else self.settings, style="dim",
-                          sep_style=PREVIOUS if parts and not live else ""))
+        if self.sampled is None:   # (a logic capture's lines say theirs)
+            parts.append(Part(2, b.settings if b is not None and b.settings else self.settings, style="dim",
+                              sep_style=PREVIOUS if parts and not live else ""))
         if b is not None and b.skew:
             parts.append(Part(3, f"skew +{b.skew * 1000:.1f} ms", style="yellow"))
         if b is not None and b.recording:
@@ -255,6 +294,34 @@ class StatusBar(Static):
             elapsed = (self.ended if m.done else time.monotonic()) - self.started
             parts.append(Part(3, f"{int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:"
                                  f"{int(elapsed % 60):02d}", style="dim"))
+        return parts
+
+    def _sampled(self, s: SampledInput) -> list[Part]:
+        """A logic capture's input, once and whole (``stdin: logic samples at 1
+        MHz, 8 channels``; a file viewed, how much has loaded), then each line's
+        channel and what its UART measured (``A D0 9,888 bit/s 8N1``). Short of
+        room, every line loses its " bit/s", then its channel; then the input's
+        description is cut between words, then the lines' formats go; the name
+        only ever loses whole folders."""
+        m = self.model
+        parts = [Part(MUST, free=s.name, cut_start=True, words=True, cut_rank=7)]
+        if s.kind:
+            parts.append(Part(6, free=s.kind, words=True, sep=": ", sep_style=PREVIOUS))
+        load = self._load() if self.mode != "live" else ""
+        if load:
+            parts.append(Part(8, load, style="dim" if m.done else "bold", sep_style=""))
+        for ln in s.lines:
+            parts.append(Part(MUST, ln.line, style="bold", sep_style=""))
+            parts.append(Part(5, ln.channel_label, sep=" ", sep_style=PREVIOUS, group="channel"))
+            rate = ln.rate()
+            if rate is None:
+                parts.append(Part(MUST, ln.waiting(m.done), style="italic yellow", sep=" "))
+                continue
+            parts.append(Part(MUST, rate, sep=" "))
+            parts.append(Part(4, "bit/s", sep=" ", group="unit"))
+            parts.append(Part(7, ln.format, sep=" ", group="format"))
+            if ln.inverted:
+                parts.append(Part(7, "inverted", style="yellow", sep=" ", group="inverted"))
         return parts
 
     def _load(self) -> str:
