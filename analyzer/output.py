@@ -23,6 +23,7 @@ from dissectors.wire import payload_text
 from .errors import StdoutError
 from .outfile import OutputError, reason, write_error
 from .styles import ROW_STYLE, row_class
+from .words import counted
 
 try:
     import orjson
@@ -133,7 +134,7 @@ def summary(ev: Event) -> str:
         return f"link rate {f.get('previous_baud')} → {f.get('baud')} bps"
     preview = ev.raw[:12].hex(" ")
     n = len(ev.raw)
-    return f"{n} byte{'' if n == 1 else 's'}: {preview}{' …' if n > 12 else ''}"
+    return f"{counted(n, 'byte')}: {preview}{' …' if n > 12 else ''}"
 
 
 def fmt_seconds(s: float | None) -> str:

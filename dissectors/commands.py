@@ -307,7 +307,7 @@ cmd("*x{aux_port}r", "Receive from auxiliary serial port",
     result_summary="{data!r}")
 cmd("*x{aux_port}n", "Characters in auxiliary port buffer", (b"*x", aux_port(), b"n"), "Table 16",
     result=[(decimal("count", 3, desc="decimal ASCII count"),)], summary="aux {aux_port} count?",
-    result_summary="{count} characters")
+    result_summary="{count} in the buffer")
 cmd("*x{aux_port}f", "Flush auxiliary port buffer", (b"*x", aux_port(), b"f"), "Table 16",
     summary="aux {aux_port} flush")
 

@@ -437,7 +437,8 @@ class Deframer:
         """Fewer than 6 bytes follow the start byte at p, and a silence (at ``cut``)
         or the end of the data came: a header cut short."""
         stop = cut if cut is not None else self._base + len(self._buf)
-        return self._broken(out, p, stop, TRUNCATED.problem(f"header cut after {stop - p} bytes"))
+        n = stop - p
+        return self._broken(out, p, stop, TRUNCATED.problem(f"header cut after {n} byte{'s' if n != 1 else ''}"))
 
     def _frame_inside_suspect(self, rp: int, total: int, final: bool) -> int | None:
         """A frame at buffer index rp checks out but carries a start byte in its

@@ -461,7 +461,7 @@ class WiringDoctor:
             where = dead.phrase("b_silent" if self.two_lines else "none_answered")
             check = dead.phrase("check_wire")
         else:
-            where = dead.phrase("b_garbled" if self.two_lines else "line_garbled", bytes=b.bytes)
+            where = dead.phrase("b_garbled" if self.two_lines else "line_garbled", bytes=counted(b.bytes, "byte"))
             check = dead.phrase("check_baud")
         cmds = sorted(n for d in self.devices.values() for n in d.unanswered)[:_MAX_EVIDENCE]
         return dead.found("B", cmds, commands=self.commands, where=where, check=check)
@@ -481,7 +481,8 @@ class WiringDoctor:
             # the device the rate-set command went to, or another on the link
             silence = kind.phrase("set_to" if addr == target else "link_set_to", addr=addr, baud=baud, at=at)
             out.append(kind.found(addr, d.unanswered_since_rate.evidence(), silence=silence, addr=addr,
-                                  commands=d.commands_since_rate, answered=d.answers - d.answers_since_rate,
+                                  commands=d.commands_since_rate,
+                                  answered=counted(d.answers - d.answers_since_rate, "time"),
                                   baud=baud, before=before))
         return out
 
@@ -553,12 +554,15 @@ class WiringDoctor:
         given_up = len(self.never_retried)
         if given_up >= 3 and given_up > self.retried:
             no_retry = FINDINGS[CONTROLLER_NO_RETRY]
-            retried = no_retry.phrase("retried", retried=self.retried) if self.retried else ""
+            retried = "" if not self.retried else no_retry.phrase("retried_one") if self.retried == 1 \
+                else no_retry.phrase("retried", retried=self.retried)
             out.append(no_retry.found("controller", self.never_retried.evidence(), given_up=given_up,
                                       retried=retried))
         if self.ix_given_up:
-            out.append(FINDINGS[CONTROLLER_IX_TIMEOUT].found(
-                "controller", self.ix_given_up.evidence(), resent=len(self.ix_given_up)))
+            ix = FINDINGS[CONTROLLER_IX_TIMEOUT]
+            resent = len(self.ix_given_up)
+            out.append(ix.found("controller", self.ix_given_up.evidence(),
+                                resent=ix.phrase("resent_one") if resent == 1 else ix.phrase("resent", resent=resent)))
         return out
 
     def _ack_p95(self) -> float:
@@ -605,7 +609,7 @@ class WiringDoctor:
             # garbled input names many addresses: past the first ones, only counted
             past = kind.phrase("past", limit=_MAX_DEVICES)
             parts.append(kind.phrase("untracked", commands=counted(len(self.other_addresses), "command")))
-        return [kind.found("map", [], devices=counted(len(self.devices), "device address", "device addresses"),
+        return [kind.found("map", [], devices=counted(len(self.devices), "device"),
                            past=past, per_device="\n".join(parts))]
 
 
@@ -618,7 +622,7 @@ def _waveform_findings(name: str, r) -> list[Finding]:
     chars = counted(r.characters, "character")
     if r.inverted and r.characters:
         out.append(FINDINGS[LINE_INVERTED].found(name, [], line=name, channel=f"channel {r.channel}",
-                                                 characters=r.characters))
+                                                 characters=chars))
     pct = r.error_pct
     if pct is not None and not r.given and r.characters >= 4 and abs(pct) >= CLOCK_WARNING:
         f = FINDINGS[CLOCK_OFF].found(name, [], line=name, rate=r.measured, pct=abs(pct),
@@ -633,25 +637,27 @@ def _waveform_findings(name: str, r) -> list[Finding]:
     errors = r.framing_errors + r.parity_errors + r.breaks
     if errors:
         kind = FINDINGS[FRAMING_ERRORS]
-        parts = [counted(r.framing_errors, "framing error")] if r.framing_errors else []
-        if r.parity_errors:
-            parts.append(counted(r.parity_errors, "parity error"))
+        # framing and parity errors are among the characters (they have a value);
+        # a break has none, so it is counted beside them, never "in" them
+        among = [counted(n, noun) for n, noun in ((r.framing_errors, "framing error"),
+                                                  (r.parity_errors, "parity error")) if n]
+        parts = [kind.phrase("in", errors=" and ".join(among), characters=chars)] if among else []
         if r.breaks:
             parts.append(counted(r.breaks, "break"))
         most = r.framing_errors + r.parity_errors > max(r.characters, 1) / 4
         first = f"{r.first_error:.6f} s" if r.first_error is not None else "a break"
-        f = kind.found(name, [], line=name, errors=", ".join(parts), characters=r.characters, first=first,
+        f = kind.found(name, [], line=name, errors=", and ".join(parts), first=first,
                        check=kind.phrase("check_rate", format=r.format) if most else kind.phrase("check_line"))
         if errors < 3 and not most:
             f.severity = WARNING
         out.append(f)
     if r.glitches >= 2:
         bit_us = 1e6 / r.measured if r.measured else 0.0
-        out.append(FINDINGS[GLITCHES].found(name, [], line=name, glitches=r.glitches, limit_us=bit_us / 4,
-                                            edges=r.edges))
+        out.append(FINDINGS[GLITCHES].found(name, [], line=name, glitches=counted(r.glitches, "glitch", "glitches"),
+                                            pulses=counted(r.glitches, "pulse"), limit_us=bit_us / 4,
+                                            edges=counted(r.edges, "edge")))
     if r.off_grid >= 3 and r.off_grid >= r.characters / 100:
-        out.append(FINDINGS[TWO_DRIVERS].found(name, [], line=name, off_grid=r.off_grid,
-                                               characters=r.characters))
+        out.append(FINDINGS[TWO_DRIVERS].found(name, [], line=name, off_grid=r.off_grid, characters=chars))
     return out
 
 

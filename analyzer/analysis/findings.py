@@ -128,7 +128,7 @@ class _Count(int):
         return format(int(self), spec or ",")
 
 
-PLAIN_NUMBERS = {"baud", "read"}   # line rates are written as the spec writes them: 115200
+PLAIN_NUMBERS = {"baud", "read", "before"}   # line rates are written as the spec writes them: 115200
 
 
 def _worded(values: dict) -> dict:
@@ -154,8 +154,8 @@ _kind(LINES_SWAPPED, ERROR,
       "ACK/NAK/NIC bytes on line A and command frames on line B (`--swap-lines`, or `x` in a live TUI, "
       "fixes it without restarting)",
       "lines swapped: the tap's line A carries the device's answers",
-      "{answer_bytes} ACK/NAK/NIC bytes arrived on line A and {command_frames} command frames on line B; "
-      "{answered} commands were answered as wired",
+      # the counts come worded ("12 ACK/NAK/NIC bytes", "1 command"): analyzer/words.py
+      "{answer_bytes} arrived on line A and {command_frames} on line B; {answered} answered as wired",
       "{swap_fix}",           # where the traffic is read decides: Invocation.swap_fix
       hides=_WIRE_CONSEQUENCES)
 _kind(WRONG_BAUD, ERROR,
@@ -163,8 +163,9 @@ _kind(WRONG_BAUD, ERROR,
       "rate (or other lines decode, or the line is a port's); names the line's rate when one stands out "
       "(otherwise `--scan-baud`)",
       "line {line}: bytes arrive but almost nothing decodes (wrong baud rate?)",
-      "{bytes} bytes, {share:.0%} in valid frames or answers, {noise_bytes} bytes of noise, "
-      "{bad_frames} frames with bad checksums{misread}{rhythm}",
+      # noise_bytes: "1 byte"; bad_frames: "1 frame with a bad checksum" (analyzer/words.py)
+      "{bytes} bytes, {share:.0%} in valid frames or answers, {noise_bytes} of noise, "
+      "{bad_frames}{misread}{rhythm}",
       "{baud_fix}",           # Invocation.baud_fix, or Invocation.rate_fix when the rate is named
       phrases={"rate": "; they read like this protocol at {baud} bps misread by the tap at {read} bps",
                "rate_file": "; they read like this protocol at {baud} bps misread by a tap at {read} bps, the rate "
@@ -173,7 +174,7 @@ _kind(WRONG_BAUD, ERROR,
                "times": "{n} times",
                "part": "{n}/{d} of",
                "misread": "; they read like this protocol misread at another rate",
-               "rhythm": "; line B answered line A's bursts {exchanges} times, as devices answer commands"},
+               "rhythm": "; line B answered line A's bursts {exchanges}, as devices answer commands"},   # "3 times"
       hides=(*_WIRE_CONSEQUENCES, NO_FRAMES))
 _kind(NOT_THIS_PROTOCOL, ERROR,
       "a file's bytes, on every line, under 5% of them decoding, and nothing like this protocol misread at "
@@ -211,14 +212,14 @@ _kind(LINE_INVERTED, WARNING,
       "a line that rests low: read at RS-232 polarity (no transceiver between it and a logic-level input), or "
       "an RS-485 pair's wires crossed; decoded inverted all the same",
       "line {line} is inverted: it rests low ({channel})",
-      "its {characters} characters read with the levels inverted",
+      "its {characters} read with the levels inverted",     # characters: "402 characters"
       "a logic-level UART cannot read it: if the probe is on the RS-232 side of a transceiver that is how it "
       "should look; otherwise put a transceiver (MAX232) between them, or swap the RS-485 pair's A and B")
 _kind(CLOCK_OFF, WARNING,
       "a line's measured bit rate 2 % or more from the nominal one (an error from 4 %: a receiver samples "
       "the last bits of a character at their edges)",
       "line {line} runs at {rate:,.0f} bit/s, {pct:.1f} % {way}",
-      "nominal {baud} bit/s, measured over {characters} characters; UARTs tolerate about 2 % each, 4-5 % "
+      "nominal {baud} bit/s, measured over {characters}; UARTs tolerate about 2 % each, 4-5 % "
       "between two ends, and errors grow with the character's length",
       "the sender's clock is off: check its crystal or clock divisor (a rate its clock cannot make exactly), "
       "or set both ends to a rate it makes better",
@@ -231,25 +232,28 @@ _kind(RATE_NONSTANDARD, WARNING,
       "the probe is on this protocol's line at all")
 _kind(FRAMING_ERRORS, ERROR,
       "characters whose stop bit is not at the idle level, breaks (a line held active), parity errors",
-      "line {line}: {errors} in {characters} characters",
+      # errors: "3 framing errors in 402 characters, and 2 breaks": a break has no
+      # value, so it is no character, and is counted apart from them
+      "line {line}: {errors}",
       "first at {first}",
       "{check}",
-      phrases={"check_rate": "a wrong rate or format gives framing errors on most characters: check both ends' "
+      phrases={"in": "{errors} in {characters}",
+               "check_rate": "a wrong rate or format gives framing errors on most characters: check both ends' "
                              "settings ({format} read here)",
                "check_line": "a few framing errors are a disturbed line: check the cable, its shield and ground; "
                              "a break is a sender holding the line (a reset, a driver left on)"},
       hides=(NOISY_LINK,))
 _kind(GLITCHES, WARNING,
       "pulses shorter than a quarter bit on a line (removed before decoding, as a receiver's filter would)",
-      "line {line}: {glitches} glitches (pulses under a quarter bit)",
-      "{glitches} pulses under {limit_us:.1f} µs among {edges} edges",
+      "line {line}: {glitches} (pulses under a quarter bit)",     # "3 glitches"
+      "{pulses} under {limit_us:.1f} µs among {edges}",
       "interference or ringing: check the cable's shield and ground, its length and termination (RS-485: "
       "120 Ω at both ends)")
 _kind(TWO_DRIVERS, ERROR,
       "characters whose edges fall off the bit grid: two senders driving one line at once (RS-485 bus "
       "contention, a driver left enabled)",
       "line {line}: two senders at once",
-      "{off_grid} of {characters} characters have edges off the bit grid",
+      "{off_grid} of {characters} have edges off the bit grid",     # characters: "402 characters"
       "on a shared (RS-485) line only one device may drive at a time: check that each releases the bus after "
       "sending (its driver-enable timing), and that no two devices answer to the same address",
       hides=(NOISY_LINK, FRAMING_ERRORS))
@@ -260,8 +264,8 @@ _kind(DEAD_LINK, ERROR,
       "{check}",
       phrases={"b_silent": "line B is silent: no byte came back",
                "none_answered": "no device answered",
-               "b_garbled": "line B carries {bytes} bytes but none answers a command",
-               "line_garbled": "the line carries {bytes} bytes but none answers a command",
+               "b_garbled": "line B carries {bytes} but no answer to a command",      # bytes: "1 byte"
+               "line_garbled": "the line carries {bytes} but no answer to a command",
                "check_wire": _CHECK_WIRE_B,
                "check_baud": "check the baud rate and the devices' addresses"},
       hides=CONTROLLER)
@@ -269,8 +273,8 @@ _kind(SILENT_AFTER_RATE, ERROR,
       "a device that answered stops answering once the link's rate was changed (it ACKed and did not "
       "switch, or cannot talk at the new rate)",
       "{silence}",
-      "{commands} commands to {addr} since the rate change, no ACK or NAK; it answered {answered} times at "
-      "{before} bps before",
+      "{commands} commands to {addr} since the rate change, no ACK or NAK; it answered {answered} at "
+      "{before} bps before",      # answered: "1 time"
       "the device ACKed the change but does not talk at {baud} bps: ask it for its highest rate (B?) at {before} "
       "bps, set the controller back to {before} bps, or power-cycle the device (it starts at its default rate)",
       phrases={"set_to": "{addr} was set to {baud} bps at {at} and has not answered since",
@@ -330,13 +334,14 @@ _kind(CONTROLLER_NO_RETRY, WARNING,
       "the controller never retries a failed command",
       "{given_up} commands NAK'd or unanswered were not sent again{retried}",
       "retransmit after NAK or an ACK timeout (the spec's handshake expects it)",
-      phrases={"retried": " ({retried} were)"})
+      phrases={"retried": " ({retried} were)", "retried_one": " (1 was)"})
 _kind(CONTROLLER_IX_TIMEOUT, WARNING,
       "the controller resends IX (initialise) before its result",
       "the controller gives up on IX before it ends",
-      "{resent} IX commands were sent again before their result came; initialisation takes seconds (up to a "
-      "minute)",
-      "wait for IX's result (60 s is safe) before resending or moving on")
+      "{resent}; initialisation takes seconds (up to a minute)",
+      "wait for IX's result (60 s is safe) before resending or moving on",
+      phrases={"resent": "{resent} IX commands were sent again before their result came",
+               "resent_one": "1 IX command was sent again before its result came"})
 
 # ---------------------------------------------------------------- the devices
 _kind(SLOW_ANSWERS, WARNING,
@@ -346,7 +351,7 @@ _kind(SLOW_ANSWERS, WARNING,
       "a device slowing down is busy or failing: check {addr}'s load, power and temperature")
 _kind(DEVICE_MAP, INFO,
       "every address, where it answers, which commands it NICs (what its firmware implements), its D? identity",
-      "{devices} addressed{past}",           # devices: "3 device addresses"
+      "{devices} addressed{past}",           # devices: "3 devices"
       "{per_device}",         # a line per device, then the commands past counting
       "",
       phrases={"past": ", and more (past {limit})",

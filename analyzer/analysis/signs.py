@@ -27,6 +27,7 @@ from fractions import Fraction
 from dissectors import dissect_command
 from dissectors.event import COMMAND, NO_RESULT, NOISE, OK, RATE, RESULT, ST_NIC, Event
 
+from ..words import counted
 from .findings import FINDINGS, LINES_SWAPPED, NOT_THIS_PROTOCOL, WRONG_BAUD, Finding
 from .rate import PROTOCOL_RATES, rate_scores
 
@@ -263,8 +264,9 @@ class WiringSigns:
         if a + b < 6 or a + b <= 2 * self.ok_transactions:
             return []
         evidence = self.answer_bytes_on_a.evidence()[:10] + self.commands_on_b.evidence()[:10]
-        return [FINDINGS[LINES_SWAPPED].found("A,B", evidence, answer_bytes=a, command_frames=b,
-                                              answered=self.ok_transactions, swap_fix=swap_fix)]
+        return [FINDINGS[LINES_SWAPPED].found("A,B", evidence, answer_bytes=counted(a, "ACK/NAK/NIC byte"),
+                                              command_frames=counted(b, "command frame"),
+                                              answered=counted(self.ok_transactions, "command"), swap_fix=swap_fix)]
 
     def garbled(self, baud_fix: str, live: bool = False,
                 rate_fix: Callable[[int, int], str] | None = None) -> list[Finding]:
@@ -319,11 +321,13 @@ class WiringSigns:
         else:
             said = wb.phrase("misread") if wrong_rate else ""
             fix = baud_fix
-        exchanges = wb.phrase("rhythm", exchanges=self.exchanges) if rhythm else ""
+        exchanges = wb.phrase("rhythm", exchanges=counted(self.exchanges, "time")) if rhythm else ""
         out = []
         for name, line in bad.items():
             f = wb.found(name, line.errors.evidence(), line=name, bytes=line.bytes, share=line.share,
-                         noise_bytes=line.noise_bytes, bad_frames=line.bad_frames, misread=said, rhythm=exchanges,
+                         noise_bytes=counted(line.noise_bytes, "byte"),
+                         bad_frames=counted(line.bad_frames, "frame with a bad checksum", "frames with bad checksums"),
+                         misread=said, rhythm=exchanges,
                          baud_fix=fix)
             f.measured = dict(measured)
             out.append(f)

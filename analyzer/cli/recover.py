@@ -30,6 +30,7 @@ from ..sources.files import open_input
 from ..sources.mcapscan import (
     MAGIC, OP_ATTACHMENT, OP_CHANNEL, OP_CHUNK, OP_HEADER, OP_MESSAGE, OP_METADATA, OP_SCHEMA, RECORD, RECORD_HEAD,
     Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk, summary_records)
+from ..words import counted
 from .common import UsageError, add_quiet_arg, warn
 
 EXIT_NOTHING_KEPT = 1
@@ -74,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_NOTHING_KEPT
         for line in problems:
             warn(f"{show(src)}: {line}")
-    print(f"{show(out)}: {salvage.messages} messages")
+    print(f"{show(out)}: {counted(salvage.messages, 'message')}")
     return 0
 
 
@@ -169,7 +170,7 @@ class Salvage:
         if not crc_ok:
             self.partial.append((offset, self.messages - before, why))
         elif stop is not None:
-            self._drop("damaged chunk", offset, f"{stop}; kept the {self.messages - before} messages before it")
+            self._drop("damaged chunk", offset, f"{stop}; kept the {counted(self.messages - before, 'message')} before it")
 
     def _cut_chunk(self, offset: int, body: bytes) -> None:
         """A chunk cut short by the end of the file: the messages of its first part
@@ -270,14 +271,14 @@ class Salvage:
             offset, kept, why = self.partial[0]
             rest = f"dropped the rest from {why}" if why else "none dropped, but some bytes may be altered"
             if len(self.partial) == 1:
-                lines.append(f"the chunk at byte {offset} fails its CRC check: kept its first {kept} "
-                             f"messages, {rest}")
+                lines.append(f"the chunk at byte {offset} fails its CRC check: kept its first "
+                             f"{counted(kept, 'message')}, {rest}")
             else:
                 kept = sum(k for _o, k, _w in self.partial)
                 lines.append(f"{len(self.partial)} chunks fail their CRC check: kept {kept} of their "
                              f"messages, each up to its first bad record (the first at byte {offset}: {rest})")
         if self.cut:
-            lines.append(f"ends early ({self.cut}); kept {self.messages} messages before it"
+            lines.append(f"ends early ({self.cut}); kept {counted(self.messages, 'message')} before it"
                          + (f", {self.from_cut} of them from the part of the cut chunk that is there"
                             if self.from_cut else ""))
         return lines

@@ -21,6 +21,7 @@ from ..capture import Options, open as open_capture
 from ..errors import CaptureError
 from ..outfile import show
 from ..sources.rawdump import RawDumpSource
+from ..words import counted
 
 SAMPLE = 2000          # events read of each try: enough to tell, cheap beside the export
 MIN_COMMANDS = 5
@@ -61,7 +62,7 @@ def one_capture(a: str, b: str, options: Options) -> str | None:
     together = _answered((a, b), options)
     if together is None or together[1] < TOGETHER_AT_LEAST * together[0] or together[2] > ALONE_AT_MOST * together[0]:
         return None
-    return f"{together[1]:,} of the first {together[0]:,} commands on {show(a)} are answered on {show(b)}"
+    return f"{together[1]:,} of the first {counted(together[0], 'command')} on {show(a)} are answered on {show(b)}"
 
 
 def lines_of_one_capture(inputs: list[tuple[str, ...]], options: Options) -> str | None:

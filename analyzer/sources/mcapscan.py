@@ -22,6 +22,8 @@ from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile
 from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
 
+from ..words import counted
+
 try:
     import zstandard
 except ImportError:  # pragma: no cover - a dependency of mcap's writer
@@ -128,7 +130,7 @@ class Walk:
             op, length = RECORD.unpack(head)
             start = pos + RECORD_HEAD
             if length > size - start:
-                self.stop = (f"the {op_name(op)} record at byte {pos} claims {length} bytes but only "
+                self.stop = (f"the {op_name(op)} record at byte {pos} claims {counted(length, 'byte')} but only "
                              f"{size - start} remain")
                 self.lost = op in wanted
                 if op == OP_CHUNK and op in wanted:
@@ -202,7 +204,7 @@ def read_chunk(body: bytes) -> tuple[bytes, bool]:
     size, crc, compression, data = _chunk_parts(body, cut=False)
     records = _decompress(compression, data, size)
     if len(records) != size:
-        raise Damaged(f"it decompresses to {len(records)} bytes, not the {size} it declares")
+        raise Damaged(f"it decompresses to {counted(len(records), 'byte')}, not the {size} it declares")
     return records, crc == 0 or zlib.crc32(records) == crc
 
 
@@ -240,11 +242,11 @@ def _chunk_parts(body: bytes, cut: bool) -> tuple[int, int, str, bytes]:
     """A Chunk record's uncompressed size, CRC, compression and compressed data,
     each length checked; with ``cut``, the data is what the body holds of it."""
     if len(body) < _CHUNK_HEAD.size:
-        raise Damaged(f"its header is cut short ({len(body)} bytes)")
+        raise Damaged(f"its header is cut short ({counted(len(body), 'byte')})")
     _start, _end, size, crc, name_len = _CHUNK_HEAD.unpack_from(body)
     pos = _CHUNK_HEAD.size
     if name_len > len(body) - pos - 8:
-        raise Damaged(f"its compression name claims {name_len} bytes, more than the chunk holds")
+        raise Damaged(f"its compression name claims {counted(name_len, 'byte')}, more than the chunk holds")
     try:
         compression = body[pos:pos + name_len].decode("utf-8")
     except UnicodeDecodeError:
@@ -253,7 +255,7 @@ def _chunk_parts(body: bytes, cut: bool) -> tuple[int, int, str, bytes]:
     data_len = _U64.unpack_from(body, pos)[0]
     pos += 8
     if data_len > len(body) - pos and not cut:
-        raise Damaged(f"its data claims {data_len} bytes, {len(body) - pos} remain")
+        raise Damaged(f"its data claims {counted(data_len, 'byte')}, {len(body) - pos} remain")
     data = body[pos:pos + data_len]
     if compression not in _EXPANSION:
         raise Damaged(f"compression {compression!r} is not one gimbalscope reads (zstd, lz4, none)")
@@ -274,7 +276,7 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
             # the limit: check it against the chunk's before allocating it
             framed = zstandard.frame_content_size(data)
             if framed not in (-1, size):
-                raise Damaged(f"its zstd frame holds {framed} bytes, the chunk declares {size}")
+                raise Damaged(f"its zstd frame holds {counted(framed, 'byte')}, the chunk declares {size}")
             return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
         except zstandard.ZstdError as e:
             raise Damaged(f"zstd: {e}") from None

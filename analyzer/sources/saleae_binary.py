@@ -33,6 +33,7 @@ import numpy as np
 
 from ..errors import CaptureError
 from ..physical.edges import Block, Edges, Waveform
+from ..words import counted
 from .base import ReadSettings, Source
 from .files import Input
 from .signatures import MAGIC
@@ -124,7 +125,8 @@ class ChannelFile:
                                     "one before: read up to there")
                     return
                 if got.size < n:
-                    self.problem = f"{name}: cut short: {read:,} of its {count:,} transitions read: read up to there"
+                    self.problem = (f"{name}: cut short: {read:,} of its {counted(count, 'transition')} read: "
+                                    "read up to there")
                     return
             if self.chunks_left <= 0:
                 stop = _tick(end, scale)

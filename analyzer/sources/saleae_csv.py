@@ -84,7 +84,7 @@ class SaleaeDigitalCsv(Waveform):
                 body, left = data[:cut], data[cut:]
                 times, values, unread = _parse(body, width)
                 bad = None if unread is None else (
-                    unread[0], f"cannot read {unread[1][:60]!r} (a time and {width} levels of 0, 1 or X)")
+                    unread[0], f"cannot read {unread[1][:60]!r} (a time and {counted(width, 'level')} of 0, 1 or X)")
             with np.errstate(invalid="ignore"):
                 back = np.flatnonzero((np.diff(np.concatenate(([last], times))) < 0) | ~(np.abs(times) < MAX_SECONDS))
             if back.size and (bad is None or back[0] < bad[0]):

@@ -123,7 +123,8 @@ class ValueChangeDump(Waveform):
             self.notes.append(f"{inp.name}: no $timescale: times read as nanoseconds")
         if header.wide:
             shown = ", ".join(header.wide[:5]) + (", …" if len(header.wide) > 5 else "")
-            self.notes.append(f"{inp.name}: {len(header.wide)} variables wider than 1 bit left out ({shown})")
+            self.notes.append(f"{inp.name}: {counted(len(header.wide), 'variable')} wider than 1 bit left out "
+                              f"({shown})")
         if not header.channels:
             raise CaptureError(f"{inp.name}: the VCD declares no 1-bit variable ($var wire 1 …): no channel to read")
         self.channels = list(header.channels)
