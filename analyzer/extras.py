@@ -9,6 +9,11 @@ hint rather than a traceback."""
 from __future__ import annotations
 
 import importlib.util
+import os
+import shlex
+import sys
+
+from .docs import clone_folder
 
 # top-level module → the extra that installs it
 EXTRA_OF = {"pyarrow": "fleet", "duckdb": "fleet", "matplotlib": "fleet", "pandas": "pandas",
@@ -24,5 +29,19 @@ def missing_extra(error: ImportError, needed_by: str) -> str | None:
     # installed but broken inside is not "missing": that error stays as it is
     if extra is None or importlib.util.find_spec(top) is not None:
         return None
-    return (f"{needed_by} needs {top}, which is not installed: it comes with the {extra} extra, "
-            f"pip install 'gimbalscope[{extra}]' (in a clone: pip install -e '.[{extra}]')")
+    return f"{needed_by} needs {top}, which is not installed: it comes with the {extra} extra: {install_command(extra)}"
+
+
+def install_command(extra: str) -> str:
+    """The command that adds ``extra`` to this very install, as a user can paste
+    it: the pip of the virtual environment running us (the quick start never
+    activates it, so the ``pip`` on PATH is another one), and the clone's own
+    folder when the package is installed from one (``pip install -e``)."""
+    if sys.prefix != sys.base_prefix:   # a virtual environment
+        pip = shlex.quote(os.path.join(sys.prefix, "Scripts" if os.name == "nt" else "bin", "pip"))
+    else:
+        pip = f"{shlex.quote(sys.executable)} -m pip"
+    clone = clone_folder()
+    if clone is not None:
+        return f"{pip} install -e {shlex.quote(f'{clone}[{extra}]')}"
+    return f"{pip} install {shlex.quote(f'gimbalscope[{extra}]')}"

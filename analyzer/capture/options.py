@@ -31,7 +31,8 @@ class Options:
     channels: dict[str, str] | None = None
     adapter: str | None = None
     usb_device: str | None = None
-    samplerate: float | None = None
+    samplerate: float | None = None       # given: the inputs are bare streams of logic samples
+    unitsize: int = 1                     # ... of this many bytes a sample
     # the options the user gave (flags, keywords): they win over what a recording
     # says of itself (docs/time.md, "Recordings"); the rest may be taken from it
     explicit: frozenset[str] = frozenset()
@@ -66,7 +67,8 @@ class Options:
             data_bits=self.data_bits if "data_bits" in given else None,
             parity=self.parity if "parity" in given else None,
             stop_bits=self.stop_bits if "stop_bits" in given else None,
-            adapter=self.adapter, usb_device=self.usb_device, samplerate=self.samplerate)
+            adapter=self.adapter, usb_device=self.usb_device, samplerate=self.samplerate,
+            unitsize=self.unitsize)
 
     def line_settings(self, lines: tuple[str, ...]) -> dict[str, LineSettings]:
         """Each line's settings at the start: one object per line, which the capture

@@ -16,6 +16,7 @@ from ..listeners import NotePrinter
 from ..listeners.wiring_check import WiringCheck
 from ..outfile import one_line
 from ..runner import Listener, TapRunner
+from ..sources import registry
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
 
@@ -71,9 +72,7 @@ def command_timeout(text: str) -> tuple[str, float]:
 
 
 def add_input_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("inputs", nargs="+", metavar="INPUT",
-                   help="a socat -x -v log, an MCAP recording (or the parts of one, in any order), a raw "
-                        "single-line dump, or two raw dumps (line A, line B)")
+    p.add_argument("inputs", nargs="+", metavar="INPUT", help=registry.input_help())
     add_quiet_arg(p)
     add_serial_args(p)
 
@@ -138,6 +137,28 @@ def add_instrument_args(p: argparse.ArgumentParser) -> None:
                    help="a USB capture's serial adapter (default: from the enumeration or the traffic)")
     g.add_argument("--usb-device", type=usb_device, metavar="BUS.DEV",
                    help="which serial adapter of a USB capture that holds several")
+    add_sample_stream_args(g)
+
+
+def add_sample_stream_args(g) -> None:
+    """A bare stream of logic samples has no header: its rate and sample size are given."""
+    g.add_argument("--samplerate", type=samplerate, metavar="RATE",
+                   help="the input is a bare stream of logic samples (sigrok-cli -O binary) taken at RATE, "
+                        "e.g. 1MHz, 500k, 250000")
+    g.add_argument("--unitsize", type=int, choices=(1, 2, 4),
+                   help="a sample stream's bytes a sample (channel N at bit N; default 1: eight channels)")
+
+
+def samplerate(text: str) -> float:
+    """``--samplerate 1MHz``: samples a second."""
+    from ..sources.sigrok import parse_samplerate
+    try:
+        rate = parse_samplerate(text)
+    except ValueError:
+        rate = 0
+    if rate <= 0:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a rate such as 1MHz, 500k or 250000")
+    return rate
 
 
 def add_time_args(p: argparse.ArgumentParser) -> None:
@@ -215,7 +236,7 @@ def options_from(args: argparse.Namespace) -> Options:
                    tz=getattr(args, "tz", None), start_time=getattr(args, "start_time", None),
                    channels=getattr(args, "channels", None), adapter=getattr(args, "adapter", None),
                    usb_device=getattr(args, "usb_device", None), samplerate=getattr(args, "samplerate", None),
-                   explicit=frozenset(given))
+                   unitsize=getattr(args, "unitsize", None) or 1, explicit=frozenset(given))
 
 
 # -q/--quiet: warnings are not said (set by cli/main.py for the command running;

@@ -26,9 +26,9 @@ from .common import add_input_args, open_inputs, run_tap
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("convert", help="convert a capture to MCAP, JSON Lines or pcapng (" + ", ".join(WRITERS) + ")",
-                       description="Convert raw dumps, a socat log or a recording to MCAP (re-dissectable, "
-                                   "Foxglove-readable), JSON Lines or pcapng (Wireshark); the output's suffix "
-                                   "chooses: " + ", ".join(WRITERS) + ".")
+                       description="Convert a capture (any input decode reads: see INPUT) to MCAP "
+                                   "(re-dissectable, Foxglove-readable), JSON Lines or pcapng (Wireshark); the "
+                                   "output's suffix chooses: " + ", ".join(WRITERS) + ".")
     add_input_args(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT" + "|OUT".join(WRITERS))
     p.add_argument("--force", action="store_true", help="overwrite OUT if it exists")

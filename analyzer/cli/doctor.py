@@ -30,6 +30,7 @@ from ..analysis.findings import Finding
 from ..capture import Capture, open as open_capture, open_live
 from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
+from ..sources import registry
 from ..styles import ERROR, SEVERITY_STYLE, WARNING
 from ..words import counted
 from .common import (
@@ -39,10 +40,10 @@ from .common import (
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("doctor", help="say what is wrong with the link, and what to try",
-                       description="Findings about the wiring and the devices from a capture (socat log, raw "
-                                   "dumps, MCAP) or live from one or two ports.")
+                       description="Findings about the wiring and the devices from a capture (see INPUT), or "
+                                   "live from one or two ports.")
     p.add_argument("inputs", nargs="+", metavar="INPUT|PORT",
-                   help="capture files, or one or two serial ports (device names or pyserial URLs)")
+                   help=f"{registry.input_help()}; or one or two serial ports (device names or pyserial URLs)")
     add_quiet_arg(p)
     add_serial_args(p)
     p.add_argument("--format", choices=("text", "json"), default="text")
@@ -150,7 +151,7 @@ def _found_after(f: Finding, doctor: WiringDoctor) -> str | None:
     if after is not None:
         return f"{after:.1f} s of traffic"
     if f.first_seen_event is not None:
-        return f"{f.first_seen_event:,} events"
+        return counted(f.first_seen_event, "event")
     return None
 
 
@@ -198,8 +199,8 @@ def scan_baud(ports: list[str], options, args: argparse.Namespace) -> int:
         rows.append({"baud": rate, "bytes": total, "decoded": round(good / total, 3) if total else 0.0,
                      "good_frames": frames})
         if args.format == "text":
-            print(f"{rate:>7} baud: {total:6d} bytes, {good / total if total else 0:5.0%} decode, "
-                  f"{frames} good frames", flush=True)
+            print(f"{rate:>7} baud: {counted(total, 'byte'):>12}, {good / total if total else 0:5.0%} decode, "
+                  f"{counted(frames, 'good frame')}", flush=True)
     verdict, best = scan_verdict(rows)
     if args.format == "json":
         print(json.dumps({"ports": ports, "rates": rows, "best": best, "verdict": verdict}, indent=2))

@@ -32,6 +32,8 @@ from ..dataset.export import Job, Outcome, export, make_dataset_folder
 from ..listeners.printer import NotePrinter
 from ..outfile import OutputRefused, show
 from ..runner import ERROR, WARNING, Note
+from ..sources import registry
+from ..words import counted
 from ..writers import WRITERS, file_output, folder_output, holds_many_captures
 from . import common
 from .common import UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
@@ -45,9 +47,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                                    "pcapng file for Wireshark (-o FILE.pcapng; docs/wireshark.md). Each INPUT "
                                    "is one capture; join the files of one capture with '+' (ctl.bin+dev.bin).")
     p.add_argument("inputs", nargs="+", metavar="INPUT",
-                   help="a capture file (socat log, MCAP recording, raw dump, …), FILE+FILE (two raw dumps "
-                        "of lines A and B, or the parts of one recording), a folder of captures, or a quoted "
-                        "pattern; with --spark also a URI (file://, hdfs://, s3a://)")
+                   help="a capture file, FILE+FILE (two raw dumps of lines A and B, or the parts of one "
+                        "recording), a folder of captures, or a quoted pattern; with --spark also a URI (file://, "
+                        f"hdfs://, s3a://). The captures read: {registry.input_kinds()}")
     p.add_argument("-o", "--output", required=True, metavar="DIR|FILE.pcapng",
                    help="the dataset folder (made if absent), or one pcapng file for Wireshark; "
                         "with --spark also a URI (file://, hdfs://, s3a://)")
@@ -101,8 +103,9 @@ def run(args: argparse.Namespace) -> int:
     events = sum(o.rows.get("events", 0) for o in exported)
     txns = sum(o.rows.get("transactions", 0) for o in exported)
     findings = sum(o.rows.get("findings", 0) for o in exported)
-    print(f"gimbalscope: exported {len(exported)} of {len(outcomes)} captures to {show(root)}: "
-          f"{events:,} events, {txns:,} transactions, {findings:,} findings", file=sys.stderr)
+    print(f"gimbalscope: exported {len(exported)} of {counted(len(outcomes), 'capture')} to {show(root)}: "
+          f"{counted(events, 'event')}, {counted(txns, 'transaction')}, {counted(findings, 'finding')}",
+          file=sys.stderr)
     return said_skipped(outcomes)
 
 
@@ -138,8 +141,8 @@ def run_to_file(args: argparse.Namespace, jobs: list[Job]) -> int:
     finally:
         shutil.rmtree(parts, ignore_errors=True)
     packets = sum(o.rows.get("packets", 0) for o in exported)
-    print(f"gimbalscope: exported {len(exported)} of {len(outcomes)} captures to {show(path)}: "
-          f"{packets:,} packets", file=sys.stderr)
+    print(f"gimbalscope: exported {len(exported)} of {counted(len(outcomes), 'capture')} to {show(path)}: "
+          f"{counted(packets, 'packet')}", file=sys.stderr)
     return said_skipped(outcomes)
 
 

@@ -40,6 +40,7 @@ from ..capture import Capture
 from ..formats import mcap_schemas as S
 from ..info import CaptureInfo
 from ..listeners import PositionFinder
+from ..sources import registry
 from ..outfile import AtomicOutput, check_output, show
 from ..output import print_out
 from .common import add_serial_args, open_inputs, run_tap, warn
@@ -81,8 +82,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                     "CAPTURE, a template for gimbal 1.1.1 on lines A and B.",
         epilog="example: gimbalscope foxglove layout site.mcap > gimbal.json")
     layout.add_argument("inputs", nargs="*", metavar="CAPTURE",
-                        help="a socat -x -v log, an MCAP recording (or the parts of one), a raw single-line "
-                             "dump, or two raw dumps (line A, line B); none: a template")
+                        help=f"{registry.input_help()}; none: a template")
     layout.add_argument("-o", "--output", metavar="FILE", help="write the layout to FILE (default: standard output)")
     layout.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     add_serial_args(layout)

@@ -31,7 +31,9 @@ from ..runner import Listener, TapRunner
 from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
-from .common import UsageError, add_filter_arg, add_serial_args, build_filter, channels, options_from, positive_float
+from .common import (
+    UsageError, add_filter_arg, add_sample_stream_args, add_serial_args, build_filter, channels, options_from,
+    positive_float)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -55,22 +57,9 @@ def add_samples_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--samples", metavar="FILE",
                    help="read logic samples instead of ports: - for standard input (sigrok-cli --continuous "
                         "-O binary ... | gimbalscope live --samples - --samplerate 1MHz)")
-    g.add_argument("--samplerate", type=samplerate, metavar="RATE", help="the samples' rate, e.g. 1MHz, 500k, 250000")
-    g.add_argument("--unitsize", type=int, choices=(1, 2, 4), default=1,
-                   help="bytes a sample (channel N at bit N; default 1: eight channels)")
+    add_sample_stream_args(g)
     g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
                    help="the channels of line A and line B (D0 or 0 …; default: the first two that toggle)")
-
-
-def samplerate(text: str) -> float:
-    from ..sources.sigrok import parse_samplerate
-    try:
-        rate = parse_samplerate(text)
-    except ValueError:
-        rate = 0
-    if rate <= 0:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a rate such as 1MHz, 500k or 250000")
-    return rate
 
 
 def add_tui_args(p: argparse.ArgumentParser) -> None:
@@ -269,7 +258,7 @@ def run_samples(args: argparse.Namespace) -> int:
         # the TUI reads keys from standard input, which carries the samples: keep
         # the pipe on a descriptor of its own and give the TUI the terminal (as less does)
         samples = _pipe_aside_terminal_in() or samples
-    capture = open_samples(samples, args.samplerate, args.unitsize, options_from(args), given=args.samples)
+    capture = open_samples(samples, args.samplerate, args.unitsize or 1, options_from(args), given=args.samples)
     return tap(capture, args, args.record)
 
 

@@ -10,11 +10,12 @@ import os
 import signal
 import sys
 
+from ..docs import page
 from ..errors import DatasetError
 from ..extras import missing_extra
 from ..outfile import OutputError, one_line
 from ..output import StdoutError, flush_stdout, stdout_error
-from ..sources import CaptureError
+from ..sources import CaptureError, formats
 from ..sources.meter import READS
 from ..version import __version__
 from . import (
@@ -40,7 +41,10 @@ class OneLineParser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     p = OneLineParser(prog="gimbalscope",
-                      description="Protocol analyzer for servo pan-tilt gimbals (serial command set rev 1.9).")
+                      description="Protocol analyzer for servo pan-tilt gimbals (serial command set rev 1.9).",
+                      epilog=f"Captures read: {', '.join(formats())}; live: serial ports (device names, "
+                             "pyserial URLs) and logic sample streams. Logic analysers and USB captures: "
+                             f"{page('instruments.md')}")
     p.add_argument("--version", action="version", version=f"gimbalscope {__version__}")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     decode.register(sub)

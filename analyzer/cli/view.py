@@ -13,8 +13,7 @@ from .common import UsageError, add_filter_arg, add_input_args, build_filter, op
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("view", help="open a capture in the TUI",
-                       description="Open a capture in the TUI: a socat -x -v log, an MCAP recording, a raw "
-                                   "single-line dump, or two raw dumps (line A, line B).")
+                       description="Open a capture (see INPUT) in the TUI.")
     add_input_args(p)
     add_filter_arg(p, "start with this filter")
     p.add_argument("--keymap", metavar="FILE.toml", help="TUI key bindings: binding id = \"keys\"")

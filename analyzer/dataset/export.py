@@ -24,6 +24,7 @@ from ..outfile import OutputRefused, show
 from ..runner import Listener, TapRunner
 from ..sources import CaptureError
 from ..sources.meter import READS
+from ..words import counted
 
 REPORT_EVERY = 0.25   # seconds between a job's reports of the bytes it has read
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -66,7 +67,7 @@ def cut_mcap(path: str) -> str | None:
                 return None   # no MCAP: the capture's own reader says what it is
             f.seek(0, os.SEEK_END)
             if f.tell() < 2 * len(MCAP_MAGIC):
-                return f"{show(path)}: cut short (an MCAP file of {f.tell()} bytes)"
+                return f"{show(path)}: cut short (an MCAP file of {counted(f.tell(), 'byte')})"
             f.seek(-len(MCAP_MAGIC), os.SEEK_END)
             if f.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
                 return (f"{show(path)}: cut short (no MCAP footer: a killed recording?); "
@@ -137,8 +138,6 @@ def run_job(job: Job, progress=None) -> Outcome:
 
 
 def _export(job: Job, local: tuple[str, ...], out: Outcome, progress) -> None:
-    from ..writers.parquet import ParquetDatasetWriter, capture_key
-
     name = out.capture
     for path in local:
         if path.lower().endswith(".mcap"):
@@ -156,6 +155,8 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress) -> None:
         if job.file is not None:
             writer = _file_writer(job, info)
         else:
+            # pyarrow (the fleet extra) only for a dataset: a pcapng file needs the base install alone
+            from ..writers.parquet import ParquetDatasetWriter, capture_key
             writer = ParquetDatasetWriter(job.root, info, capture=name, site=site, key=capture_key(job.paths))
         check = WiringCheck()   # swapped lines, a wrong rate, not this protocol: said, as decode says them
         listeners = [check, writer] if progress is None else [_Reporter(job.index, progress), check, writer]

@@ -30,16 +30,25 @@ import numpy as np
 STANDARD_RATES = (110, 150, 300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 31250, 38400, 57600, 115200,
                   230400, 250000, 460800, 921600, 1000000, 2000000)
 NEAR = 0.08           # a rate further than 8 % from every standard one is taken as set that way
+SCALED_NEAR = 0.04    # ... and one a power of ten off a standard rate by 4 % at most, a sample rate typed wrong
 FIT = 0.25            # an interval fits a bit time within a quarter bit
 ENOUGH_EDGES = 48     # edges before decoding starts (about three characters); twice this are measured
 MIN_EDGES = 6         # fewer: no rate can be measured (--baud decodes such a line)
 SHORT_SHARE = 0.4     # pulses under half a bit beyond this share of the intervals: not this bit time
+# A measure is sure when it rests on this many intervals (about two characters'
+# worth) and nearly all fit: fewer, and a glitch or two could have made it.
+SURE_INTERVALS = 16
+SURE_FIT = 0.75    # (clean captures fit 78-85 %: a quarter-bit tolerance at a few samples a bit)
 
 
 class Measured(NamedTuple):
     bit: float        # ticks a bit
     fit: float        # the share of intervals a whole number of bits long
     intervals: int    # how many were measured
+
+    @property
+    def sure(self) -> bool:
+        return self.intervals >= SURE_INTERVALS and self.fit >= SURE_FIT
 
 
 def measure_bit(ticks: np.ndarray, min_bit: float = 0.0) -> Measured | None:
@@ -117,6 +126,23 @@ def nominal_rate(rate: float) -> int | None:
     """The standard rate ``rate`` (bit/s) is nearest to, within NEAR; None if none is."""
     best = min(STANDARD_RATES, key=lambda r: abs(rate - r) / r)
     return best if abs(rate - best) / best <= NEAR else None
+
+
+def power_of_ten_off(rate: float) -> int | float | None:
+    """The power of ten (10, 1000, 0.01, …) that takes ``rate``, near no standard
+    rate, onto one: what a sample rate typed a unit off (10 kHz for 1 MHz) does
+    to every measured rate. None when ``rate`` is standard or no such power is."""
+    if nominal_rate(rate) is not None:
+        return None
+    for exponent in (1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 6, -6):   # the nearest first
+        factor = 10 ** exponent
+        scaled = rate * factor
+        best = min(STANDARD_RATES, key=lambda r: abs(scaled - r) / r)
+        # closer than NEAR: a line really set off the standard rates (MIFARE's
+        # 106,000 bit/s) is not 1,000,000 typed a unit off
+        if abs(scaled - best) / best <= SCALED_NEAR:
+            return factor
+    return None
 
 
 def named_rate(rate: float) -> int:

@@ -24,6 +24,9 @@ class LineReport:
     measured: float | None = None       # bit/s, from the edges (None: too few)
     nominal: int | None = None          # the standard rate it is nearest, or the --baud given
     given: bool = False                 # the rate was given (--baud), not measured
+    measured_from: int = 0              # the intervals between edges the measure rests on
+    rate_fit: float = 0.0               # the share of them a whole number of bits long
+    rate_sure: bool = False             # enough of them, nearly all whole bits (bitrate.Measured.sure)
     inverted: bool = False              # idle low: read without a transceiver, or wires crossed
     data_bits: int = 8
     parity: str = "N"

@@ -42,6 +42,7 @@ OFF_GRID = 0.3         # an edge this far (in bits) from a bit boundary is off t
 RATE_ERRORS = 4        # framing errors in a row of characters that make the rate be measured again
 MAX_CHANGES = 4        # rate changes followed within one block of edges
 WINDOW = 2 * ENOUGH_EDGES   # edges a rate is measured on
+HOLD_EDGES = 4 * WINDOW     # edges of a run of errors held back for the next block, at most
 MAX_WINDOWS = 4096     # windows tried before a line is said to show no rate (about 200,000 edges)
 KEEP_WINDOWS = 4       # windows of edges kept behind the one tried next, while no rate is found
 FORMAT_EDGES = 2400    # edges the format is told from (about five hundred characters: a counter
@@ -56,6 +57,7 @@ class Char(NamedTuple):
     tick: int                    # the start bit's edge
     value: int | None
     fault: Problem | None = None
+    off_grid: bool = False       # an edge inside it off the bit grid (two senders at once)
 
 
 class SoftUart:
@@ -127,6 +129,7 @@ class SoftUart:
             self.bit = m.bit
             r.measured = self.rate / m.bit
             r.nominal = named_rate(r.measured)
+            r.measured_from, r.rate_fit, r.rate_sure = m.intervals, m.fit, m.sure
         else:
             start = 0
             m = measure_bit(self.ticks[:WINDOW], self.min_bit)   # the clock, for the doctor
@@ -161,7 +164,9 @@ class SoftUart:
                 return start, m
             if self.min_bit and self.too_fast is None:
                 fast = measure_bit(window, MIN_BIT)
-                if fast is not None:
+                # "sampled too slowly" is advice to buy a faster analyser: only
+                # when many whole bits say so, never from a few glitches
+                if fast is not None and fast.sure:
                     self.too_fast = self.rate / fast.bit
             if not full:
                 return None
@@ -250,6 +255,13 @@ class SoftUart:
             chars, used, level = self._read(self.ticks, self.level, self.fmt, self.bit, self.end)
             slowed = self._slowed_down(chars) if changes < MAX_CHANGES else None
             if slowed is None:
+                held = None if final or changes >= MAX_CHANGES else self._held_back(chars)
+                if held is not None:
+                    # a run of errors still too short to judge: read again with
+                    # the next edges, however the capture is cut into blocks
+                    self._commit(chars[:held], out)
+                    self._cut_at(chars[held].tick)
+                    return out
                 self._commit(chars, out)
                 self.ticks, self.level = self.ticks[used:], level
                 self._clean_upto = max(0, self._clean_upto - used)
@@ -303,7 +315,11 @@ class SoftUart:
                     if r.first_error is None:
                         r.first_error = c.tick / self.rate
             if c.value is not None:
+                # counted with the characters they are of, as they stand: a break
+                # is no character, and characters read again after a rate change
+                # were never committed the first time
                 r.characters += 1
+                r.off_grid += c.off_grid
         out.extend(chars)
 
     # ------------------------------------------------------------------ rate changes
@@ -360,14 +376,10 @@ class SoftUart:
         reads them better."""
         if self.report.given or len(chars) < RATE_ERRORS:
             return None
-        bad = [i for i, c in enumerate(chars) if c.fault is not None and c.fault.id is not LINE_PARITY]
+        bad = _misread(chars)
         if len(bad) < RATE_ERRORS:
             return None
-        first = bad[0]
-        gap = 2 * self.fmt.bits * self.bit
-        keep = first
-        while keep > 0 and chars[keep].tick - chars[keep - 1].tick < gap:
-            keep -= 1
+        keep = self._run_start(chars, bad[0])
         after = chars[keep:]
         if sum(1 for c in after if c.fault is not None) < max(RATE_ERRORS, len(after) // 4):
             return None
@@ -380,6 +392,51 @@ class SoftUart:
         if sum(1 for c in again if c.fault is not None) * 2 >= sum(1 for c in after if c.fault is not None):
             return None
         return keep, m.bit
+
+    def _run_start(self, chars: list[Char], first: int, gap: float | None = None) -> int:
+        """The first character of the run that holds ``chars[first]``: back to
+        the silence before it (a rate changes between messages): ``gap`` ticks,
+        by default two characters, or longer where the run's characters come
+        further apart (a slower rate's, read at this one)."""
+        if gap is None:
+            gap = 2 * self.fmt.bits * self.bit
+            ticks = [c.tick for c in chars[first:]]
+            if len(ticks) > 2:
+                gap = max(gap, 1.5 * float(np.median(np.diff(ticks))))
+        keep = first
+        while keep > 0 and chars[keep].tick - chars[keep - 1].tick < gap:
+            keep -= 1
+        return keep
+
+    def _held_back(self, chars: list[Char]) -> int | None:
+        """Where to stop committing ``chars`` when the last of them are a run
+        after a silence that may still turn out to be at another rate: a few
+        characters, or errors fewer than ``_slowed_down`` judges, with no silence
+        after them yet. The run's first character is returned, and the run is
+        read again once more edges came, so a rate change is seen however the
+        capture is cut into blocks. None: commit them all. Held edges stay few:
+        past HOLD_EDGES the run is what it is."""
+        if self.report.given or not chars:
+            return None
+        if self.end - int(self.ticks[-1]) > 3 * self.fmt.bits * self.bit:
+            return None    # the line is silent since: the run has ended
+        # back over characters up to a character of half this rate apart (a
+        # slower rate's first ones may read as valid): holding a few more is harmless
+        keep = self._run_start(chars, len(chars) - 1, gap=2.5 * (self.fmt.bits + 1) * self.bit)
+        run = chars[keep:]
+        bad = len(_misread(run))
+        if bad >= RATE_ERRORS or (bad == 0 and len(run) > RATE_ERRORS):
+            return None
+        if self.ticks.size - int(np.searchsorted(self.ticks, run[0].tick, side="left")) > HOLD_EDGES:
+            return None
+        return keep
+
+    def _cut_at(self, tick: int) -> None:
+        """Drop the edges before ``tick`` (their characters are committed)."""
+        cut = int(np.searchsorted(self.ticks, tick, side="left"))
+        self.level = self._level_at(cut)
+        self.ticks = self.ticks[cut:]
+        self._clean_upto = max(0, self._clean_upto - cut)
 
     # ------------------------------------------------------------------ reading
     def _read(self, ticks: np.ndarray, level: int, fmt: LineFormat, bit: float, end: int,
@@ -434,31 +491,38 @@ class SoftUart:
         else:
             parity_bad = np.zeros(len(starts), dtype=bool)
         brk = framing & (data.sum(axis=1) == 0)
-        if not probe:
-            self._count_off_grid(ticks, s_arr, span, bit)
+        off_grid = np.zeros(len(starts), dtype=bool) if probe else _off_grid(ticks, s_arr, span, bit)
         chars: list[Char] = []
         for i, s in enumerate(starts):
             if brk[i]:
                 chars.append(Char(s, None, LINE_BREAK.problem(f"line held at the active level from {s / self.rate:.6f} s")))
             elif framing[i]:
                 chars.append(Char(s, int(values[i]), LINE_FRAMING.problem(
-                    f"stop bit at the active level (0x{int(values[i]):02X})")))
+                    f"stop bit at the active level (0x{int(values[i]):02X})"), bool(off_grid[i])))
             elif parity_bad[i]:
-                chars.append(Char(s, int(values[i]), LINE_PARITY.problem(f"{fmt.parity} parity bit wrong")))
+                chars.append(Char(s, int(values[i]), LINE_PARITY.problem(f"{fmt.parity} parity bit wrong"),
+                                  bool(off_grid[i])))
             else:
-                chars.append(Char(s, int(values[i])))
+                chars.append(Char(s, int(values[i]), None, bool(off_grid[i])))
         return chars, used, level ^ (used & 1)
 
-    def _count_off_grid(self, ticks: np.ndarray, starts: np.ndarray, span: float, bit: float) -> None:
-        """Characters with an edge inside them off the bit grid by OFF_GRID bits."""
-        if starts.size == 0:
-            return
-        inside = ticks[(ticks > starts[0]) & (ticks < starts[-1] + span)]
-        if inside.size == 0:
-            return
+
+def _misread(chars: list[Char]) -> list[int]:
+    """The indices of characters read with a framing error or as a break: what a
+    wrong rate gives (a parity error alone is a disturbed bit)."""
+    return [i for i, c in enumerate(chars) if c.fault is not None and c.fault.id is not LINE_PARITY]
+
+
+def _off_grid(ticks: np.ndarray, starts: np.ndarray, span: float, bit: float) -> np.ndarray:
+    """For each character (by its start), whether an edge inside it is off the bit
+    grid by OFF_GRID bits. Edges between characters (false starts, noise) are of
+    none: only those up to a character's stop bit are judged."""
+    off_grid = np.zeros(starts.size, dtype=bool)
+    inside = ticks[(ticks > starts[0]) & (ticks < starts[-1] + span)]
+    if inside.size:
         which = np.searchsorted(starts, inside, side="right") - 1
         phase = (inside - starts[which]) / bit
         off = (phase < span / bit) & (np.abs(phase - np.rint(phase)) > OFF_GRID)
-        if off.any():
-            self.report.off_grid += int(np.unique(which[off]).size)
+        off_grid[which[off]] = True
+    return off_grid
 

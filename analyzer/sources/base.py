@@ -130,7 +130,21 @@ class InstrumentSettings:
     stop_bits: float | None = None
     adapter: str | None = None       # a USB capture's adapter: "ftdi", "cp210x" or "ch34x"
     usb_device: str | None = None    # "BUS.DEV": which device of a USB capture
-    samplerate: float | None = None  # samples a second of a bare sample stream (live --samples)
+    samplerate: float | None = None  # samples a second of a bare sample stream (--samplerate)
+    unitsize: int = 1                # its bytes a sample (channel N at bit N)
+
+    def given(self) -> list[str]:
+        """The fields set that only some formats read (``Reader.reads``): the
+        channels, a USB capture's adapter and device, a sample stream's rate and
+        size. (The serial settings are read by every format.)"""
+        return [name for name, unset in INPUT_KIND_FIELDS.items() if getattr(self, name) != unset]
+
+
+# InstrumentSettings' fields that only some formats read, each with its unset value,
+# and the option that sets it (as messages name it)
+INPUT_KIND_FIELDS = {"channels": (), "adapter": None, "usb_device": None, "samplerate": None, "unitsize": 1}
+OPTION_OF = {"channels": "--channels", "adapter": "--adapter", "usb_device": "--usb-device",
+             "samplerate": "--samplerate", "unitsize": "--unitsize"}
 
 
 @dataclass(frozen=True)
@@ -170,16 +184,26 @@ class Reader:
     suffixes: tuple[str, ...] = ()                   # file names that claim the format (lower case) ...
     misnamed: str = ""                               # ... and the error when the head says otherwise
     vet: Callable[[Input], None] | None = None       # raises CaptureError for an input it must not take
+    # a format with no head of its own, read when a setting says the input is one
+    # (a bare stream of logic samples: --samplerate)
+    chosen_by: Callable[[ReadSettings], bool] | None = None
+    reads: frozenset[str] = frozenset()              # the InstrumentSettings.given() fields it reads
+    given_as: str = ""                               # after the name in the commands' help: how it is given
 
     def __post_init__(self) -> None:
-        if not self.magic and self.looks is None:
-            raise ValueError(f"reader {self.name!r}: give magic bytes or a head check")
+        if not self.magic and self.looks is None and self.chosen_by is None:
+            raise ValueError(f"reader {self.name!r}: give magic bytes, a head check or the setting that chooses it")
 
     def recognises(self, head: bytes) -> bool:
         """Is ``head`` (an input's decompressed head) the start of this format?"""
         if self.magic and head.startswith(self.magic):
             return True
         return self.looks is not None and self.looks(head)
+
+    def claims(self, head: bytes, settings: ReadSettings | None) -> bool:
+        """Does this reader read an input of ``head`` with ``settings``?"""
+        return self.recognises(head) or (self.chosen_by is not None and settings is not None
+                                         and self.chosen_by(settings))
 
     def claimed_by_name(self, path: str) -> bool:
         """Does the file name say it is this format (``rec.mcap``)?"""

@@ -34,6 +34,7 @@ from ..formats import pdu
 from ..formats.pcapng_blocks import EPB as _EPB, IDB as _IDB, MAGIC, SHB as _SHB
 from ..formats.pcapng_blocks import blocks as _blocks, options as _options, ts_scale as _scale
 from ..lines import LINE_A, LINE_B, Chunk
+from ..words import counted
 from .base import Reader, ReadSettings, Source
 from .files import Input
 
@@ -161,10 +162,11 @@ class PcapngSource(Source):
                     self.start_time = ns / 1e9
                 yield Chunk(line, data, (ns - start) / 1e9)
         if foreign and say:
-            self.warn(f"{self.name}: {foreign} packets are not gimbalscope's (another link type or dissector); "
-                      "skipped")
+            self.warn(f"{self.name}: {counted(foreign, 'packet')} not gimbalscope's (another link type or "
+                      "dissector); skipped")
         if other_lines and say:
-            self.warn(f"{self.name}: {other_lines} packets of lines the first capture does not have; skipped")
+            self.warn(f"{self.name}: {counted(other_lines, 'packet')} of lines the first capture does not have; "
+                      "skipped")
 
 
 def _quiet(_msg: str) -> None:
@@ -176,7 +178,7 @@ def open_pcapng(inputs: list[Input], settings: ReadSettings) -> PcapngSource:
 
 
 READER = Reader(
-    "pcapng (gimbalscope packets)", open_pcapng, magic=MAGIC,
+    "pcapng (gimbalscope packets)", open_pcapng, magic=MAGIC, given_as=" as export and the Wireshark extcap write it",
     crowded="a pcapng file carries its lines; give it on its own",
     suffixes=(".pcapng",), misnamed="not a pcapng file (it does not start with a section header block)",
 )

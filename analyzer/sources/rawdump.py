@@ -122,4 +122,5 @@ def _any_bytes(head: bytes) -> bool:
     return True   # raw bytes have no signature: the fallback, tried last
 
 
-READER = Reader("raw dump", open_raw_dumps, looks=_any_bytes, takes=(1, 2), vet=reject_text)
+READER = Reader("raw dump", open_raw_dumps, looks=_any_bytes, takes=(1, 2), vet=reject_text,
+                given_as=" of one line, or two (line A, line B)")

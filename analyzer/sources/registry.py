@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from ..errors import CaptureError
 from . import pcapngfile, rawdump, signatures, socatlog, usb
-from .base import Reader, ReadSettings, Source
+from .base import OPTION_OF, Reader, ReadSettings, Source
 from .files import Input
 
 
@@ -60,10 +60,13 @@ def _vet_mcap(inp: Input) -> None:
 MCAP = Reader(
     # the start of mcapscan.MAGIC: a file that goes on differently is told apart by mcapfile
     "MCAP recording", _open_mcap, magic=b"\x89MCAP",
-    takes=ANY_COUNT, vet=_vet_mcap,
+    takes=ANY_COUNT, vet=_vet_mcap, given_as=", or the parts of one in any order",
     # named a recording but not one: a damaged file, not a raw dump to decode as noise
     suffixes=(".mcap",), misnamed="not an MCAP file (it does not start with the MCAP magic bytes)",
 )
+
+LOGIC_CHANNELS = frozenset({"channels"})   # the logic analysers' formats choose channels (--channels)
+
 
 def _open_sigrok(inputs: list[Input], settings: ReadSettings) -> Source:
     from .sigrok import open_sigrok
@@ -86,27 +89,41 @@ def _open_saleae_binary(inputs: list[Input], settings: ReadSettings) -> Source:
 
 
 SIGROK = Reader(  # the logic analysers' formats (docs/instruments.md): readers loaded when opened
-    "sigrok session", _open_sigrok, looks=signatures.looks_like_session,
+    "sigrok session", _open_sigrok, reads=LOGIC_CHANNELS, looks=signatures.looks_like_session,
+    given_as=" (.sr)",
     crowded="a sigrok session holds its channels; give it on its own",
-    suffixes=(".sr",), misnamed="not a sigrok session (a .sr file is a zip starting with sigrok's version "
-                                "and metadata)",
+    suffixes=(".sr",), misnamed="not a sigrok session (a .sr file is a zip whose first member is sigrok's "
+                                "version, its metadata or a chunk of samples, logic-1…)",
 )
 VCD = Reader(
-    "VCD", _open_vcd, looks=signatures.looks_like_vcd,
+    "VCD", _open_vcd, reads=LOGIC_CHANNELS, looks=signatures.looks_like_vcd, given_as=" (.vcd)",
     crowded="a VCD holds its channels; give it on its own",
     suffixes=(".vcd",), misnamed="not a VCD (a .vcd file starts with a $date, $version, $timescale, $scope "
                                  "or $var section)",
 )
 # One reader for both CSV exports: a .csv file is claimed by its name, and must then be one of them.
 SALEAE_CSV = Reader(
-    "Saleae CSV export", _open_saleae_csv, looks=signatures.looks_like_export,
+    "Saleae CSV export", _open_saleae_csv, reads=LOGIC_CHANNELS, looks=signatures.looks_like_export,
+    given_as=" (digital, or Async Serial table)",
     crowded="a Saleae CSV export holds its channels; give it on its own",
     suffixes=(".csv",), misnamed="not a Saleae Logic 2 export (a digital CSV starts Time [s],<channels>; "
                                  "an Async Serial data table name,type,start_time,duration,data)",
 )
 SALEAE_BINARY = Reader(
-    "Saleae binary export", _open_saleae_binary, magic=signatures.MAGIC, takes=(1, 2), vet=signatures.vet_binary,
+    "Saleae binary export", _open_saleae_binary, reads=LOGIC_CHANNELS, magic=signatures.MAGIC, takes=(1, 2),
+    vet=signatures.vet_binary, given_as=" (one file a channel: one, or two for lines A and B)",
     crowded="Saleae binary exports are one file a channel: give one or two (line A, line B)",
+)
+
+def _open_sample_stream(inputs: list[Input], settings: ReadSettings) -> Source:
+    from .samplestream import open_sample_file
+    return open_sample_file(inputs, settings)
+
+
+SAMPLE_STREAM = Reader(   # what sigrok-cli -O binary writes: no header, so the sample rate given says it is one
+    "logic sample stream", _open_sample_stream, chosen_by=lambda settings: settings.instrument.samplerate is not None,
+    reads=LOGIC_CHANNELS | {"samplerate", "unitsize"}, given_as=" (sigrok-cli -O binary) with --samplerate",
+    crowded="a stream of logic samples holds its channels; give it on its own",
 )
 
 # Tried in order, most specific first: the first reader that recognises any of the
@@ -115,11 +132,12 @@ READERS: list[Reader] = [
     MCAP,               # magic bytes
     usb.READER,         # a pcap or pcapng of USB link types (usbmon, USBPcap): before gimbalscope's own pcapng
     pcapngfile.READER,  # magic bytes: gimbalscope's own pcapng (an export, a Wireshark capture through the extcap)
-    SIGROK,             # a zip whose first member is sigrok's version or metadata
+    SIGROK,             # a zip whose first member is sigrok's version, metadata or samples
     VCD,                # text starting with a VCD section ($timescale, $var, …)
     SALEAE_CSV,         # text whose first line is Time [s],… or the Async Serial table's columns
     SALEAE_BINARY,      # magic bytes <SALEAE>: one file a channel
     socatlog.READER,    # text whose first line is a socat chunk header
+    SAMPLE_STREAM,      # no head of its own: any input, when --samplerate says it is samples
     rawdump.READER,     # any bytes: the fallback, last
 ]
 
@@ -127,6 +145,16 @@ READERS: list[Reader] = [
 def formats() -> list[str]:
     """The names of the formats read, in the order they are tried."""
     return [r.name for r in READERS]
+
+
+def input_kinds() -> str:
+    """Every format read, as the help of each command that reads captures lists
+    them (one list: the registry's)."""
+    return "; ".join(r.name + r.given_as for r in READERS)
+
+
+def input_help() -> str:
+    return f"a capture: {input_kinds()}"
 
 
 def most_inputs() -> int:
@@ -141,12 +169,12 @@ def any_count_read() -> bool:
     return any(isinstance(r.takes, AnyCount) for r in READERS)
 
 
-def reader_for(inputs: list[Input]) -> Reader:
-    """The reader of ``inputs``, after the checks of every reader that cares:
-    a CaptureError names the input that cannot be read and why."""
+def reader_for(inputs: list[Input], settings: ReadSettings | None = None) -> Reader:
+    """The reader of ``inputs`` (read with ``settings``), after the checks of every
+    reader that cares: a CaptureError names the input that cannot be read and why."""
     _refuse_misnamed(inputs)
     for reader in READERS:
-        claimed = [i for i in inputs if reader.recognises(i.head)]
+        claimed = [i for i in inputs if reader.claims(i.head, settings)]
         if not claimed:
             continue
         if len(inputs) not in reader.takes:
@@ -162,7 +190,20 @@ def reader_for(inputs: list[Input]) -> Reader:
 
 def source_for(inputs: list[Input], settings: ReadSettings) -> Source:
     """The source reading ``inputs`` (opened, heads read)."""
-    return reader_for(inputs).opens(inputs, settings)
+    reader = reader_for(inputs, settings)
+    source = reader.opens(inputs, settings)
+    for field in settings.instrument.given():
+        if field not in reader.reads:
+            option = OPTION_OF[field]
+            source.warn_later(f"{inputs[0].name}: {option} ignored: read as {reader.name}, which takes no "
+                              f"{option} (it is for {_readers_of(field)})")
+    return source
+
+
+def _readers_of(field: str) -> str:
+    """The formats that read an instrument option, as a message lists them."""
+    names = [r.name for r in READERS if field in r.reads]
+    return names[0] if len(names) == 1 else f"{', '.join(names[:-1])} or {names[-1]}"
 
 
 def _refuse_misnamed(inputs: list[Input]) -> None:

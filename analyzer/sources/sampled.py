@@ -26,11 +26,12 @@ from dissectors.wire import LineSettings
 
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
-from ..physical.bitrate import named_rate
+from ..physical.bitrate import SURE_INTERVALS, named_rate, nominal_rate, power_of_ten_off
 from ..physical.charformat import LineFormat
 from ..physical.edges import NO_EDGES, Block, Edges, Waveform
 from ..physical.report import LineReport
 from ..physical.uart import Char, SoftUart
+from ..words import counted
 from .base import ReadSettings, Source
 
 MIN_SAMPLES_A_BIT = 4
@@ -44,8 +45,12 @@ class SampledSource(Source):
     clocks = 1                   # one analyser samples every channel
     wire_times = True            # a chunk's time is its first start bit's edge
 
-    def __init__(self, waveform: Waveform, settings: ReadSettings, description: str) -> None:
+    def __init__(self, waveform: Waveform, settings: ReadSettings, description: str,
+                 samplerate_given: bool = False) -> None:
+        """``samplerate_given``: the sample rate was typed by hand (a bare stream
+        of samples has none of its own), so a wrong one is worth a word."""
         super().__init__()
+        self.samplerate_given = samplerate_given
         self.waveform = waveform
         self.name = waveform.name
         self.description = description
@@ -74,6 +79,7 @@ class SampledSource(Source):
         self._pending: dict[str, list[Char]] = {line: [] for line in self.lines}
         self._sent: dict[str, int] = {}      # bytes yielded on each line (the faults' offsets)
         self._said = False                   # what the UARTs could not find out is said once
+        self._rate_checked: set[str] = set()  # lines whose measure was checked against the sample rate given
         self._measure()
 
     # ------------------------------------------------------------------ opening
@@ -154,6 +160,8 @@ class SampledSource(Source):
         for line, uart in self._uarts.items():
             if not uart.started and uart.ticks.size and uart.measure(final=self._ended):
                 self._pending[line] += uart.decode()
+            if self.samplerate_given and uart.started and line not in self._rate_checked:
+                self._check_samplerate(line, uart)
             self._check_rate(line, uart)
         if self._ended:                 # the whole capture was looked at: said before it is read
             self._say_lines(self.warn_later)
@@ -165,19 +173,58 @@ class SampledSource(Source):
         self._said = True
         for line, uart in self._uarts.items():
             r = uart.report
-            if uart.started and r.possible_formats and not r.given:
-                say(f"{self.name}: line {line} ({r.channel}) read as {r.format}; {_either(r.possible_formats)} "
-                    "would read its few characters as well (--data-bits, --parity and --stop-bits say which)")
+            if uart.started and not r.given and (r.possible_formats or not r.rate_sure):
+                say(self._guessed(line, r))
             elif not uart.started and uart.too_fast:
                 say(f"{self._sampled_too_slowly(line, named_rate(uart.too_fast))}: nothing decoded")
             elif not uart.started and r.toggles:
-                say(f"{self.name}: line {line} ({r.channel}): its {r.edges} edges show no bit rate; "
+                say(f"{self.name}: line {line} ({r.channel}): no bit rate in its {counted(r.edges, 'edge')}; "
                     "give it with --baud")
+
+    def _guessed(self, line: str, r: LineReport) -> str:
+        """What a line was read as when its few characters leave the rate or the
+        format a guess: how sure, and which options settle it."""
+        rate = named_rate(r.measured) if r.measured else r.nominal
+        said = f"{self.name}: line {line} ({r.channel}) read as {rate:,} bit/s {r.format}"
+        options = ["--data-bits", "--parity", "--stop-bits"]
+        if not r.rate_sure:
+            if r.measured_from < SURE_INTERVALS:
+                said += f"; the rate is a guess from only {counted(r.measured_from, 'interval')} between edges"
+            else:
+                said += (f"; the rate is a guess: {r.rate_fit:.0%} of its {r.measured_from:,} intervals between "
+                         "edges are whole bits")
+            options.insert(0, "--baud")
+        if r.possible_formats:
+            said += f"; {_either(r.possible_formats)} would read its few characters as well"
+        elif r.rate_sure:
+            options = []
+        return said + f" ({', '.join(options[:-1])} and {options[-1]} say which)" if options else said
+
+    def _check_samplerate(self, line: str, uart: SoftUart) -> None:
+        """A sample rate typed by hand that is a power of ten off makes every line's
+        rate that far off too, and decoding goes on at it without an error (answers
+        a hundred times late): said when a line's measure fits no standard rate
+        while the rate times a power of ten would."""
+        self._rate_checked.add(line)
+        r = uart.report
+        if r.given or not r.measured:
+            return
+        factor = power_of_ten_off(r.measured)
+        if factor is None:
+            return
+        self._rate_checked.update(self.lines)   # one sample rate for every line: said once
+        meant = hz(self.waveform.samplerate * factor).replace(" ", "")   # as the option is typed
+        self.warn_later(
+            f"{self.name}: line {line} ({r.channel}) measures {r.measured:,.0f} bit/s, near no standard rate; "
+            f"at --samplerate {meant} it would be {nominal_rate(r.measured * factor):,} bit/s: "
+            f"did you mean --samplerate {meant}?")
 
     def _feed(self, block: Block) -> None:
         for line, uart in self._uarts.items():
             e = block.edges.get(self.channel_of[line])
             self._pending[line] += uart.feed(e if e is not None else Edges(NO_EDGES, uart.level), block.end)
+            if self.samplerate_given and uart.started and line not in self._rate_checked:
+                self._check_samplerate(line, uart)
 
     def _check_rate(self, line: str, uart: SoftUart) -> None:
         """Under 4 samples a bit, only when the line's clean traffic says so: a

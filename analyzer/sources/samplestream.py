@@ -17,7 +17,8 @@ from typing import Iterator
 from ..errors import CaptureError
 from ..physical.edges import PackedSamples
 from .base import ReadSettings
-from .files import STDIN
+from ..words import counted
+from .files import STDIN, Input
 from .sampled import SampledSource, hz
 
 READ = 1 << 20   # at most a read; a pipe gives what it holds
@@ -32,6 +33,46 @@ def _reads(fd: int, name: str) -> Iterator[bytes]:
         if not data:
             return
         yield data
+
+
+def open_sample_file(inputs: list[Input], settings: ReadSettings) -> SampledSource:
+    """A stream of samples saved to a file (``sigrok-cli -O binary > f.bin``), read
+    as ``live --samples`` reads it, at the rate given (``--samplerate``): the
+    registry's reader for an input given with a sample rate."""
+    inp = inputs[0]
+    inst = settings.instrument
+    rate, unitsize = float(inst.samplerate or 0), inst.unitsize
+    stream = inp.stream()
+
+    def reads() -> Iterator[bytes]:
+        while True:
+            try:
+                data = stream.read(READ)
+            except OSError as e:
+                raise CaptureError(f"{inp.name}: cannot read: {e.strerror or e}") from None
+            if not data:
+                return
+            yield data
+
+    names = [f"D{i}" for i in range(unitsize * 8)]
+    waveform = PackedSamples(reads(), unitsize, names, rate, name=inp.name)
+    waveform.numbers = [str(i) for i in range(unitsize * 8)]
+    waveform.start_time = _start_time(inp, rate, unitsize)
+    return SampledSource(waveform, settings, inp.describe(f"logic samples at {hz(rate)}, "
+                                                          f"{counted(unitsize * 8, 'channel')}"),
+                         samplerate_given=True)
+
+
+def _start_time(inp: Input, rate: float, unitsize: int) -> float:
+    """When the first sample was taken, as a raw dump's first byte is dated: the
+    file's modification time less its duration at the rate given (docs/time.md)."""
+    try:
+        st = os.stat(inp.path)
+    except OSError:
+        return time.time()
+    if inp.compression is not None or not inp.regular:
+        return st.st_mtime
+    return st.st_mtime - st.st_size / unitsize / rate
 
 
 def open_sample_stream(path: str, samplerate: float, unitsize: int, settings: ReadSettings,
@@ -52,6 +93,6 @@ def open_sample_stream(path: str, samplerate: float, unitsize: int, settings: Re
     if own:
         waveform.close = lambda: os.close(fd)   # type: ignore[method-assign]
     source = SampledSource(waveform, settings, f"{name} (logic samples at {hz(samplerate)}, "
-                                               f"{unitsize * 8} channels)")
+                                               f"{unitsize * 8} channels)", samplerate_given=True)
     source.live = True
     return source

@@ -63,6 +63,7 @@ from dissectors.wire import LineSettings
 
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_B, Chunk
+from ..words import counted
 from .base import Reader, ReadSettings, Source
 from .files import HEAD, Input
 
@@ -466,7 +467,8 @@ class SocatLogSource(Source):
         it carries none)."""
         line, (sec, frac), length, at = current
         if len(data) != length:
-            tally.add("length", at, f"chunk says length={length} but carries {len(data)} bytes (log cut short?)")
+            tally.add("length", at, f"chunk says length={length} but carries {counted(len(data), 'byte')} "
+                                    "(log cut short?)")
         if not data:
             return None
         # the first byte started this long before the read, at the line's byte
@@ -532,6 +534,6 @@ def open_socat_log(inputs: list[Input], settings: ReadSettings) -> SocatLogSourc
 
 
 READER = Reader(
-    "socat -x -v log", open_socat_log, looks=looks_like_socat,
+    "socat -x -v log", open_socat_log, looks=looks_like_socat, given_as=" (both lines)",
     crowded="a socat log carries both lines; give it on its own",
 )

@@ -183,6 +183,7 @@ def open_usb(inputs: list[Input], settings: ReadSettings) -> USBSerialSource:
 
 
 READER = Reader(
-    "USB capture (usbmon, USBPcap)", open_usb, looks=looks_like_usb,
+    "USB capture (usbmon, USBPcap)", open_usb, looks=looks_like_usb, reads=frozenset({"adapter", "usb_device"}),
+    given_as=" of a serial adapter",
     crowded="a USB capture carries both lines; give it on its own",
 )

@@ -18,7 +18,15 @@ import pytest
 from tests.conftest import BUS, CTL, DEV, ROOT, SOCAT_LOG
 
 FLEET = ("pyarrow", "duckdb", "matplotlib")
-HINT = "pip install 'gimbalscope[fleet]'"
+
+
+def hint(extra: str) -> str:
+    """What a user pastes to add ``extra``: the pip of the venv the tests run in
+    (not the one on PATH), installing this clone's folder with the extra."""
+    return f"{sys.prefix}/bin/pip install -e '{ROOT}[{extra}]'"
+
+
+HINT = hint("fleet")
 
 
 def without(modules: tuple[str, ...], *args: str) -> subprocess.CompletedProcess:
@@ -68,6 +76,15 @@ def test_the_base_install_converts_to_every_file_format_without_the_fleet_stack(
         assert out.stat().st_size > 0
 
 
+def test_the_base_install_exports_to_pcapng_without_the_fleet_stack(tmp_path):
+    out = tmp_path / "both.pcapng"
+    r = without(FLEET, "export", BUS, SOCAT_LOG, "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "fleet" not in r.stderr
+    with open(out, "rb") as f:
+        assert f.read(4) == b"\x0a\x0d\x0d\x0a"   # pcapng's section header block
+
+
 @pytest.mark.parametrize("missing, args, needed", [
     (("pyarrow",), ("export", SOCAT_LOG, "-o", "{tmp}/fleet"), "pyarrow"),
     (FLEET, ("query", "{tmp}/fleet", "SELECT 1"), "pyarrow"),
@@ -101,5 +118,4 @@ def test_spark_without_the_spark_extra_says_what_to_install(tmp_path):
         r = without(("pyspark", "py4j"), *args, "--spark", "local[1]")
         assert r.returncode == 2, r.stderr
         assert r.stderr == ("gimbalscope: error: " + args[0] + " needs pyspark, which is not installed: it comes "
-                            "with the spark extra, pip install 'gimbalscope[spark]' (in a clone: pip install -e "
-                            "'.[spark]')\n")
+                            f"with the spark extra: {hint('spark')}\n")

@@ -71,8 +71,15 @@ def test_the_quick_start_line_works_as_written_and_installs_no_fleet_stack(tmp_p
                             env=env, timeout=120)
     assert export.returncode == 2
     assert export.stderr.strip().splitlines() == [
-        "gimbalscope: error: export needs pyarrow, which is not installed: it comes with the fleet extra, "
-        "pip install 'gimbalscope[fleet]' (in a clone: pip install -e '.[fleet]')"]
+        "gimbalscope: error: export needs pyarrow, which is not installed: it comes with the fleet extra: "
+        f"{clone}/.venv/bin/pip install -e '{clone}[fleet]'"]
+    # the base install writes Wireshark's pcapng with the same command, as the README says
+    pcapng = subprocess.run([os.path.join(clone, ".venv", "bin", "gimbalscope"), "export",
+                             "captures/demo-socat.log", "-o", "demo.pcapng"], cwd=clone, capture_output=True,
+                            text=True, env=env, timeout=120)
+    assert pcapng.returncode == 0, pcapng.stderr
+    with open(os.path.join(clone, "demo.pcapng"), "rb") as f:
+        assert f.read(4) == b"\x0a\x0d\x0d\x0a"   # a pcapng section header block
 
 
 def test_ci_installs_into_a_virtual_environment_only():

@@ -119,7 +119,7 @@ def test_each_sample_is_picked_by_its_reader(tmp_path, sample, packed):
 
 # every format, most specific first (docs/inputs.md, docs/instruments.md)
 FORMATS = ["MCAP recording", "USB capture (usbmon, USBPcap)", "pcapng (gimbalscope packets)", "sigrok session",
-           "VCD", "Saleae CSV export", "Saleae binary export", "socat -x -v log", "raw dump"]
+           "VCD", "Saleae CSV export", "Saleae binary export", "socat -x -v log", "logic sample stream", "raw dump"]
 
 
 def test_the_fallback_comes_last_and_the_names_are_listed():

@@ -121,3 +121,36 @@ def test_a_line_that_never_shows_a_rate_holds_bounded_edges():
         assert u.feed(Edges(ticks.astype(np.int64), 1), at + 1) == []
         kept.append(u.ticks.size)
     assert not u.started and max(kept) < 10_000 and report.edges == 1_000_000
+
+
+# ------------------------------------------------------------------ a slower rate, block by block
+
+def read_in_blocks(levels: np.ndarray, block: int) -> tuple[bytes, LineReport]:
+    """As a capture is read: the edges of each ``block`` samples, then the end."""
+    report = LineReport("A", "0", samplerate=RATE)
+    u = SoftUart(report)
+    ticks = edges_of(levels)
+    chars = []
+    for start in range(0, levels.size, block):
+        end = min(start + block, levels.size)
+        inside = ticks[(ticks >= start) & (ticks < end)]
+        chars += u.feed(Edges(inside, 1), end)
+    chars += u.finish()
+    return bytes(c.value for c in chars if c.value is not None and c.fault is None), report
+
+
+def test_a_slower_rate_is_followed_however_the_capture_is_cut_in_blocks():
+    # three P? frames at 9600 from 10 ms (to 38 ms), then from 90 ms two at 4800:
+    # read at 9600 the slower characters give framing errors and breaks (the
+    # first, F8, reads as a valid 0x80: four slow zero bits are eight fast ones),
+    # so the change is seen from the errors, in whatever blocks the samples come
+    # (the errors of one block alone are too few to judge)
+    p = bytes.fromhex("f80101010002503f94")
+    fast = back_to_back(p * 3, 0.010, 9600)
+    slow = back_to_back(p * 2, 0.010, 4800)   # (from the second part's start, at 80 ms)
+    levels = np.concatenate((uart_levels(fast, RATE, 9600, 0.080), uart_levels(slow, RATE, 4800, 0.060)))
+    for block in (levels.size, 65_536, 4_096, 1_024, 333):
+        data, report = read_in_blocks(levels, block)
+        assert data == p * 5, block
+        assert report.framing_errors == 0 and report.breaks == 0, block
+        assert [(c.t, round(c.after, -1)) for c in report.rate_changes] == [(0.090, 4800)], block
