@@ -313,13 +313,14 @@ def closed_port() -> int:
 
 
 @pytest.mark.parametrize("master, said", [
-    (f"spark://127.0.0.1:{closed_port()}", "cannot reach the Spark master: Connection refused"),
+    ("spark://127.0.0.1:{closed}", "cannot reach the Spark master: Connection refused"),
     ("spark://no-such-host.invalid:7077", "cannot reach the Spark master: no such host"),
     ("local[0]", "a local master needs at least one core"),
     ("mesos://x:5050", "not a Spark master"),
     ("yarn", "set HADOOP_CONF_DIR"),
 ])
 def test_a_master_that_cannot_be_used_is_one_line(tmp_path, master, said):
+    master = master.format(closed=closed_port())   # picked when run: test ids stay the same in every process
     env = {k: v for k, v in os.environ.items() if k not in ("HADOOP_CONF_DIR", "YARN_CONF_DIR")}
     for args in (["export", SOCAT_LOG, "-o", tmp_path / "ds"], ["report", tmp_path / "ds"]):
         r = run_cli(*args, "--spark", master, env=env)
