@@ -17,7 +17,7 @@ import shutil
 import stat
 import sys
 import tempfile
-from typing import BinaryIO
+from typing import BinaryIO, Iterator
 
 from ..errors import CaptureError
 from ..outfile import reason, show
@@ -189,6 +189,19 @@ class Input:
                 raise CaptureError(f"{self.name}: cannot read: {reason(e)}") from None
             return self._file
         return io.BufferedReader(Replay(self.head, self._rest, self.name), BLOCK)
+
+    def blocks(self, size: int) -> Iterator[bytes]:
+        """The whole input (``stream()``) in reads of at most ``size`` bytes; a
+        failed read is a CaptureError naming the input."""
+        f = self.stream()
+        while True:
+            try:
+                data = f.read(size)
+            except OSError as e:
+                raise CaptureError(f"{self.name}: cannot read: {reason(e)}") from None
+            if not data:
+                return
+            yield data
 
     @property
     def problem(self) -> str | None:

@@ -49,14 +49,7 @@ class RawDumpSource(Source):
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         inp = self.inputs[self.lines.index(line)]
-        f = inp.stream()
-        while True:
-            try:
-                data = f.read(BLOCK)
-            except OSError as e:
-                raise CaptureError(f"{inp.name}: cannot read: {e.strerror or e}") from None
-            if not data:
-                break
+        for data in inp.blocks(BLOCK):
             yield Chunk(line, data)
         if inp.problem:
             self.warn(inp.problem)

@@ -16,8 +16,8 @@ from typing import Iterator
 
 from ..errors import CaptureError
 from ..physical.edges import PackedSamples
-from .base import ReadSettings
 from ..words import counted
+from .base import ReadSettings
 from .files import STDIN, Input
 from .sampled import SampledSource, hz
 
@@ -42,20 +42,8 @@ def open_sample_file(inputs: list[Input], settings: ReadSettings) -> SampledSour
     inp = inputs[0]
     inst = settings.instrument
     rate, unitsize = float(inst.samplerate or 0), inst.unitsize
-    stream = inp.stream()
-
-    def reads() -> Iterator[bytes]:
-        while True:
-            try:
-                data = stream.read(READ)
-            except OSError as e:
-                raise CaptureError(f"{inp.name}: cannot read: {e.strerror or e}") from None
-            if not data:
-                return
-            yield data
-
     names = [f"D{i}" for i in range(unitsize * 8)]
-    waveform = PackedSamples(reads(), unitsize, names, rate, name=inp.name)
+    waveform = PackedSamples(inp.blocks(READ), unitsize, names, rate, name=inp.name)
     waveform.numbers = [str(i) for i in range(unitsize * 8)]
     waveform.start_time = _start_time(inp, rate, unitsize)
     return SampledSource(waveform, settings, inp.describe(f"logic samples at {hz(rate)}, "

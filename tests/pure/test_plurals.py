@@ -58,17 +58,19 @@ def _strings(tree):
 
 def test_no_message_counts_with_an_optional_plural():
     hedged = re.compile(r"[a-z]\(e?s\)")
-    found = []
+    found = [f"{where}:{line}: {text!r}" for where, tree in _analyzer_modules() for line, text in _strings(tree)
+             if hedged.search(text)]
+    assert found == []
+
+
+def _analyzer_modules():
+    """(path, syntax tree) of each module of analyzer/ (the generated Lua's template left out)."""
     for folder, _, files in os.walk(os.path.join(ROOT, "analyzer")):
         for name in files:
             path = os.path.join(folder, name)
-            if not name.endswith(".py") or path == LUA:
-                continue
-            with open(path, encoding="utf-8") as f:
-                tree = ast.parse(f.read())
-            found += [f"{os.path.relpath(path, ROOT)}:{line}: {text!r}" for line, text in _strings(tree)
-                      if hedged.search(text)]
-    assert found == []
+            if name.endswith(".py") and path != LUA:
+                with open(path, encoding="utf-8") as f:
+                    yield os.path.relpath(path, ROOT), ast.parse(f.read())
 
 
 def _ad_hoc_plurals(tree):
@@ -83,15 +85,7 @@ def _ad_hoc_plurals(tree):
 def test_no_message_pluralises_by_hand():
     # analyzer/ words every count with analyzer/words.py (dissectors/, the layer
     # below it, cannot import it, and keeps its own)
-    found = []
-    for folder, _, files in os.walk(os.path.join(ROOT, "analyzer")):
-        for name in files:
-            path = os.path.join(folder, name)
-            if not name.endswith(".py") or path == LUA:
-                continue
-            with open(path, encoding="utf-8") as f:
-                tree = ast.parse(f.read())
-            found += [f"{os.path.relpath(path, ROOT)}:{line}" for line in _ad_hoc_plurals(tree)]
+    found = [f"{where}:{line}" for where, tree in _analyzer_modules() for line in _ad_hoc_plurals(tree)]
     assert found == []
 
 
