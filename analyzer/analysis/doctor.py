@@ -658,7 +658,22 @@ def _waveform_findings(name: str, r) -> list[Finding]:
                                             edges=counted(r.edges, "edge")))
     if r.off_grid >= 3 and r.off_grid >= r.characters / 100:
         out.append(FINDINGS[TWO_DRIVERS].found(name, [], line=name, off_grid=r.off_grid, characters=chars))
+    # on one line, a root cause explains its consequences (two senders give framing
+    # errors), as the rules' order does between rules; other lines keep theirs
+    hidden = {code for f in out for code in FINDINGS[f.code].hides}
+    out = [f for f in out if f.code not in hidden]
+    for f in out:   # for scripts: the line's numbers, not only its words
+        f.measured = waveform_measures(r)
     return out
+
+
+def waveform_measures(r) -> dict:
+    """What the software UART measured of a line (a LineReport), as the JSON
+    report's ``measured`` of each waveform finding gives it."""
+    return {"channel": r.channel, "rate": r.measured, "nominal": r.nominal, "rate_sure": r.rate_sure,
+            "format": r.format, "inverted": r.inverted, "characters": r.characters, "edges": r.edges,
+            "framing_errors": r.framing_errors, "parity_errors": r.parity_errors, "breaks": r.breaks,
+            "glitches": r.glitches, "off_grid": r.off_grid, "first_error": r.first_error}
 
 
 def one_line(f: Finding) -> str:

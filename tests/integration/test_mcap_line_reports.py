@@ -150,6 +150,12 @@ def test_the_doctor_of_a_recording_names_the_waveform_findings_of_its_capture(tm
     rate, pct = re.search(r"runs at ([\d,]+) bit/s, ([\d.]+) % fast", clock["title"]).groups()
     assert int(rate.replace(",", "")) == round(FAST) and float(pct) == 3.0
     assert "nominal 9600 bit/s, measured over 9 characters" in clock["detail"]
+    # for scripts, the line's numbers beside the words
+    measured = clock["measured"]
+    assert measured["rate"] == pytest.approx(FAST, rel=0.002) and measured["nominal"] == 9600
+    assert (measured["channel"], measured["inverted"], measured["characters"], measured["glitches"]) == \
+        ("0", True, 9, 3)
+    assert recorded[("framing_errors", "B")]["measured"]["framing_errors"] == 1
     assert "(channel 0)" in recorded[("line_inverted", "A")]["title"]
     assert "its 9 characters" in recorded[("line_inverted", "A")]["detail"]
     assert recorded[("glitches", "A")]["title"].startswith("line A: 3 glitches")
