@@ -109,8 +109,8 @@ def command_for(path: str, *, decoders: str | None = None, **given) -> tuple[Sig
         reports = [source.physical[line] for line in source.lines]
         notes: list[str] = []
         if inputs[0] == "-I":
-            names = _vcd_names(path, name, reports)
-            notes += _downsample(inputs, wave, reports)
+            names = _vcd_names(wave.header, name, reports)
+            notes += _downsample(inputs, wave.header.unit, reports)
         else:
             names = _session_names(name, wave, reports)
         cmd = _command(name, inputs, reports, names, source.lines)
@@ -131,14 +131,12 @@ def _input_args(name: str, path: str, wave) -> list[str]:
     from ..sources.sigrok import SigrokSession
     from ..sources.vcd import ValueChangeDump
 
-    compression = getattr(getattr(wave, "input", None), "compression", None)
-    if compression is not None:
-        raise CaptureError(f"{name}: sigrok-cli cannot read a {compression}-compressed capture; decompress it "
-                           "first and run gimbalscope sigrok command on that")
-    if isinstance(wave, SigrokSession):
-        return ["-i", path]
-    if isinstance(wave, ValueChangeDump):
-        return ["-I", "vcd", "-i", path]
+    if isinstance(wave, (SigrokSession, ValueChangeDump)):
+        compression = wave.input.compression
+        if compression is not None:
+            raise CaptureError(f"{name}: sigrok-cli cannot read a {compression}-compressed capture; decompress it "
+                               "first and run gimbalscope sigrok command on that")
+        return ["-i", path] if isinstance(wave, SigrokSession) else ["-I", "vcd", "-i", path]
     raise CaptureError(f"{name}: sigrok-cli reads sessions (.sr) and VCD, not this capture (its CSV input takes "
                        "a row as a sample, where a Saleae export's rows are transitions); export it from Saleae "
                        "Logic 2 as VCD (File, Export Data, VCD) and run gimbalscope sigrok command on that")
@@ -250,10 +248,11 @@ def _session_names(name: str, wave, reports: list[LineReport]) -> dict[str, str]
     return {r.line: r.channel for r in reports}
 
 
-def _vcd_names(path: str, name: str, reports: list[LineReport]) -> dict[str, str]:
+def _vcd_names(header, name: str, reports: list[LineReport]) -> dict[str, str]:
     """Each line's channel as sigrok's VCD input names it, or a CaptureError when
-    it leaves the channel out or gives two channels its name."""
-    names = _vcd_channels(path, name)
+    it leaves the channel out or gives two channels its name. ``header``: the
+    VCD's, as our reader read it (analyzer/sources/vcd.py, ``Header``)."""
+    names = _vcd_channels(header)
     out = {}
     for r in reports:
         found = [theirs for theirs, ours in names if ours == r.channel]
@@ -267,10 +266,10 @@ def _vcd_names(path: str, name: str, reports: list[LineReport]) -> dict[str, str
     return out
 
 
-def _downsample(inputs: list[str], wave, reports: list[LineReport]) -> list[str]:
-    """Ask sigrok's VCD input for fewer samples than a time unit each when the
-    unit is far finer than the lines need (``inputs`` completed in place)."""
-    unit = getattr(getattr(wave, "header", None), "unit", None)
+def _downsample(inputs: list[str], unit: float | None, reports: list[LineReport]) -> list[str]:
+    """Ask sigrok's VCD input for fewer samples than a time ``unit`` (seconds)
+    each when the unit is far finer than the lines need (``inputs`` completed in
+    place)."""
     rates = [rate for rate in map(_rate, reports) if rate]
     if not unit or not rates:
         return []
@@ -294,40 +293,9 @@ def _seconds(unit: float) -> str:
 _VCD_CHANNEL_KINDS = ("wire", "reg")      # what sigrok's VCD input (libsigrok 0.5) reads
 
 
-def _vcd_channels(path: str, name: str) -> list[tuple[str, str]]:
-    """(sigrok's name, ours) of every 1-bit variable sigrok's VCD input reads, in
-    the order declared. sigrok names a channel by its reference alone; ours
-    adds the scope to a name two scopes use (analyzer/sources/vcd.py)."""
-    from ..sources.vcd import HEADER_LIMIT, NOT_CHANNELS, Header
-
-    text = b""
-    try:
-        with open(path, "rb") as f:
-            while b"$enddefinitions" not in text and len(text) <= HEADER_LIMIT:
-                more = f.read(1 << 20)
-                if not more:
-                    break
-                text += more
-    except OSError as e:
-        raise CaptureError(f"{name}: cannot read: {e.strerror or e}") from None
-    header_text = text.split(b"$enddefinitions", 1)[0].decode("latin-1")
-    ours = Header(header_text, name)
-    out: list[tuple[str, str]] = []
-    seen: set[str] = set()
-    words = header_text.split()
-    i = 0
-    index = 0
-    while i < len(words):
-        j = i + 1
-        while j < len(words) and words[j] != "$end":
-            j += 1
-        if words[i] == "$var" and j - i - 1 >= 4:
-            kind, size, ident, ref = words[i + 1], words[i + 2], words[i + 3], " ".join(words[i + 4:j])
-            ref = ref.replace(" [", "[")
-            if size == "1" and ident not in seen and index < len(ours.channels) and kind not in NOT_CHANNELS:
-                seen.add(ident)
-                if kind in _VCD_CHANNEL_KINDS:
-                    out.append((ref, ours.channels[index]))
-                index += 1
-        i = j + 1
-    return out
+def _vcd_channels(header) -> list[tuple[str, str]]:
+    """(sigrok's name, ours) of every channel sigrok's VCD input reads, in the
+    order declared. sigrok names a channel by its reference alone; ours adds the
+    scope to a name two scopes use (analyzer/sources/vcd.py)."""
+    return [(reference, ours) for ours, reference, kind in zip(header.channels, header.references, header.kinds)
+            if kind in _VCD_CHANNEL_KINDS]

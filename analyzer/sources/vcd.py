@@ -54,6 +54,10 @@ class Header:
         self.unit: float | None = None      # seconds a tick
         self.sampled_at: float | None = None
         self.channels: list[str] = []
+        # each channel's variable as declared: its kind (wire, reg, …) and its
+        # reference without the scope (what sigrok's VCD input names it by)
+        self.kinds: list[str] = []
+        self.references: list[str] = []
         self.ids: dict[bytes, int] = {}
         self.wide: list[str] = []           # variables left out
         self.date = ""
@@ -100,6 +104,8 @@ class Header:
         key = ident.encode("latin-1")
         if key in self.ids:          # the same signal seen in another scope: one channel
             return
+        self.kinds.append(kind)
+        self.references.append(ref)
         if ref in self.channels:     # the same name in two scopes: the path tells them apart
             ref = ".".join(scope + [ref])
         self.ids[key] = len(self.channels)
