@@ -281,16 +281,13 @@ class SoftUart:
         self.report.glitches += removed
         chars, _, _ = self._read(head, self.level, self.fmt, self.bit, int(tick))
         self._commit(chars, out)
-        self.level = self._level_at(cut)
-        self.ticks = self.ticks[cut:]
+        self._cut_at(tick)
         self._clean_upto = 0
 
     def _switch(self, tick: int, new_bit: float) -> None:
         """Read from ``tick`` on at ``new_bit`` ticks a bit (a rate change)."""
-        cut = int(np.searchsorted(self.ticks, tick, side="left"))
-        self.level = self._level_at(cut)
-        self.ticks = self.ticks[cut:]
-        self._clean_upto = 0
+        self._cut_at(tick)
+        self._clean_upto = 0    # glitches are judged again against the new bit time
         r = self.report
         r.rate_changes.append(RateChange(tick / self.rate, self.rate / self.bit, self.rate / new_bit))
         self.bit = new_bit

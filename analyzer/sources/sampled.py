@@ -160,8 +160,7 @@ class SampledSource(Source):
         for line, uart in self._uarts.items():
             if not uart.started and uart.ticks.size and uart.measure(final=self._ended):
                 self._pending[line] += uart.decode()
-            if self.samplerate_given and uart.started and line not in self._rate_checked:
-                self._check_samplerate(line, uart)
+            self._check_samplerate(line, uart)
             self._check_rate(line, uart)
         if self._ended:                 # the whole capture was looked at: said before it is read
             self._say_lines(self.warn_later)
@@ -184,8 +183,7 @@ class SampledSource(Source):
     def _guessed(self, line: str, r: LineReport) -> str:
         """What a line was read as when its few characters leave the rate or the
         format a guess: how sure, and which options settle it."""
-        rate = named_rate(r.measured) if r.measured else r.nominal
-        said = f"{self.name}: line {line} ({r.channel}) read as {rate:,} bit/s {r.format}"
+        said = f"{self.name}: line {line} ({r.channel}) read as {r.nominal:,} bit/s {r.format}"
         options = ["--data-bits", "--parity", "--stop-bits"]
         if not r.rate_sure:
             if r.measured_from < SURE_INTERVALS:
@@ -204,7 +202,9 @@ class SampledSource(Source):
         """A sample rate typed by hand that is a power of ten off makes every line's
         rate that far off too, and decoding goes on at it without an error (answers
         a hundred times late): said when a line's measure fits no standard rate
-        while the rate times a power of ten would."""
+        while the rate times a power of ten would. Once a line, when it has started."""
+        if not self.samplerate_given or not uart.started or line in self._rate_checked:
+            return
         self._rate_checked.add(line)
         r = uart.report
         if r.given or not r.measured:
@@ -223,8 +223,7 @@ class SampledSource(Source):
         for line, uart in self._uarts.items():
             e = block.edges.get(self.channel_of[line])
             self._pending[line] += uart.feed(e if e is not None else Edges(NO_EDGES, uart.level), block.end)
-            if self.samplerate_given and uart.started and line not in self._rate_checked:
-                self._check_samplerate(line, uart)
+            self._check_samplerate(line, uart)
 
     def _check_rate(self, line: str, uart: SoftUart) -> None:
         """Under 4 samples a bit, only when the line's clean traffic says so: a

@@ -42,13 +42,21 @@ def open_sample_file(inputs: list[Input], settings: ReadSettings) -> SampledSour
     inp = inputs[0]
     inst = settings.instrument
     rate, unitsize = float(inst.samplerate or 0), inst.unitsize
-    names = [f"D{i}" for i in range(unitsize * 8)]
-    waveform = PackedSamples(inp.blocks(READ), unitsize, names, rate, name=inp.name)
-    waveform.numbers = [str(i) for i in range(unitsize * 8)]
+    waveform = _packed(inp.blocks(READ), unitsize, rate, inp.name)
     waveform.start_time = _start_time(inp, rate, unitsize)
-    return SampledSource(waveform, settings, inp.describe(f"logic samples at {hz(rate)}, "
-                                                          f"{counted(unitsize * 8, 'channel')}"),
-                         samplerate_given=True)
+    return SampledSource(waveform, settings, inp.describe(_kind(rate, unitsize)), samplerate_given=True)
+
+
+def _packed(blocks: Iterator[bytes], unitsize: int, rate: float, name: str) -> PackedSamples:
+    """The samples of ``blocks``, channel N at bit N, named D0… (or 0…) by bit."""
+    waveform = PackedSamples(blocks, unitsize, [f"D{i}" for i in range(unitsize * 8)], rate, name=name)
+    waveform.numbers = [str(i) for i in range(unitsize * 8)]
+    return waveform
+
+
+def _kind(rate: float, unitsize: int) -> str:
+    """What the stream is, as its description says."""
+    return f"logic samples at {hz(rate)}, {counted(unitsize * 8, 'channel')}"
 
 
 def _start_time(inp: Input, rate: float, unitsize: int) -> float:
@@ -74,13 +82,10 @@ def open_sample_stream(path: str, samplerate: float, unitsize: int, settings: Re
             fd, name, own = os.open(path, os.O_RDONLY), shown or path, True
         except OSError as e:
             raise CaptureError(f"{path}: cannot open: {e.strerror or e}") from None
-    names = [f"D{i}" for i in range(unitsize * 8)]
-    waveform = PackedSamples(_reads(fd, name), unitsize, names, samplerate, name=name)
-    waveform.numbers = [str(i) for i in range(unitsize * 8)]
+    waveform = _packed(_reads(fd, name), unitsize, samplerate, name)
     waveform.start_time = time.time()
     if own:
         waveform.close = lambda: os.close(fd)   # type: ignore[method-assign]
-    source = SampledSource(waveform, settings, f"{name} (logic samples at {hz(samplerate)}, "
-                                               f"{unitsize * 8} channels)", samplerate_given=True)
+    source = SampledSource(waveform, settings, f"{name} ({_kind(samplerate, unitsize)})", samplerate_given=True)
     source.live = True
     return source
