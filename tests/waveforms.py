@@ -9,6 +9,8 @@ side in sample words (channel i at bit i), as sigrok's binary format has them.
 
 from __future__ import annotations
 
+import subprocess
+
 import numpy as np
 
 
@@ -61,3 +63,14 @@ def pack(*channels: np.ndarray) -> bytes:
     for i, c in enumerate(channels):
         word[:len(c)] |= (c.astype(np.uint8) & 1) << i
     return word.tobytes()
+
+
+def sigrok_session(folder, *channels: np.ndarray, samplerate: float, name: str = "cap") -> str:
+    """A .sr written by sigrok-cli (its binary input) from the channels' levels,
+    in ``folder``: channel i is named "i", as sigrok-cli names them."""
+    raw = folder / f"{name}.bin"
+    raw.write_bytes(pack(*channels))
+    out = folder / f"{name}.sr"
+    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels={max(len(channels), 1)}:samplerate={samplerate}",
+                    "-i", str(raw), "-o", str(out)], check=True, capture_output=True, timeout=120)
+    return str(out)

@@ -15,13 +15,12 @@ Expectations come from the frames placed on the wire (Table 1, built by
 from __future__ import annotations
 
 import shutil
-import subprocess
 
 import pytest
 
 import analyzer
 from tests.conftest import frame
-from tests.waveforms import back_to_back, pack, uart_levels
+from tests.waveforms import back_to_back, sigrok_session, uart_levels
 
 pytestmark = pytest.mark.skipif(shutil.which("sigrok-cli") is None, reason="sigrok-cli is not installed")
 
@@ -64,12 +63,7 @@ def capture(tmp_path, first: int, second: int, code: int, count: int = 12) -> tu
     duration = end + 0.010
     a = uart_levels(a1, RATE, first, duration) & uart_levels(a2, RATE, second, duration)
     b = uart_levels(b1, RATE, first, duration) & uart_levels(b2, RATE, second, duration)
-    raw = tmp_path / "rate.bin"
-    raw.write_bytes(pack(a, b))
-    out = tmp_path / "rate.sr"
-    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels=2:samplerate={RATE}", "-i", str(raw),
-                    "-o", str(out)], check=True, capture_output=True, timeout=60)
-    return str(out), times1 + times2
+    return sigrok_session(tmp_path, a, b, samplerate=RATE, name="rate"), times1 + times2
 
 
 @pytest.mark.parametrize("first, second, code", [(9600, 115200, 7), (115200, 9600, 3)],
@@ -106,12 +100,7 @@ def test_a_faster_rate_without_a_rate_set_command_is_no_glitch(tmp_path):
     a1, _, times1, t = exchanges(0.010, 4, 9600)
     a2, _, times2, end = exchanges(t, 8, 115200)
     a = uart_levels(a1, RATE, 9600, end) & uart_levels(a2, RATE, 115200, end)
-    raw = tmp_path / "up.bin"
-    raw.write_bytes(pack(a))
-    path = tmp_path / "up.sr"
-    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels=1:samplerate={RATE}", "-i", str(raw),
-                    "-o", str(path)], check=True, capture_output=True, timeout=60)
-    cap = analyzer.open(str(path))
+    cap = analyzer.open(sigrok_session(tmp_path, a, samplerate=RATE, name="up"))
     events = list(cap)
     commands = [e for e in events if e.kind == "command"]
     assert [e.t for e in commands] == pytest.approx(times1 + times2, abs=2e-6)

@@ -19,7 +19,7 @@ import analyzer
 from analyzer.errors import CaptureError
 from dissectors import problems
 from tests.conftest import ROOT, frame, run_cli
-from tests.waveforms import back_to_back, pack, uart_levels
+from tests.waveforms import back_to_back, sigrok_session, uart_levels
 
 pytestmark = pytest.mark.skipif(shutil.which("sigrok-cli") is None, reason="sigrok-cli is not installed")
 
@@ -36,12 +36,7 @@ DURATION = 0.060
 
 def session(tmp_path, *channels, samplerate=RATE, name="cap") -> str:
     """A .sr written by sigrok-cli from the channels' levels (channel i is named "i")."""
-    raw = tmp_path / f"{name}.bin"
-    raw.write_bytes(pack(*channels))
-    out = tmp_path / f"{name}.sr"
-    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels={max(len(channels), 1)}:samplerate={samplerate}",
-                    "-i", str(raw), "-o", str(out)], check=True, capture_output=True, timeout=60)
-    return str(out)
+    return sigrok_session(tmp_path, *channels, samplerate=samplerate, name=name)
 
 
 def sigrok_bytes(path: str, channel: str, baud: int, **opts) -> bytes:

@@ -25,7 +25,7 @@ import pytest
 
 import analyzer
 from tests.conftest import ROOT, run_cli
-from tests.waveforms import back_to_back, pack, uart_levels
+from tests.waveforms import back_to_back, sigrok_session, uart_levels
 
 pytestmark = pytest.mark.skipif(shutil.which("sigrok-cli") is None, reason="sigrok-cli is not installed")
 
@@ -59,12 +59,7 @@ def levels(chars, baud: int, duration: float, **kw):
 
 def session(tmp_path, channels, name: str = "cap") -> str:
     """A .sr written by sigrok-cli from raw samples: its channels are named "0", "1"."""
-    raw = tmp_path / f"{name}.bin"
-    raw.write_bytes(pack(*channels))
-    sr = tmp_path / f"{name}.sr"
-    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels={len(channels)}:samplerate={RATE}",
-                    "-i", str(raw), "-o", str(sr)], check=True, capture_output=True, timeout=120)
-    return str(sr)
+    return sigrok_session(tmp_path, *channels, samplerate=RATE, name=name)
 
 
 @pytest.fixture(scope="module")

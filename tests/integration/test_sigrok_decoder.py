@@ -14,7 +14,7 @@ import sys
 
 import pytest
 
-from tests.waveforms import back_to_back, pack, uart_levels
+from tests.waveforms import back_to_back, sigrok_session, uart_levels
 
 pytestmark = pytest.mark.skipif(shutil.which("sigrok-cli") is None, reason="sigrok-cli is not installed")
 
@@ -63,12 +63,7 @@ def _levels(line: str) -> object:
 
 
 def _session(tmp_path, channels) -> str:
-    raw = tmp_path / "raw.bin"
-    raw.write_bytes(pack(*channels))
-    sr = tmp_path / "cap.sr"
-    subprocess.run(["sigrok-cli", "-I", f"binary:numchannels={len(channels)}:samplerate={RATE}",
-                    "-i", str(raw), "-o", str(sr)], check=True, capture_output=True, timeout=120)
-    return str(sr)
+    return sigrok_session(tmp_path, *channels, samplerate=RATE)
 
 
 @pytest.fixture
