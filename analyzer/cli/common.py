@@ -89,10 +89,7 @@ def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
     files (the time options are about files)."""
     g = p.add_argument_group("serial settings (byte timing; the port settings of a live tap; a recording "
                              "brings its own, which these override)")
-    g.add_argument("--baud", type=positive_int, help="line rate in bit/s at the start (default 9600, §1.5.1)")
-    g.add_argument("--data-bits", type=int, choices=(5, 6, 7, 8), help="(default 8)")
-    g.add_argument("--parity", choices=("N", "E", "O", "M", "S"), help="(default N)")
-    g.add_argument("--stop-bits", type=float, choices=(1, 1.5, 2), help="(default 1)")
+    add_character_args(g)
     g.add_argument("--swap-lines", action="store_const", const=True,
                    help="the two ports/inputs were given the other way round: read the first as line B")
     g.add_argument("--no-follow-rate", dest="follow_rate", action="store_const", const=False,
@@ -102,6 +99,23 @@ def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
         add_time_args(p)
         add_instrument_args(p)
     _pairing_args(p.add_argument_group("pairing"))
+
+
+def add_character_args(g, measured: bool = False) -> None:
+    """``--baud``, ``--data-bits``, ``--parity``, ``--stop-bits``; ``measured``:
+    for a logic capture alone, whose software UART measures what is not given."""
+    default = {"baud": "measured", "data_bits": "measured", "parity": "measured", "stop_bits": "measured"} \
+        if measured else {"baud": "9600, §1.5.1", "data_bits": "8", "parity": "N", "stop_bits": "1"}
+    g.add_argument("--baud", type=positive_int, help=f"line rate in bit/s at the start (default {default['baud']})")
+    g.add_argument("--data-bits", type=int, choices=(5, 6, 7, 8), help=f"(default {default['data_bits']})")
+    g.add_argument("--parity", choices=("N", "E", "O", "M", "S"), help=f"(default {default['parity']})")
+    g.add_argument("--stop-bits", type=float, choices=(1, 1.5, 2), help=f"(default {default['stop_bits']})")
+
+
+def add_channels_arg(g) -> None:
+    g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
+                   help="the logic channels of line A and line B, by name or number (default: the first two "
+                        "that toggle); A=CH alone: a single line carrying both directions")
 
 
 def channels(text: str) -> dict[str, str]:
@@ -130,9 +144,7 @@ def usb_device(text: str) -> str:
 
 def add_instrument_args(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("instruments: logic analysers and USB captures (docs/instruments.md)")
-    g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
-                   help="the logic channels of line A and line B, by name or number (default: the first two "
-                        "that toggle); A=CH alone: a single line carrying both directions")
+    add_channels_arg(g)
     g.add_argument("--adapter", choices=("ftdi", "cp210x", "ch34x"),
                    help="a USB capture's serial adapter (default: from the enumeration or the traffic)")
     g.add_argument("--usb-device", type=usb_device, metavar="BUS.DEV",

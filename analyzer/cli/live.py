@@ -32,7 +32,7 @@ from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
 from .common import (
-    UsageError, add_filter_arg, add_sample_stream_args, add_serial_args, build_filter, channels, options_from,
+    UsageError, add_channels_arg, add_filter_arg, add_sample_stream_args, add_serial_args, build_filter, options_from,
     positive_float)
 
 
@@ -58,8 +58,7 @@ def add_samples_args(p: argparse.ArgumentParser) -> None:
                    help="read logic samples instead of ports: - for standard input (sigrok-cli --continuous "
                         "-O binary ... | gimbalscope live --samples - --samplerate 1MHz)")
     add_sample_stream_args(g)
-    g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
-                   help="the channels of line A and line B (D0 or 0 …; default: the first two that toggle)")
+    add_channels_arg(g)
 
 
 def add_tui_args(p: argparse.ArgumentParser) -> None:

@@ -17,7 +17,7 @@ import sys
 
 from ..errors import UsageError
 from ..outfile import install_into, one_line, show
-from .common import add_quiet_arg, channels, positive_int, warn
+from .common import add_channels_arg, add_character_args, add_quiet_arg, warn
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -53,13 +53,8 @@ READING = ("channels", "baud", "data_bits", "parity", "stop_bits")   # how the c
 
 def _capture_args(p: argparse.ArgumentParser) -> None:
     add_quiet_arg(p)
-    p.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
-                   help="the channels of line A and line B, by name or number (default: the first two that "
-                        "toggle); A=CH alone: one line carrying both directions")
-    p.add_argument("--baud", type=positive_int, help="the line rate in bit/s (default: measured)")
-    p.add_argument("--data-bits", type=int, choices=(5, 6, 7, 8), help="(default: measured)")
-    p.add_argument("--parity", choices=("N", "E", "O", "M", "S"), help="(default: measured)")
-    p.add_argument("--stop-bits", type=float, choices=(1, 1.5, 2), help="(default: measured)")
+    add_channels_arg(p)
+    add_character_args(p, measured=True)
 
 
 def run_install(args: argparse.Namespace) -> int:
