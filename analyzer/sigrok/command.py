@@ -101,8 +101,8 @@ def command_for(path: str, *, decoders: str | None = None, **given) -> tuple[Sig
     source = cap.source
     try:
         if not isinstance(source, SampledSource):
-            raise CaptureError(f"{name}: {source.description} is no logic analyser's capture: the sigrok decoder "
-                               "stacks on sigrok's uart decoder, which reads waveforms (a .sr session or a VCD)")
+            raise CaptureError(f"{name}: this is no logic analyser's capture: the sigrok decoder stacks on "
+                               "sigrok's uart decoder, which reads waveforms (a .sr session or a VCD)")
         wave = source.waveform
         inputs = _input_args(name, path, wave)
         _read_until_measured(source)

@@ -215,7 +215,8 @@ class SampledSource(Source):
         self._rate_checked.update(self.lines)   # one sample rate for every line: said once
         meant = hz(self.waveform.samplerate * factor).replace(" ", "")   # as the option is typed
         self.warn_later(
-            f"{self.name}: line {line} ({r.channel}) measures {r.measured:,.0f} bit/s, near no standard rate; "
+            f"{self.name}: line {line} ({r.channel}) measures {_bits_per_second(r.measured)} bit/s, near no "
+            "standard rate; "
             f"at --samplerate {meant} it would be {nominal_rate(r.measured * factor):,} bit/s: "
             f"did you mean --samplerate {meant}?")
 
@@ -232,10 +233,15 @@ class SampledSource(Source):
         w = self.waveform
         if not w.sampled:
             return
-        # a line not started yet may still start past its junk: judged on the whole capture only
-        too_fast = named_rate(uart.too_fast) if uart.too_fast and self._ended else None
-        baud = uart.report.nominal if uart.started else too_fast
-        if baud and w.samplerate / baud < MIN_SAMPLES_A_BIT:
+        # judged on the samples a bit, not on the rate's name: at a sample rate
+        # typed far too low, 104 samples a bit measure 0.0096 bit/s, named 1 bit/s
+        if uart.started:
+            samples, baud = uart.bit, uart.report.nominal
+        elif uart.too_fast and self._ended:   # a line not started may still start past its junk
+            samples, baud = w.samplerate / uart.too_fast, named_rate(uart.too_fast)
+        else:
+            return
+        if samples is not None and samples < MIN_SAMPLES_A_BIT:
             raise CaptureError(self._sampled_too_slowly(line, baud))
 
     def _sampled_too_slowly(self, line: str, baud: int) -> str:
@@ -327,6 +333,12 @@ class SampledSource(Source):
             last = tick
         if run_line is not None:
             yield Chunk(run_line, bytes(run_bytes), run_start / rate)
+
+
+def _bits_per_second(rate: float) -> str:
+    """A measured rate as a message says it: whole with separators, or its first
+    figures when under 100 (0.0096 bit/s, of a sample rate typed a million off)."""
+    return f"{rate:,.0f}" if rate >= 100 else f"{rate:.3g}"
 
 
 def _either(names: list[str]) -> str:

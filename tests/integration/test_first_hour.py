@@ -117,6 +117,19 @@ def test_a_sample_rate_a_hundred_times_low_is_named_once(tmp_path):
     assert "did you mean" not in right.stderr
 
 
+def test_a_sample_rate_a_million_times_low_is_named_not_refused(tmp_path):
+    # 1 Hz for 1 MHz: a bit is still 104 samples (not "under 4 samples a bit", which
+    # the rate's name, 1 bit/s, once made it), and 9,600 bit/s reads as 0.0096
+    path = tmp_path / "samples.bin"
+    path.write_bytes(exchanges())
+    r = run_cli("decode", path, "--samplerate", "1Hz", "--format", "jsonl")
+    assert r.returncode == 0, r.stderr
+    assert "samples a bit" not in r.stderr
+    said = [line for line in r.stderr.splitlines() if "did you mean" in line]
+    assert len(said) == 1 and "measures 0.0096 bit/s" in said[0], r.stderr
+    assert said[0].endswith("at --samplerate 1MHz it would be 9,600 bit/s: did you mean --samplerate 1MHz?")
+
+
 # ------------------------------------------------------------------ options that do not apply
 
 def test_options_that_do_not_apply_to_the_input_are_named(tmp_path):
