@@ -16,5 +16,15 @@ from .capture import Capture, Options, open
 from .sources import CaptureError
 from .version import __version__
 
-__all__ = ["Capture", "CaptureError", "Event", "FilterError", "Options", "Pairer", "Timeouts", "Transaction", "open",
-           "__version__"]
+__all__ = [
+           "Capture",
+           "CaptureError",
+           "Event",
+           "FilterError",
+           "Options",
+           "Pairer",
+           "Timeouts",
+           "Transaction",
+           "__version__",
+           "open",
+]

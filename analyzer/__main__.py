@@ -10,7 +10,7 @@ if __name__ == "__main__" and not __package__ and sys.path and \
         os.path.abspath(sys.path[0]) == os.path.dirname(os.path.abspath(__file__)):
     sys.path.pop(0)
 
-from analyzer.cli.main import main  # noqa: E402
+from analyzer.cli.main import main
 
 if __name__ == "__main__":
     sys.exit(main())

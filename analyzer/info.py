@@ -55,7 +55,7 @@ class CaptureInfo:
     site: str | None = None            # where it was captured (--site; the dataset's site column)
 
     @classmethod
-    def of(cls, capture, command: str | None = None, site: str | None = None) -> "CaptureInfo":
+    def of(cls, capture, command: str | None = None, site: str | None = None) -> CaptureInfo:
         o = capture.options
         src = capture.source
         recorded = getattr(src, "metadata", None) or {}
@@ -116,7 +116,7 @@ class CaptureInfo:
 
 
 def _hostname() -> str:
-    import socket   # here: reading a capture (``analyzer.open``) needs neither module
+    import socket  # here: reading a capture (``analyzer.open``) needs neither module
     return socket.gethostname()
 
 
@@ -133,7 +133,7 @@ def _iso(epoch: float | None) -> str:
     """ISO 8601 in UTC with microseconds (``datetime.fromisoformat`` reads it back)."""
     if epoch is None:
         return "unknown"
-    return datetime.datetime.fromtimestamp(epoch, datetime.timezone.utc).isoformat(timespec="microseconds")
+    return datetime.datetime.fromtimestamp(epoch, datetime.UTC).isoformat(timespec="microseconds")
 
 
 # ---------------------------------------------------------------- reading back

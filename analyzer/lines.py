@@ -39,4 +39,4 @@ class LineFault(NamedTuple):
     at ``offset`` (analyzer/capture/faults.py)."""
     line: str        # the line as the source reads it (before any swap)
     offset: int      # byte offset on that line of the byte concerned (a break: the next byte)
-    problem: "Problem"
+    problem: Problem

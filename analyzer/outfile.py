@@ -28,7 +28,8 @@ from __future__ import annotations
 import errno
 import os
 import tempfile
-from typing import BinaryIO, Callable, Iterable
+from collections.abc import Callable, Iterable
+from typing import BinaryIO
 
 from .errors import OutputError, OutputRefused
 
@@ -172,7 +173,7 @@ class AtomicOutput:
         except FileNotFoundError:
             pass
 
-    def __enter__(self) -> "AtomicOutput":
+    def __enter__(self) -> AtomicOutput:
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:

@@ -12,8 +12,8 @@ file otherwise (``Writing``). A reader that went away (``| head``) stays a
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from functools import partial
-from typing import Callable
 
 from dissectors import summarize
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RATE, RESULT, Event
@@ -179,7 +179,7 @@ class SgrCodes(dict):
 
     def __init__(self, console) -> None:
         super().__init__()
-        from rich.console import COLOR_SYSTEMS   # Rich's names ("256") to its ColorSystem
+        from rich.console import COLOR_SYSTEMS  # Rich's names ("256") to its ColorSystem
         system = console.color_system
         self._system = COLOR_SYSTEMS[system] if system else None
         self._no_color = console.no_color

@@ -27,8 +27,9 @@ from __future__ import annotations
 
 import queue
 import threading
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import Any, Iterable
+from typing import Any
 
 from dissectors.event import Event
 
@@ -63,7 +64,7 @@ class Note:
 class Listener:
     """Base class of everything fed by a ``TapRunner``; override what you need."""
 
-    def on_start(self, runner: "TapRunner") -> None:
+    def on_start(self, runner: TapRunner) -> None:
         pass
 
     def on_chunk(self, chunk: Chunk, offset: int) -> None:

@@ -31,9 +31,9 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from analyzer.simulation.traffic import generate  # noqa: E402
-from bench.measure import run_measured  # noqa: E402
-from dissectors.deframer import COMPILED  # noqa: E402
+from analyzer.simulation.traffic import generate
+from bench.measure import run_measured
+from dissectors.deframer import COMPILED
 
 EVENTS_PER_COMMAND = 2.55   # measured mix of the generator: command, ACK, often a result
 

@@ -19,8 +19,8 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from analyzer.simulation import scenario  # noqa: E402
-from tests.integration.test_doctor import EXPECTED  # noqa: E402
+from analyzer.simulation import scenario
+from tests.integration.test_doctor import EXPECTED
 
 
 def run(fault: str, seconds: float) -> dict:

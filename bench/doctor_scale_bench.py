@@ -20,8 +20,8 @@ import tempfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from analyzer.simulation.traffic import generate  # noqa: E402
-from bench.measure import run_measured  # noqa: E402
+from analyzer.simulation.traffic import generate
+from bench.measure import run_measured
 
 EVENTS_PER_COMMAND = 2.55   # the generator's mix: command, ACK, often a result
 

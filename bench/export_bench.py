@@ -33,7 +33,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "bench"))
 
-from mcap_bench import EVENTS_PER_COMMAND, saturated  # noqa: E402
+from mcap_bench import EVENTS_PER_COMMAND, saturated
 
 # the command's own peak (VmHWM) and its biggest child's (the pool's workers, waited for at the end)
 _MEASURED = ("import resource, sys; from analyzer.cli.main import main; rc = main(sys.argv[1:]); "
@@ -153,7 +153,7 @@ def readme_queries() -> list[tuple[str, str]]:
         return []
     part = re.split(r"\n##?#? ", text.split("### Queries\n", 1)[1], maxsplit=1)[0]
     return [(m.group(1).strip(), m.group(2).strip())
-            for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)]
+            for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.DOTALL)]
 
 
 def queries(root: str, events: int) -> None:

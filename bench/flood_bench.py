@@ -120,8 +120,7 @@ def zeros(mb: float, out: str) -> None:
     path = os.path.join(out, "zeros.bin")
     with open(path, "wb") as f:
         block = bytes(1 << 20)
-        for _ in range(int(mb)):
-            f.write(block)
+        f.writelines(block for _ in range(int(mb)))
     t = time.perf_counter()
     with open(os.devnull, "wb") as null:
         proc = subprocess.run([sys.executable, "-c", _MEASURED, "decode", path, "--format", "jsonl"],

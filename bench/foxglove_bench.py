@@ -29,8 +29,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
-from mcap_bench import BAUD, cpu_seconds, saturated  # noqa: E402
-from websockets.sync.client import connect  # noqa: E402
+from mcap_bench import BAUD, cpu_seconds, saturated
+from websockets.sync.client import connect
 
 SETTLE = 1.5   # seconds for the tap (and the client) to start before the traffic
 

@@ -26,9 +26,9 @@ import zipfile
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from bench.measure import run_measured  # noqa: E402
-from tests.conftest import frame  # noqa: E402
-from tests.waveforms import back_to_back, pack, uart_levels  # noqa: E402
+from bench.measure import run_measured
+from tests.conftest import frame
+from tests.waveforms import back_to_back, pack, uart_levels
 
 RATE = 1_000_000
 CHUNK = 4 << 20      # sigrok writes its samples in chunks of about this size

@@ -29,11 +29,11 @@ import tty
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-import analyzer  # noqa: E402
-from analyzer.info import CaptureInfo  # noqa: E402
-from analyzer.runner import TapRunner  # noqa: E402
-from analyzer.writers.mcap import McapWriter  # noqa: E402
-from analyzer.simulation.traffic import generate  # noqa: E402
+import analyzer
+from analyzer.info import CaptureInfo
+from analyzer.runner import TapRunner
+from analyzer.simulation.traffic import generate
+from analyzer.writers.mcap import McapWriter
 
 BAUD = 115200
 EVENTS_PER_COMMAND = 2.55

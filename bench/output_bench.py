@@ -30,7 +30,7 @@ import time
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 
-from bench.decode_bench import build, size_mb  # noqa: E402
+from bench.decode_bench import build, size_mb
 
 CLI = [sys.executable, "-m", "analyzer"]
 TARGET_RATIO = 1.3

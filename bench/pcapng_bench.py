@@ -28,8 +28,8 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "bench"))
 
-from export_bench import make_logs  # noqa: E402
-from measure import run_measured  # noqa: E402
+from export_bench import make_logs
+from measure import run_measured
 
 
 def writer_rate(packets: int) -> None:

@@ -39,15 +39,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
 sys.path.insert(0, os.path.join(ROOT, "bench"))
 
-import analyzer  # noqa: E402
-from analyzer.capture import open_live  # noqa: E402
-from analyzer.info import CaptureInfo  # noqa: E402
-from analyzer.runner import TapRunner  # noqa: E402
-from analyzer.writers.mcap import McapWriter  # noqa: E402
-from analyzer.tui.run import SWITCH, make_app, stop_feed  # noqa: E402
-from analyzer.tui.widgets import EventList  # noqa: E402
-from mcap_bench import BAUD, EVENTS_PER_COMMAND, saturated  # noqa: E402
-from measure import run_measured  # noqa: E402
+from mcap_bench import BAUD, EVENTS_PER_COMMAND, saturated
+from measure import run_measured
+
+import analyzer
+from analyzer.capture import open_live
+from analyzer.info import CaptureInfo
+from analyzer.runner import TapRunner
+from analyzer.tui.run import SWITCH, make_app, stop_feed
+from analyzer.tui.widgets import EventList
+from analyzer.writers.mcap import McapWriter
 
 SIZE = (120, 40)
 
@@ -320,7 +321,7 @@ def live_figures(seconds: float) -> None:
         f.write(b"".join(w.data for w in written if w.line == "B"))
     on_wire = sum(1 for _ in analyzer.open(os.path.join(tmp, "a.bin"), os.path.join(tmp, "b.bin"), baud=BAUD))
     lags.sort()
-    p = lambda q: lags[min(len(lags) - 1, int(q * len(lags)))] * 1000  # noqa: E731
+    p = lambda q: lags[min(len(lags) - 1, int(q * len(lags)))] * 1000
     print(f"3. live, two saturated {BAUD}-baud ptys for {seconds:.0f} s: {shown:,} events shown, {on_wire:,} "
           f"decoded from the same bytes ({'none dropped' if shown >= on_wire else f'{on_wire - shown} missing'}); "
           f"screen behind the wire p50 {p(0.5):.0f} ms, p95 {p(0.95):.0f} ms, max {lags[-1] * 1000:.0f} ms "

@@ -7,5 +7,17 @@ from .dissect import apply_command, dissect_command, dissect_result, result_fits
 from .event import Event
 from .wire import build_frame, checksum
 
-__all__ = ["apply_command", "BY_ID", "COMMANDS", "Command", "Deframer", "Event", "build_frame", "checksum",
-           "dissect_command", "dissect_result", "result_fits", "summarize"]
+__all__ = [
+           "BY_ID",
+           "COMMANDS",
+           "Command",
+           "Deframer",
+           "Event",
+           "apply_command",
+           "build_frame",
+           "checksum",
+           "dissect_command",
+           "dissect_result",
+           "result_fits",
+           "summarize",
+]

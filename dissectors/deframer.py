@@ -34,9 +34,23 @@ import re
 from bisect import bisect_right
 
 from .event import (
-    ACK as K_ACK, COMMAND, Event, FRAME, NAK as K_NAK, NIC as K_NIC, NOISE, RESULT,
+    ACK as K_ACK,
 )
-from .problems import CHECKSUM, LENGTH, NOISE as NOISE_PROBLEM, TRUNCATED, Problem
+from .event import (
+    COMMAND,
+    FRAME,
+    NOISE,
+    RESULT,
+    Event,
+)
+from .event import (
+    NAK as K_NAK,
+)
+from .event import (
+    NIC as K_NIC,
+)
+from .problems import CHECKSUM, LENGTH, TRUNCATED, Problem
+from .problems import NOISE as NOISE_PROBLEM
 from .wire import ACK, NAK, NIC, START, LineSettings
 
 _SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}
@@ -249,8 +263,7 @@ class Deframer:
         if not self._timed:
             return None
         k = bisect_right(self._seg_off, off) - 1
-        if k < 0:
-            k = 0
+        k = max(k, 0)
         return self._seg_t[k] + (off - self._seg_off[k] + after) * self._seg_bt[k]
 
     def _gap_in(self, start: int, end: int) -> int | None:

@@ -140,11 +140,28 @@ class Event:
     """
 
     __slots__ = (
-        "number", "line", "offset", "t", "t_end", "kind", "raw",
-        "dst", "src", "payload", "checksum_ok",
-        "command", "fields", "problems",
-        "txn", "status", "latency", "retransmission", "request",
-        "entry", "transaction", "origin",
+        "checksum_ok",
+        "command",
+        "dst",
+        "entry",
+        "fields",
+        "kind",
+        "latency",
+        "line",
+        "number",
+        "offset",
+        "origin",
+        "payload",
+        "problems",
+        "raw",
+        "request",
+        "retransmission",
+        "src",
+        "status",
+        "t",
+        "t_end",
+        "transaction",
+        "txn",
     )
 
     def __init__(self, line: str, offset: int, kind: str, raw: bytes,
@@ -194,7 +211,7 @@ class Event:
     def datetime(self) -> _dt.datetime | None:
         """``ts`` as an aware datetime in UTC."""
         ts = self.ts
-        return None if ts is None else _dt.datetime.fromtimestamp(ts, _dt.timezone.utc)
+        return None if ts is None else _dt.datetime.fromtimestamp(ts, _dt.UTC)
 
     @property
     def end(self) -> int:

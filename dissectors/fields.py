@@ -10,8 +10,10 @@ one used in JSON Lines, filters, statistics, MCAP recordings and the TUI.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field as dc_field
-from typing import Any, Callable
+from collections.abc import Callable
+from dataclasses import dataclass
+from dataclasses import field as dc_field
+from typing import Any
 
 from .problems import LOWERCASE_HEX, OUT_OF_RANGE, Problem
 

@@ -8,7 +8,7 @@ Simple responses are single bytes without header (§1.4.2).
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 START = 0xF8
 ACK = 0x06
@@ -64,8 +64,18 @@ class LineSettings:
     (``default_frame_gap``). A settings object made from a byte time alone
     (``timed_by``: a deframer on its own, the simulator) has no baud."""
 
-    __slots__ = ("baud", "data_bits", "parity", "stop_bits", "byte_time", "frame_gap", "_given_gap", "changes",
-                 "changed_at", "_watchers")
+    __slots__ = (
+        "_given_gap",
+        "_watchers",
+        "baud",
+        "byte_time",
+        "changed_at",
+        "changes",
+        "data_bits",
+        "frame_gap",
+        "parity",
+        "stop_bits",
+    )
 
     def __init__(self, baud: int = 9600, data_bits: int = 8, parity: str = "N", stop_bits: float = 1,
                  frame_gap: float | None = None) -> None:
@@ -82,7 +92,7 @@ class LineSettings:
         self.set_byte_time(byte_time(baud, data_bits, parity, stop_bits))
 
     @classmethod
-    def timed_by(cls, byte_time: float, frame_gap: float | None = None) -> "LineSettings":
+    def timed_by(cls, byte_time: float, frame_gap: float | None = None) -> LineSettings:
         """Settings known only by their byte time (seconds per character)."""
         settings = cls(frame_gap=frame_gap)
         settings.baud = None

@@ -14,8 +14,8 @@ The output is one event sequence in plausible wire order, fed to pairing.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Iterator
 from itertools import islice
-from typing import Iterator
 
 from dissectors import apply_command, result_fits
 from dissectors.commands import DUE

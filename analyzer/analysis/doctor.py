@@ -40,14 +40,35 @@ from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, R
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
 from ..physical.bitrate import STANDARD_RATES, nominal_rate
-from ..styles import ERROR, INFO, WARNING   # the severities every view colours
+from ..styles import ERROR, INFO, WARNING  # the severities every view colours
 from ..words import counted
 from .findings import (
-    CLOCK_OFF, CONTROLLER_FAST_RETRY, CONTROLLER_IX_TIMEOUT, CONTROLLER_NO_RETRY, CONTROLLER_NO_WAIT, DEAD_LINK,
-    DEVICE_MAP, ECHO, FINDINGS, FRAMING_ERRORS, GLITCHES, LINE_INVERTED, NAK_BURST, NO_FRAMES, NOISY_LINK,
-    RATE_NONSTANDARD, SILENT_AFTER_RATE, SILENT_DEVICE, SLOW_ANSWERS, TWO_DRIVERS, Finding, unexplained)
-from .signs import (
-    GARBLED, MAX_EVIDENCE as _MAX_EVIDENCE, MIN_BYTES, SAME, TEXT, LineTally, Tally as _Tally, WiringSigns, looks_of)
+    CLOCK_OFF,
+    CONTROLLER_FAST_RETRY,
+    CONTROLLER_IX_TIMEOUT,
+    CONTROLLER_NO_RETRY,
+    CONTROLLER_NO_WAIT,
+    DEAD_LINK,
+    DEVICE_MAP,
+    ECHO,
+    FINDINGS,
+    FRAMING_ERRORS,
+    GLITCHES,
+    LINE_INVERTED,
+    NAK_BURST,
+    NO_FRAMES,
+    NOISY_LINK,
+    RATE_NONSTANDARD,
+    SILENT_AFTER_RATE,
+    SILENT_DEVICE,
+    SLOW_ANSWERS,
+    TWO_DRIVERS,
+    Finding,
+    unexplained,
+)
+from .signs import GARBLED, MIN_BYTES, SAME, TEXT, LineTally, WiringSigns, looks_of
+from .signs import MAX_EVIDENCE as _MAX_EVIDENCE
+from .signs import Tally as _Tally
 from .stats import Latency
 
 SEVERITY_ORDER = {ERROR: 0, WARNING: 1, INFO: 2}

@@ -48,15 +48,15 @@ from __future__ import annotations
 import math
 import operator
 import re
+from collections.abc import Callable
 from operator import attrgetter
-from typing import Any, Callable
+from typing import Any
 
 from dissectors.commands import COMMANDS, DERIVED_FIELDS, field_types
 from dissectors.event import KINDS, STATUSES, Event
 
 from ..errors import FilterError
-from .filter_hints import (DST_PARTS, PROTOCOL, Fix, Vocabulary, character_fix, dst_text_fix, operator_fix,
-                           value_fix)
+from .filter_hints import DST_PARTS, PROTOCOL, Fix, Vocabulary, character_fix, dst_text_fix, operator_fix, value_fix
 from .filter_plan import Plans
 
 Predicate = Callable[[Event], bool]
@@ -290,7 +290,7 @@ def _comparison(op: str, left: Callable, right: Callable, negate: bool) -> Calla
             if negate:
                 return lambda ev: not has(left(ev))
             return lambda ev: has(left(ev))
-        test = lambda a, b: _contains(b, a)   # noqa: E731
+        test = lambda a, b: _contains(b, a)
         if negate:
             return lambda ev: not test(left(ev), right(ev))
     elif isinstance(right, _Const) and _kind(right.value) in ("string", "number"):
@@ -652,6 +652,6 @@ def compile_filter(src: str) -> Predicate:
     (filter_plan.py); the predicate itself is the ground truth."""
     parser = _Parser(src)
     fn = parser.parse()
-    pred = lambda ev: bool(fn(ev))   # noqa: E731
+    pred = lambda ev: bool(fn(ev))
     pred.plan = parser.plans.test(fn)
     return pred

@@ -20,7 +20,7 @@ The closure stays the ground truth. A plan is a tree of
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 Plan = tuple | None
 

@@ -29,7 +29,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from string import Formatter
 
-from ..styles import ERROR, INFO, WARNING   # the severities every view colours
+from ..styles import ERROR, INFO, WARNING  # the severities every view colours
 
 # ------------------------------------------------------------------ ids
 LINES_SWAPPED = "lines_swapped"

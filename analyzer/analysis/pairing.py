@@ -24,10 +24,34 @@ from dataclasses import dataclass, field
 from dissectors import apply_command, dissect_command, dissect_result, result_fits
 from dissectors.commands import DUE, OPTIONAL
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, NO_ACK, NO_RESULT, OK, PENDING, RATE, RESULT, ST_NAK, ST_NIC, Event, format_address)
+    ACK,
+    COMMAND,
+    FRAME,
+    NAK,
+    NIC,
+    NO_ACK,
+    NO_RESULT,
+    OK,
+    PENDING,
+    RATE,
+    RESULT,
+    ST_NAK,
+    ST_NIC,
+    Event,
+    format_address,
+)
 from dissectors.problems import (
-    LATE, NO_RESULT_OVERFLOW, NO_RESULT_SENT_AGAIN, NO_RESULT_TIMEOUT, ORPHAN, RETRANSMISSION, UNANSWERED_NO_ACK,
-    UNANSWERED_SUPERSEDED, UNANSWERED_TIMEOUT, ProblemInfo)
+    LATE,
+    NO_RESULT_OVERFLOW,
+    NO_RESULT_SENT_AGAIN,
+    NO_RESULT_TIMEOUT,
+    ORPHAN,
+    RETRANSMISSION,
+    UNANSWERED_NO_ACK,
+    UNANSWERED_SUPERSEDED,
+    UNANSWERED_TIMEOUT,
+    ProblemInfo,
+)
 from dissectors.wire import WILDCARD
 
 
@@ -76,9 +100,22 @@ class Transaction:
     pairing's own bookkeeping while answers are awaited: one object per command.
     """
 
-    __slots__ = ("number", "request", "command", "device", "status", "retransmission",
-                 "ack", "nic", "result", "ack_latency", "result_latency",
-                 "deadline", "optional", "age")
+    __slots__ = (
+        "ack",
+        "ack_latency",
+        "age",
+        "command",
+        "deadline",
+        "device",
+        "nic",
+        "number",
+        "optional",
+        "request",
+        "result",
+        "result_latency",
+        "retransmission",
+        "status",
+    )
 
     def __init__(self, number: int, cmd: Event) -> None:
         self.number = number

@@ -32,11 +32,14 @@ import re
 from bisect import bisect_left
 from collections import Counter
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 
 from dissectors.commands import BAUD_CODES
 from dissectors.event import ACK, COMMAND, FRAME, NAK, NIC, RATE, Event
-from dissectors.wire import ACK as ACK_BYTE, NAK as NAK_BYTE, NIC as NIC_BYTE, WILDCARD, build_frame
+from dissectors.wire import ACK as ACK_BYTE
+from dissectors.wire import NAK as NAK_BYTE
+from dissectors.wire import NIC as NIC_BYTE
+from dissectors.wire import WILDCARD, build_frame
 
 _C = 0x43   # "C"
 # What a rate-set frame looks like in the bytes: a start byte, four header bytes,
@@ -261,7 +264,7 @@ def _reference_traffic(sent: int, rng: random.Random) -> tuple[list[tuple[int, b
     return a, b
 
 
-@lru_cache(maxsize=None)
+@cache
 def misread_profile(sent: int, read: int) -> tuple[float, ...]:
     """For each byte value, log2 of how much likelier a UART at ``read`` reads it
     from protocol traffic sent at ``sent`` than from random bytes (1/256)."""

@@ -55,7 +55,7 @@ class Tally:
     """A count and some evidence (the first and the latest event numbers): memory
     stays flat however long the capture, and re-checking costs the same."""
 
-    __slots__ = ("n", "first", "last")
+    __slots__ = ("first", "last", "n")
 
     def __init__(self) -> None:
         self.n = 0
@@ -238,7 +238,7 @@ class WiringSigns:
         a, b = self.turns["A"], self.turns["B"]
         return self.exchanges >= RHYTHM and 2 * self.exchanges >= max(a, b)
 
-    def misread(self, names: list[str]) -> "Misread":
+    def misread(self, names: list[str]) -> Misread:
         """What the bytes of ``names``' lines that did not decode say about the
         rate (analysis/rate.py), worked out again only when there is more to go on."""
         read = self.read_rate
@@ -370,7 +370,7 @@ class Misread:
     value: str = ""
 
     @classmethod
-    def of(cls, sample: bytes, read: int | None) -> "Misread":
+    def of(cls, sample: bytes, read: int | None) -> Misread:
         look, excerpt, value = looks_of(sample)
         at = read if read is not None else ASSUMED_BAUD
         scores = rate_scores(sample, at) if look == BINARY else {}

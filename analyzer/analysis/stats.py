@@ -18,8 +18,22 @@ from collections import Counter
 from typing import Any
 
 from dissectors.event import (
-    ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, P_CHECKSUM, P_LENGTH, P_NOISE, PENDING, RATE, RESULT, STATUSES,
-    Event)
+    ACK,
+    COMMAND,
+    NAK,
+    NIC,
+    NO_ACK,
+    NO_RESULT,
+    NOISE,
+    P_CHECKSUM,
+    P_LENGTH,
+    P_NOISE,
+    PENDING,
+    RATE,
+    RESULT,
+    STATUSES,
+    Event,
+)
 
 _LOG_STEP = math.log(1.01)
 _CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))
@@ -48,7 +62,7 @@ def checksum_problem(ev: Event) -> bool:
 
 
 class Latency:
-    __slots__ = ("n", "min", "max", "buckets", "zero")
+    __slots__ = ("buckets", "max", "min", "n", "zero")
 
     def __init__(self) -> None:
         self.n = 0
@@ -59,10 +73,8 @@ class Latency:
 
     def add(self, x: float) -> None:
         self.n += 1
-        if x < self.min:
-            self.min = x
-        if x > self.max:
-            self.max = x
+        self.min = min(self.min, x)
+        self.max = max(self.max, x)
         if x <= 1e-9:
             self.zero += 1
         else:
@@ -105,8 +117,14 @@ LATENCY_COLUMNS = (
 
 class Counts:
     """What is counted per command id and per device."""
-    __slots__ = ("commands", "status", "retransmissions", "checksum_errors", "ack_latency",
-                 "result_latency")
+    __slots__ = (
+        "ack_latency",
+        "checksum_errors",
+        "commands",
+        "result_latency",
+        "retransmissions",
+        "status",
+    )
 
     def __init__(self) -> None:
         self.commands = 0

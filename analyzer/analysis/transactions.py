@@ -29,7 +29,7 @@ class OpenTransaction:
     """A command seen, and those of its answers seen since. ``ts`` is whatever
     time its consumer gives it (the recorder: the message's log time)."""
 
-    __slots__ = ("ts", "command", "record", "answers")
+    __slots__ = ("answers", "command", "record", "ts")
 
     def __init__(self, ts: Any, command: Event) -> None:
         self.ts = ts

@@ -11,7 +11,7 @@ collector while decoding) and ``wireclock`` (how far the wire has been seen).
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from ..analysis.pairing import Timeouts
 from ..info import recorded_options
@@ -92,4 +92,4 @@ def _capture_of(source, options: Options, name: str, inputs, on_warning) -> Capt
     return capture
 
 
-__all__ = ["Capture", "Options", "UNDECODED_EVERY", "open", "open_live", "open_samples"]
+__all__ = ["UNDECODED_EVERY", "Capture", "Options", "open", "open_live", "open_samples"]

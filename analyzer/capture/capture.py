@@ -27,7 +27,7 @@ and the bytes are counted and said (``Capture.undecoded``, analyzer/capture/unde
 
 from __future__ import annotations
 
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 from dissectors import Deframer
 from dissectors.event import Event, Origin

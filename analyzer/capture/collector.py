@@ -10,8 +10,8 @@ is being iterated (``Options.tune_gc``), the young generation is collected every
 from __future__ import annotations
 
 import gc
+from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Iterator
 
 YOUNG_THRESHOLD = 100_000
 

@@ -12,7 +12,7 @@ the capture's first byte) goes on the next event of its line, if any.
 from __future__ import annotations
 
 from collections import deque
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 from dissectors.event import Event
 

@@ -14,8 +14,9 @@ byte time now, read from the lines' settings (``LineSettings``).
 from __future__ import annotations
 
 from bisect import bisect_left
+from collections.abc import Callable, Iterator
 from operator import attrgetter
-from typing import Callable, Iterator, Protocol
+from typing import Protocol
 
 from dissectors import Deframer
 from dissectors.event import ACK, COMMAND, NAK, NOISE, Event

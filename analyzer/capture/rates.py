@@ -8,7 +8,7 @@ by ``analyzer.analysis.rate.RateFollower``, a pure observer of the events."""
 
 from __future__ import annotations
 
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 from dissectors.event import Event
 from dissectors.wire import LineSettings

@@ -4,7 +4,7 @@ the gap, and the bytes are counted per line and said as warnings."""
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from dissectors import Deframer
 from dissectors.event import Event

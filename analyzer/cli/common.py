@@ -9,7 +9,8 @@ import sys
 
 from ..analysis.filter import FilterError, Predicate, compile_filter
 from ..analysis.pairing import Timeouts
-from ..capture import Capture, Options, open as open_capture
+from ..capture import Capture, Options
+from ..capture import open as open_capture
 from ..errors import UsageError
 from ..info import CaptureInfo
 from ..listeners import NotePrinter
@@ -212,7 +213,7 @@ def iso_time(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r}: expected an ISO 8601 time such as "
                                          "2026-11-21T08:35:52Z") from None
     if when.tzinfo is None:
-        when = when.replace(tzinfo=datetime.timezone.utc)
+        when = when.replace(tzinfo=datetime.UTC)
     return when.timestamp()
 
 

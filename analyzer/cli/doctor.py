@@ -27,15 +27,23 @@ from dataclasses import replace
 
 from ..analysis.doctor import INFO, WiringDoctor
 from ..analysis.findings import Finding
-from ..capture import Capture, open as open_capture, open_live
+from ..capture import Capture, open_live
+from ..capture import open as open_capture
 from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
 from ..sources import registry
 from ..styles import ERROR, SEVERITY_STYLE, WARNING
 from ..words import counted
 from .common import (
-    STANDARD_BAUDS, UsageError, add_quiet_arg, add_serial_args, non_negative_float, options_from, positive_float,
-    run_tap)
+    STANDARD_BAUDS,
+    UsageError,
+    add_quiet_arg,
+    add_serial_args,
+    non_negative_float,
+    options_from,
+    positive_float,
+    run_tap,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

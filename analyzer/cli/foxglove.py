@@ -33,16 +33,17 @@ import json
 import os
 import re
 import sys
-from typing import TYPE_CHECKING, Iterable, Sequence
+from collections.abc import Iterable, Sequence
+from typing import TYPE_CHECKING
 
 from ..analysis.positions import AZ, EL
 from ..capture import Capture
 from ..formats import mcap_schemas as S
 from ..info import CaptureInfo
 from ..listeners import PositionFinder
-from ..sources import registry
 from ..outfile import AtomicOutput, check_output, show
 from ..output import print_out
+from ..sources import registry
 from .common import add_serial_args, open_inputs, run_tap, warn
 
 if TYPE_CHECKING:
@@ -183,7 +184,15 @@ def channel_records(path: str) -> tuple[set[str], set[str]]:
     without one by a walk over its records and chunks (each length checked:
     analyzer/sources/mcapscan.py). Damage ends the walk through what it hit."""
     from ..sources.mcapscan import (
-        OP_CHANNEL, OP_CHUNK, OP_SCHEMA, Damaged, Walk, read_chunk, read_cut_chunk, summary_records)
+        OP_CHANNEL,
+        OP_CHUNK,
+        OP_SCHEMA,
+        Damaged,
+        Walk,
+        read_chunk,
+        read_cut_chunk,
+        summary_records,
+    )
 
     wanted = (OP_SCHEMA, OP_CHANNEL)
     schemas: set[str] = set()
@@ -245,7 +254,7 @@ def _collect(records: Iterable[tuple[int, bytes]], schemas: set[str], topics: se
 # ------------------------------------------------------------------ the layout
 
 def build_layout(devices: Sequence[str], lines: Sequence[str], *, template: bool = False,
-                 lean: bool = False) -> "fl.Layout":
+                 lean: bool = False) -> fl.Layout:
     """The layout for ``devices`` (group.port.device, in the order shown) and
     ``lines`` (``A``, ``B``, ``AB``). Position plots take two thirds of the width,
     the log and the tables the rest; with ``template`` the plots' titles say the
@@ -280,7 +289,7 @@ def build_layout(devices: Sequence[str], lines: Sequence[str], *, template: bool
     ]))
 
 
-def _raw_lines(lines: Sequence[str]) -> "fl.Content":
+def _raw_lines(lines: Sequence[str]) -> fl.Content:
     """A Raw Messages panel per line, side by side."""
     import foxglove.layouts as fl
 
@@ -292,7 +301,7 @@ def _raw_lines(lines: Sequence[str]) -> "fl.Content":
     return fl.SplitContainer(direction="row", items=[fl.SplitItem(proportion=1, content=p) for p in panels])
 
 
-def _raw_reads() -> "fl.Content":
+def _raw_reads() -> fl.Content:
     """A lean recording's one Raw Messages panel: every line's reads, in wire order."""
     import foxglove.layouts as fl
 
@@ -300,7 +309,7 @@ def _raw_reads() -> "fl.Content":
                                config=fl.RawMessagesConfig(topic_path=S.READS_TOPIC))
 
 
-def position_plot(device: str, *, template: bool = False) -> "fl.PlotPanel":
+def position_plot(device: str, *, template: bool = False) -> fl.PlotPanel:
     """One gimbal's plot: target and reported azimuth and elevation over time."""
     import foxglove.layouts as fl
 

@@ -32,8 +32,15 @@ from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
 from .common import (
-    UsageError, add_channels_arg, add_filter_arg, add_sample_stream_args, add_serial_args, build_filter, options_from,
-    positive_float)
+    UsageError,
+    add_channels_arg,
+    add_filter_arg,
+    add_sample_stream_args,
+    add_serial_args,
+    build_filter,
+    options_from,
+    positive_float,
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:

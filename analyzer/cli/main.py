@@ -19,8 +19,23 @@ from ..sources import CaptureError, formats
 from ..sources.meter import READS
 from ..version import __version__
 from . import (
-    convert, decode, demo, doctor, export, foxglove, live, query, recover, replay, report, sigrok, sim, stats, view,
-    wireshark)
+    convert,
+    decode,
+    demo,
+    doctor,
+    export,
+    foxglove,
+    live,
+    query,
+    recover,
+    replay,
+    report,
+    sigrok,
+    sim,
+    stats,
+    view,
+    wireshark,
+)
 from .common import UsageError, set_quiet
 
 EXIT_INPUT = 2

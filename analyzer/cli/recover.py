@@ -28,8 +28,25 @@ from ..listeners.progress import ReadProgress, wanted
 from ..outfile import AtomicOutput, check_output, show, write_error
 from ..sources.files import open_input
 from ..sources.mcapscan import (
-    MAGIC, OP_ATTACHMENT, OP_CHANNEL, OP_CHUNK, OP_HEADER, OP_MESSAGE, OP_METADATA, OP_SCHEMA, RECORD, RECORD_HEAD,
-    Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk, summary_records)
+    MAGIC,
+    OP_ATTACHMENT,
+    OP_CHANNEL,
+    OP_CHUNK,
+    OP_HEADER,
+    OP_MESSAGE,
+    OP_METADATA,
+    OP_SCHEMA,
+    RECORD,
+    RECORD_HEAD,
+    Damaged,
+    Walk,
+    intact_prefix,
+    op_name,
+    parse,
+    read_chunk,
+    read_cut_chunk,
+    summary_records,
+)
 from ..words import counted
 from .common import UsageError, add_quiet_arg, warn
 
@@ -49,7 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def default_output(src: str) -> str:
-    return (src[:-5] if src.endswith(".mcap") else src) + ".recovered.mcap"
+    return (src.removesuffix(".mcap")) + ".recovered.mcap"
 
 
 def run(args: argparse.Namespace) -> int:

@@ -47,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    from ..sources.mcapfile import McapSource   # here: every other command starts without it
+    from ..sources.mcapfile import McapSource  # here: every other command starts without it
     from ..sources.mcapparts import McapPartsSource
 
     if not isinstance(capture.source, (McapSource, McapPartsSource)):

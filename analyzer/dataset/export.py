@@ -17,7 +17,8 @@ import time
 from dataclasses import dataclass, field
 
 from .. import uris
-from ..capture import Options, open as open_capture
+from ..capture import Options
+from ..capture import open as open_capture
 from ..info import CaptureInfo
 from ..listeners.wiring_check import WiringCheck
 from ..outfile import OutputRefused, show

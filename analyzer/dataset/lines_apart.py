@@ -17,7 +17,8 @@ from itertools import islice
 from dissectors.event import COMMAND, NO_RESULT, OK, ST_NIC
 
 from ..analysis.signs import WiringSigns
-from ..capture import Options, open as open_capture
+from ..capture import Options
+from ..capture import open as open_capture
 from ..errors import CaptureError
 from ..outfile import show
 from ..sources.rawdump import RawDumpSource

@@ -216,7 +216,7 @@ def _utc(when: dt.datetime | None) -> dt.datetime | None:
     """A capture's start in UTC, the dataset's time zone, whatever zone the
     engine gave it in (DuckDB: its session's; Spark: the Python process's,
     without saying)."""
-    return None if when is None else when.astimezone(dt.timezone.utc)
+    return None if when is None else when.astimezone(dt.UTC)
 
 
 def _device_key(device: str):

@@ -24,7 +24,8 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from typing import Any, Callable, Iterable
+from collections.abc import Callable, Iterable
+from typing import Any
 
 from dissectors.problems import BY_NAME, LINE, Problem
 

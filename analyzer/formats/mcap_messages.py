@@ -35,7 +35,8 @@ from __future__ import annotations
 
 import time
 from binascii import b2a_base64
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 from dissectors.event import NO_ACK, NOISE, ST_NAK, Event
 from dissectors.wire import payload_text

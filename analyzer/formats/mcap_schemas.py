@@ -21,7 +21,7 @@ false, so a validator catches a message that drifted from its schema.
 from __future__ import annotations
 
 import json
-from functools import lru_cache
+from functools import cache
 
 from dissectors import problems
 from dissectors.commands import COMMANDS, field_types
@@ -214,7 +214,7 @@ DEFAULT, LEAN = "default", "lean"
 PROFILES = (DEFAULT, LEAN)
 
 
-@lru_cache(maxsize=None)
+@cache
 def encoded_by_key(key: str) -> bytes:
     return encoded(SCHEMAS[key])
 

@@ -13,7 +13,8 @@ bytes from the wire never raise.
 from __future__ import annotations
 
 import datetime as dt
-from typing import Any, Iterable
+from collections.abc import Iterable
+from typing import Any
 
 import pyarrow as pa
 import pyarrow.compute as pc
@@ -64,7 +65,7 @@ def day_of(start_time: float | None) -> str:
     """The UTC date of an epoch time, or the null partition."""
     if start_time is None:
         return S.UNDATED
-    return dt.datetime.fromtimestamp(start_time, dt.timezone.utc).date().isoformat()
+    return dt.datetime.fromtimestamp(start_time, dt.UTC).date().isoformat()
 
 
 def partitions(batch: pa.RecordBatch, ts_column: str, undated: str = S.UNDATED) -> Iterable[tuple[str, pa.RecordBatch]]:

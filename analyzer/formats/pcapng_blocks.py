@@ -11,7 +11,8 @@ found again).
 from __future__ import annotations
 
 import struct
-from typing import BinaryIO, Callable, Iterator
+from collections.abc import Callable, Iterator
+from typing import BinaryIO
 
 from ..errors import CaptureError
 

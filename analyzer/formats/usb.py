@@ -34,7 +34,8 @@ from __future__ import annotations
 
 import io
 import struct
-from typing import BinaryIO, Callable, Iterator, NamedTuple
+from collections.abc import Callable, Iterator
+from typing import BinaryIO, NamedTuple
 
 from ..errors import CaptureError
 from . import pcapng_blocks as png

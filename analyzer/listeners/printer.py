@@ -6,7 +6,8 @@ from __future__ import annotations
 
 import re
 import sys
-from typing import TYPE_CHECKING, Callable
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 from dissectors.event import Event
 

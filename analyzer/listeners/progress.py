@@ -94,7 +94,7 @@ class ReadProgress:
             self._thread = None
         self._close()
 
-    def __enter__(self) -> "ReadProgress":
+    def __enter__(self) -> ReadProgress:
         self.start()
         return self
 
@@ -117,7 +117,13 @@ class ReadProgress:
             return                         # a pipe, or nothing to read: no share to show
         from rich.console import Console
         from rich.progress import (
-            BarColumn, DownloadColumn, Progress, TextColumn, TimeRemainingColumn, TransferSpeedColumn)
+            BarColumn,
+            DownloadColumn,
+            Progress,
+            TextColumn,
+            TimeRemainingColumn,
+            TransferSpeedColumn,
+        )
         progress = Progress(TextColumn("{task.description}"), BarColumn(), DownloadColumn(),
                             TransferSpeedColumn(), TimeRemainingColumn(),
                             console=Console(file=sys.stderr), transient=True, auto_refresh=False,

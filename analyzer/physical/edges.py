@@ -11,7 +11,8 @@ binary, so levels alternate and a block carries only its starting level.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Iterator, NamedTuple
+from collections.abc import Iterator
+from typing import NamedTuple
 
 import numpy as np
 

@@ -12,7 +12,8 @@ says so with its ACK and the bus switches the port (docs/time.md, "Rate changes"
 
 from __future__ import annotations
 
-from typing import Callable, Protocol, Union
+from collections.abc import Callable
+from typing import Protocol, Union
 
 
 class GimbalState(Protocol):

@@ -37,6 +37,21 @@ def detect(paths: list[str], settings: ReadSettings | float) -> Source:
         raise
 
 
-__all__ = ["CaptureError", "Chunk", "Input", "InstrumentSettings", "LINE_A", "LINE_AB", "LINE_B", "RawDumpSource", "Reader", "ReadSettings",
-           "Source",
-           "SocatLogSource", "detect", "formats", "open_input", "registry"]
+__all__ = [
+    "LINE_A",
+    "LINE_AB",
+    "LINE_B",
+    "CaptureError",
+    "Chunk",
+    "Input",
+    "InstrumentSettings",
+    "RawDumpSource",
+    "ReadSettings",
+    "Reader",
+    "SocatLogSource",
+    "Source",
+    "detect",
+    "formats",
+    "open_input",
+    "registry",
+]

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import weakref
 from abc import ABC, abstractmethod
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Iterator
+from typing import TYPE_CHECKING
 
 from dissectors.wire import LineSettings
 
@@ -111,7 +112,7 @@ class Source(ABC):
         for cleanup in getattr(self, "_cleanups", ()):
             cleanup()
 
-    def __enter__(self) -> "Source":
+    def __enter__(self) -> Source:
         return self
 
     def __exit__(self, *exc) -> None:
@@ -159,7 +160,7 @@ class ReadSettings:
     instrument: InstrumentSettings = InstrumentSettings()
 
     @classmethod
-    def of(cls, settings: "ReadSettings | float") -> "ReadSettings":
+    def of(cls, settings: ReadSettings | float) -> ReadSettings:
         """A bare number is a byte time."""
         return settings if isinstance(settings, ReadSettings) else cls(float(settings))
 

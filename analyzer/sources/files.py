@@ -17,7 +17,8 @@ import shutil
 import stat
 import sys
 import tempfile
-from typing import BinaryIO, Iterator
+from collections.abc import Iterator
+from typing import BinaryIO
 
 from ..errors import CaptureError
 from ..outfile import reason, show

@@ -55,9 +55,9 @@ import struct
 import subprocess
 import sys
 from binascii import a2b_base64
+from collections.abc import Callable, Iterator
 from functools import partial
 from itertools import chain
-from typing import Callable, Iterator
 
 try:
     from orjson import loads as json_loads
@@ -66,14 +66,32 @@ except ImportError:  # pragma: no cover
 
 from ..errors import CaptureError
 from ..formats.mcap_lines import LINES_RECORD, faults_of, reports_of
-from ..formats.mcap_schemas import READS_TOPIC   # lean recordings: the reads of every line, batched
+from ..formats.mcap_schemas import READS_TOPIC  # lean recordings: the reads of every line, batched
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
 from ..outfile import show
 from .base import ReadSettings, Source
 from .files import Input, open_input
 from .mcapscan import (
-    MAGIC, MESSAGE_HEAD, OP_CHANNEL, OP_CHUNK, OP_DATA_END, OP_FOOTER, OP_MESSAGE, OP_METADATA, OP_SCHEMA, RECORD,
-    RECORD_HEAD, Damaged, Walk, intact_prefix, op_name, parse, read_chunk, read_cut_chunk, summary_records)
+    MAGIC,
+    MESSAGE_HEAD,
+    OP_CHANNEL,
+    OP_CHUNK,
+    OP_DATA_END,
+    OP_FOOTER,
+    OP_MESSAGE,
+    OP_METADATA,
+    OP_SCHEMA,
+    RECORD,
+    RECORD_HEAD,
+    Damaged,
+    Walk,
+    intact_prefix,
+    op_name,
+    parse,
+    read_chunk,
+    read_cut_chunk,
+    summary_records,
+)
 from .meter import READS
 
 _BATCHED = "reads"              # the "line" of the reads topic's channels (each read names its own)
@@ -520,8 +538,19 @@ def _record_heads(f, size: int) -> Iterator[tuple[int, int]]:
 class _Pass:
     """What one read through the file knows so far."""
 
-    __slots__ = ("lines", "pairs", "need_t", "wanted", "encodings", "foreign", "base64", "only", "batched_lines",
-                 "errors", "sent")
+    __slots__ = (
+        "base64",
+        "batched_lines",
+        "encodings",
+        "errors",
+        "foreign",
+        "lines",
+        "need_t",
+        "only",
+        "pairs",
+        "sent",
+        "wanted",
+    )
 
     def __init__(self, topics: list[str], pairs: bool, need_t: bool | None, only: str | None = None,
                  errors: list[LineFault] | None = None) -> None:

@@ -29,8 +29,8 @@ from __future__ import annotations
 import datetime
 import io
 import os
+from collections.abc import Callable, Iterable, Iterator
 from itertools import chain
-from typing import Callable, Iterable, Iterator
 
 from ..errors import CaptureError
 from ..lines import Chunk, LineFault
@@ -271,7 +271,7 @@ def check_no_overlap(ordered: list[McapSource]) -> None:
 def _when(ns: int) -> str:
     """A log time as a date (UTC) when it is one, else seconds on the recording's clock."""
     if _EPOCH_NS[0] <= ns <= _EPOCH_NS[1]:
-        when = datetime.datetime.fromtimestamp(ns / 1e9, datetime.timezone.utc)
+        when = datetime.datetime.fromtimestamp(ns / 1e9, datetime.UTC)
         return when.isoformat(timespec="milliseconds").replace("+00:00", "Z")
     return f"{ns / 1e9:.3f} s on its clock"
 

@@ -15,8 +15,9 @@ from __future__ import annotations
 import json
 import struct
 import zlib
+from collections.abc import Iterator
 from io import BytesIO
-from typing import BinaryIO, Iterator
+from typing import BinaryIO
 
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile

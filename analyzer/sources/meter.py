@@ -12,7 +12,7 @@ import weakref
 
 def _NO_HANDLE() -> None:
     """A weak reference to no file: a file read by another process."""
-    return None
+    return
 
 
 class ReadMeter:

@@ -27,12 +27,18 @@ from __future__ import annotations
 
 import io
 import struct
-from typing import BinaryIO, Iterator
+from collections.abc import Iterator
+from typing import BinaryIO
 
 from ..errors import CaptureError
 from ..formats import pdu
-from ..formats.pcapng_blocks import EPB as _EPB, IDB as _IDB, MAGIC, SHB as _SHB
-from ..formats.pcapng_blocks import blocks as _blocks, options as _options, ts_scale as _scale
+from ..formats.pcapng_blocks import EPB as _EPB
+from ..formats.pcapng_blocks import IDB as _IDB
+from ..formats.pcapng_blocks import MAGIC
+from ..formats.pcapng_blocks import SHB as _SHB
+from ..formats.pcapng_blocks import blocks as _blocks
+from ..formats.pcapng_blocks import options as _options
+from ..formats.pcapng_blocks import ts_scale as _scale
 from ..lines import LINE_A, LINE_B, Chunk
 from ..words import counted
 from .base import Reader, ReadSettings, Source

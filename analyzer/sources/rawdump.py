@@ -17,7 +17,7 @@ from __future__ import annotations
 import codecs
 import os
 import time
-from typing import Iterator
+from collections.abc import Iterator
 
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk

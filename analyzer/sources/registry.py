@@ -25,7 +25,7 @@ class AnyCount(tuple):
     count from one is in it, and it lists none (it has no fixed count, so
     ``most_inputs`` does not see it)."""
 
-    def __new__(cls) -> "AnyCount":
+    def __new__(cls) -> AnyCount:
         return super().__new__(cls)
 
     def __contains__(self, count: object) -> bool:
@@ -47,7 +47,7 @@ def _open_mcap(inputs: list[Input], settings: ReadSettings) -> Source:
     if len(inputs) == 1:
         from .mcapfile import open_mcap
         return open_mcap(inputs, settings)
-    from .mcapparts import open_mcap_parts   # the parts of one tap's recording (docs/time.md, "Parts")
+    from .mcapparts import open_mcap_parts  # the parts of one tap's recording (docs/time.md, "Parts")
     return open_mcap_parts(inputs, settings)
 
 

@@ -27,7 +27,8 @@ from __future__ import annotations
 import math
 import os
 import struct
-from typing import BinaryIO, Iterator
+from collections.abc import Iterator
+from typing import BinaryIO
 
 import numpy as np
 

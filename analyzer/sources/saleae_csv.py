@@ -22,7 +22,7 @@ from __future__ import annotations
 import csv
 import io
 import re
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -39,7 +39,7 @@ TICKS_A_SECOND = 1e9
 MAX_SECONDS = 1e9             # a time beyond this (or NaN) is damage: ticks stay within int64
 BLOCK_BYTES = 4 << 20
 ROW_LIMIT = 16 << 20          # a row this long is no export's (1000 channels take 2 KB): damage, not read on
-_NUMBERED = re.compile(r"^Channel (\d+)$", re.I)
+_NUMBERED = re.compile(r"^Channel (\d+)$", re.IGNORECASE)
 _LEVEL = {"0": 0, "1": 1, "X": -1, "x": -1}
 
 
@@ -53,8 +53,7 @@ class SaleaeDigitalCsv(Waveform):
         self.name = inp.name
         self.stream = inp.stream()
         first = self.stream.readline()
-        if first.startswith(BOM):
-            first = first[len(BOM):]
+        first = first.removeprefix(BOM)
         names = next(csv.reader([first.decode("utf-8", "replace")]), [])[1:]
         if not names:
             raise CaptureError(f"{inp.name}: a Saleae CSV with no channel column (line 1: Time [s],<channels>)")

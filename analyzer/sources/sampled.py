@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import heapq
 from bisect import bisect_left
+from collections.abc import Callable, Iterator
 from operator import attrgetter
-from typing import Callable, Iterator
 
 from dissectors.wire import LineSettings
 

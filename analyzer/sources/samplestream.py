@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import sys
 import time
-from typing import Iterator
+from collections.abc import Iterator
 
 from ..errors import CaptureError
 from ..physical.edges import PackedSamples

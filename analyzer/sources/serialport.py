@@ -34,7 +34,7 @@ import os
 import queue
 import threading
 import time
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
 
 import serial
 

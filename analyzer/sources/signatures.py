@@ -19,7 +19,7 @@ CENTRAL = b"PK\x01\x02"        # an entry of a zip's central directory
 # a VCD starts with one of its sections
 STARTS = (b"$date", b"$version", b"$timescale", b"$comment", b"$scope", b"$var", b"$enddefinitions")
 BOM = b"\xef\xbb\xbf"
-_TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.I)   # a Saleae digital CSV
+_TIME_COLUMN = re.compile(rb"^\s*\"?Time ?\[s\]\"?\s*,", re.IGNORECASE)   # a Saleae digital CSV
 COLUMNS = ("name", "type", "start_time", "duration", "data")      # a Saleae Async Serial data table
 MAGIC = b"<SALEAE>"            # a Saleae binary export
 _SAMPLES_MEMBER = re.compile(rb"logic-\d+(-\d+)?")
@@ -54,8 +54,7 @@ def looks_like_vcd(head: bytes) -> bool:
 
 def looks_like_digital_csv(head: bytes) -> bool:
     """``Time [s],…`` on the first line (Logic 1 wrote ``Time[s]``)."""
-    if head.startswith(BOM):
-        head = head[len(BOM):]
+    head = head.removeprefix(BOM)
     return _TIME_COLUMN.match(head) is not None
 
 

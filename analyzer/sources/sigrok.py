@@ -23,7 +23,8 @@ import re
 import struct
 import zipfile
 import zlib
-from typing import BinaryIO, Iterator
+from collections.abc import Iterator
+from typing import BinaryIO
 
 from ..errors import CaptureError
 from ..physical.edges import Block, PackedSamples

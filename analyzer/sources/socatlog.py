@@ -56,8 +56,8 @@ from __future__ import annotations
 
 import re
 import time
-from datetime import datetime, timedelta, timezone, tzinfo
-from typing import Callable, Iterator
+from collections.abc import Callable, Iterator
+from datetime import UTC, datetime, timedelta, tzinfo
 
 from dissectors.wire import LineSettings
 
@@ -71,7 +71,7 @@ HEADER = re.compile(
     rb"^([<>]) (\d{4}/\d\d/\d\d \d\d:\d\d:\d\d)\.(\d+)\s+length=(\d+) from=(\d+) to=(\d+)\s*$")
 # a header (as HEADER, on one line) followed by a hex line: where a log's time starts
 _HEADER_WITH_HEX = re.compile(
-    rb"^([<>]) (\d{4}/\d\d/\d\d \d\d:\d\d:\d\d)\.(\d+)[ \t]+length=(\d+) from=(\d+) to=(\d+)[ \t\r]*\n(?= )", re.M)
+    rb"^([<>]) (\d{4}/\d\d/\d\d \d\d:\d\d:\d\d)\.(\d+)[ \t]+length=(\d+) from=(\d+) to=(\d+)[ \t\r]*\n(?= )", re.MULTILINE)
 DIAGNOSTIC = re.compile(rb"^\d{4}/\d\d/\d\d \d\d:\d\d:\d\d socat\[\d+\] ")
 HEX_COLUMNS = 49
 UNIT_HEADERS = 2000       # headers that decide the fraction's unit
@@ -128,7 +128,7 @@ def time_zone(name: str | None) -> tzinfo | None:
     if name is None:
         return None
     try:
-        from zoneinfo import ZoneInfo   # here: only a zone given by name needs the package
+        from zoneinfo import ZoneInfo  # here: only a zone given by name needs the package
         return ZoneInfo(name)
     except (LookupError, ValueError, OSError):   # ZoneInfoNotFoundError is a KeyError
         raise ValueError(f"unknown time zone {name!r} "
@@ -227,7 +227,7 @@ class _Readings:
 
     def _wall(self, epoch: float) -> datetime:
         """The epoch as the zone's clock shows it (aware, with the offset of the moment)."""
-        return datetime.fromtimestamp(epoch, timezone.utc).astimezone(self.zone)
+        return datetime.fromtimestamp(epoch, UTC).astimezone(self.zone)
 
     def _summer_time(self, epoch: float) -> bool:
         if self.zone is None:

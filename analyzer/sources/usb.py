@@ -26,15 +26,28 @@ first, removed when the source is closed.
 from __future__ import annotations
 
 import os
-from typing import Iterator
+from collections.abc import Iterator
 
 from dissectors import problems
 from dissectors.wire import LineSettings
 
 from ..errors import CaptureError
 from ..formats import usb
-from ..formats.usbserial import (BREAK, CP210X, CP210X_EMBED_EVENTS, CP210X_IFC_ENABLE, CP210X_REQUEST_TYPE, FRAMING,
-                                 FTDI, NAMES, OVERRUN, PARITY, Cp210xIn, FtdiIn, Raw)
+from ..formats.usbserial import (
+    BREAK,
+    CP210X,
+    CP210X_EMBED_EVENTS,
+    CP210X_IFC_ENABLE,
+    CP210X_REQUEST_TYPE,
+    FRAMING,
+    FTDI,
+    NAMES,
+    OVERRUN,
+    PARITY,
+    Cp210xIn,
+    FtdiIn,
+    Raw,
+)
 from ..lines import LINE_A, LINE_B, Chunk, LineFault
 from .base import Reader, ReadSettings, Source
 from .files import Input, open_input

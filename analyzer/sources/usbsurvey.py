@@ -10,14 +10,21 @@ known from all of its traffic, not from its first packets.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Iterable
 
 from ..errors import CaptureError
-from ..words import counted
 from ..formats import usb
-from ..formats.usbserial import (FTDI, NAMES, VENDORS, adapter_of_request, ftdi_max_packet, ftdi_payload,
-                                 looks_like_ftdi_status)
+from ..formats.usbserial import (
+    FTDI,
+    NAMES,
+    VENDORS,
+    adapter_of_request,
+    ftdi_max_packet,
+    ftdi_payload,
+    looks_like_ftdi_status,
+)
+from ..words import counted
 
 _SERIAL_CLASSES = (0xFF, 0x02, 0x0A)   # vendor specific, CDC, CDC data: an interface a serial port can be
 

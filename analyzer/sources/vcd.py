@@ -19,7 +19,7 @@ those samples and the 4-samples-a-bit rule applies.
 from __future__ import annotations
 
 import re
-from typing import Iterator
+from collections.abc import Iterator
 
 import numpy as np
 

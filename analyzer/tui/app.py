@@ -26,7 +26,6 @@ from .model import CaptureModel
 from .screens.capture import CaptureScreen
 from .widgets import EventList, RecordControl
 
-
 PACE = 0.1   # seconds between a playing replay's steps
 
 

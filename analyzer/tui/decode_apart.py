@@ -26,7 +26,7 @@ import dataclasses
 import os
 import threading
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from .apart import end, helper_started, spawn
 from .doctor_apart import ApartFindings, DoctorApart, HearsTheDoctorApart

@@ -5,8 +5,8 @@ lines. Fields follow the command table (dissectors/commands.py, Tables 4-18).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 from dissectors.dissect import field_spans
 from dissectors.event import ACK, COMMAND, NAK, NIC, RESULT, Event, format_address
@@ -19,7 +19,7 @@ from ..words import counted
 class DetailNode:
     """A line of the detail tree: a label, children, and where Enter goes."""
     label: str
-    children: list["DetailNode"] = field(default_factory=list)
+    children: list[DetailNode] = field(default_factory=list)
     jump: int | None = None                 # an event number
     span: tuple[int, int] | None = None     # bytes of the event this field covers
     expanded: bool = True

@@ -19,7 +19,7 @@ from __future__ import annotations
 import os
 import stat
 import threading
-from typing import Callable
+from collections.abc import Callable
 
 from .apart import end, helper_started, spawn
 

@@ -9,7 +9,7 @@ import pkgutil
 import signal
 import sys
 import tomllib
-from typing import Sequence
+from collections.abc import Sequence
 
 from textual.binding import Binding
 from textual.dom import DOMNode

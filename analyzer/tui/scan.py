@@ -8,7 +8,7 @@ a cancelled scan returns None and changes nothing.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 STEP = 20_000   # events between progress reports and cancel checks
 

@@ -32,8 +32,24 @@ from itertools import accumulate
 from dissectors.commands import COMMANDS
 from dissectors.dissect import dissect_command, dissect_result
 from dissectors.event import (
-    ACK, COMMAND, FRAME, NAK, NIC, NO_ACK, NO_FIELDS, NO_PROBLEMS, NO_RESULT, NOISE, OK, PENDING, RATE, RESULT, ST_NAK,
-    ST_NIC, Event)
+    ACK,
+    COMMAND,
+    FRAME,
+    NAK,
+    NIC,
+    NO_ACK,
+    NO_FIELDS,
+    NO_PROBLEMS,
+    NO_RESULT,
+    NOISE,
+    OK,
+    PENDING,
+    RATE,
+    RESULT,
+    ST_NAK,
+    ST_NIC,
+    Event,
+)
 
 KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE, RATE, FRAME)
 STATUSES = (None, OK, ST_NAK, ST_NIC, NO_ACK, NO_RESULT, PENDING)
@@ -110,7 +126,7 @@ class _Interned:
     ``codes_of`` is given (commands are keyed by the table entry's identity: an
     entry is a dataclass whose hash goes through every field)."""
 
-    __slots__ = ("values", "codes", "taken")
+    __slots__ = ("codes", "taken", "values")
 
     def __init__(self, none_key=None) -> None:
         self.values: list = [None]

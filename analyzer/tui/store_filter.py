@@ -28,8 +28,8 @@ growing in another thread while a filter runs.
 from __future__ import annotations
 
 from array import array
+from collections.abc import Callable
 from types import SimpleNamespace
-from typing import Callable
 
 import numpy as np
 

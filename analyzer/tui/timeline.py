@@ -24,7 +24,7 @@ class Lane:
     styles: list[str]
 
     @classmethod
-    def blank(cls, width: int) -> "Lane":
+    def blank(cls, width: int) -> Lane:
         return cls([" "] * width, [""] * width)
 
     def put(self, col: int, ch: str, style: str) -> None:

@@ -44,7 +44,7 @@ from ..words import counted
 def wrote(counts: dict[str, int], name: str) -> str:
     """What a writer says it wrote, one line, as the other commands word their
     outputs: ``wrote 1,024 events to out.jsonl`` (``1 event``)."""
-    said = (counted(n, noun[:-1] if noun.endswith("s") else noun, noun) for noun, n in counts.items())
+    said = (counted(n, noun.removesuffix("s"), noun) for noun, n in counts.items())
     return f"wrote {', '.join(said)} to {name}"
 
 
@@ -203,7 +203,7 @@ class FileWriter(Listener):
             self._closed = True
             self.target.discard()
 
-    def __enter__(self) -> "FileWriter":
+    def __enter__(self) -> FileWriter:
         self._held = True
         return self
 

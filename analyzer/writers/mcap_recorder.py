@@ -34,7 +34,8 @@ import errno
 import os
 import stat
 import time
-from typing import BinaryIO, Callable
+from collections.abc import Callable
+from typing import BinaryIO
 
 import mcap.writer
 import zstandard
@@ -322,7 +323,7 @@ class McapRecorder:
         killed now, and what a failed write leaves (the count its stop line gives)."""
         return self._kept
 
-    def __enter__(self) -> "McapRecorder":
+    def __enter__(self) -> McapRecorder:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -23,6 +23,7 @@ import pyarrow.parquet as pq
 
 from dissectors.event import Event
 
+from .. import uris
 from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.transactions import TransactionRows
 from ..formats import parquet_schema as S
@@ -30,7 +31,6 @@ from ..formats.parquet_rows import EventBatches, TransactionBatches, day_of, fin
 from ..info import CaptureInfo
 from ..outfile import show
 from ..runner import Listener
-from .. import uris
 from .base import wrote
 from .dataset_folder import folder_of
 
@@ -166,7 +166,7 @@ class ParquetDatasetWriter(Listener):
         new = {self._file(table, day) for table, day in self._writers}
         vacated = set()
         for old in self.old_files():
-            final = old[:-len(TMP)] if old.endswith(TMP) else old
+            final = old.removesuffix(TMP)
             if final not in new:   # a day the capture no longer has, or a failed export's leftover
                 self.folder.remove(old)
                 vacated.add(os.path.dirname(old))

@@ -33,7 +33,7 @@ from __future__ import annotations
 import os
 import pickle
 import re
-from typing import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 
 from ... import uris
 from ...errors import OutputRefused

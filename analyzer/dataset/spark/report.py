@@ -60,7 +60,7 @@ class SparkRows:
         self.root = root
         self._rows: list[tuple] = []
 
-    def execute(self, sql: str) -> "SparkRows":
+    def execute(self, sql: str) -> SparkRows:
         try:
             self._rows = [tuple(row) for row in self.spark.sql(sql).collect()]
         except Exception as e:   # Py4JJavaError, or pyspark's own exceptions for what it converts

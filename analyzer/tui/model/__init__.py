@@ -22,4 +22,4 @@ from .capture import CaptureModel
 from .devices import DeviceInfo
 from .replay import Playback
 
-__all__ = ["CaptureModel", "Cancelled", "DetailNode", "DeviceInfo", "Playback", "hex_lines", "is_error"]
+__all__ = ["Cancelled", "CaptureModel", "DetailNode", "DeviceInfo", "Playback", "hex_lines", "is_error"]

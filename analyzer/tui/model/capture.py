@@ -21,7 +21,8 @@ from bisect import bisect_left, bisect_right
 from dissectors.event import Event
 
 from ...analysis.stats import Stats, checksum_problem
-from ..detail import DetailNode, detail as detail_tree
+from ..detail import DetailNode
+from ..detail import detail as detail_tree
 from ..store import EventStore, EventsView
 from .chunks import ModelChunk
 from .devices import DeviceInfo
@@ -70,7 +71,7 @@ class CaptureModel:
         (``store_stats.devices_of``), worked out when asked and kept until more
         events are shown."""
         if self._devices is None or self._devices[0] != self.shown:
-            from ..store_stats import devices_of   # numpy: loaded when first asked, not with the screen
+            from ..store_stats import devices_of  # numpy: loaded when first asked, not with the screen
             self._devices = (self.shown, devices_of(self.store, self.shown))
         return self._devices[1]
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from array import array
 from bisect import bisect_left
-from typing import Callable
+from collections.abc import Callable
 
 from dissectors.event import Event
 
@@ -65,7 +65,7 @@ class FilterView:
         pred = compile_filter(text) if text else None
         if pred is None:
             return None, shown, None
-        from ..store_filter import matching   # numpy: loaded when a filter first runs, not with the screen
+        from ..store_filter import matching  # numpy: loaded when a filter first runs, not with the screen
         return pred, shown, matching(pred, store, 0, shown, progress=progress, cancelled=cancelled)
 
     def apply(self, text: str, pred, upto: int, view, store, shown: int, unsettled: list[Event]) -> None:

@@ -14,8 +14,17 @@ from textual.widgets import Footer
 from ..model import CaptureModel
 from ..model.navigation import FIND_BY_FILTER
 from ..widgets import (
-    BackgroundScan, DetailTree, EventList, FilterBar, GotoBar, HexView, RecordControl, SearchBar, StatusBar,
-    TimelineView)
+    BackgroundScan,
+    DetailTree,
+    EventList,
+    FilterBar,
+    GotoBar,
+    HexView,
+    RecordControl,
+    SearchBar,
+    StatusBar,
+    TimelineView,
+)
 from ..widgets.prompt import Prompt
 
 # Filters and searches over more rows than this run in a worker thread, with

@@ -9,8 +9,8 @@ from textual.containers import VerticalScroll
 from textual.widgets import Footer, Static
 
 from ..model import CaptureModel
-from .redraw import Redrawn
 from .back import BACK
+from .redraw import Redrawn
 
 
 def _column(points, k: int):

@@ -8,7 +8,7 @@ shows the progress)."""
 from __future__ import annotations
 
 import time
-from typing import Callable
+from collections.abc import Callable
 
 from textual.message import Message
 from textual.widget import Widget
