@@ -46,7 +46,7 @@ def measured(args: list[str]) -> tuple[float, float, float]:
     """Seconds, the command's peak RSS and its biggest child's (MB)."""
     t = time.perf_counter()
     proc = subprocess.run([sys.executable, "-c", _MEASURED, *args], stdout=subprocess.DEVNULL,
-                          stderr=subprocess.PIPE, text=True, cwd=ROOT)
+                          stderr=subprocess.PIPE, text=True, cwd=ROOT, check=False)
     seconds = time.perf_counter() - t
     if proc.returncode != 0:
         raise SystemExit(proc.stderr)
@@ -95,7 +95,8 @@ _SPARK_START = ("import time; t = time.perf_counter(); from analyzer.dataset.spa
 def on_spark(logs: list[str], work: str) -> None:
     """The export of ``throughput`` on Spark local[N]: the same inputs, the same dataset."""
     size = sum(os.path.getsize(p) for p in logs)
-    proc = subprocess.run([sys.executable, "-c", _SPARK_START], capture_output=True, text=True, cwd=ROOT)
+    proc = subprocess.run([sys.executable, "-c", _SPARK_START], capture_output=True, text=True, cwd=ROOT,
+                          check=False)
     if proc.returncode != 0:
         raise SystemExit(proc.stderr)
     print(f"1b. Spark start alone (a JVM, local[1]): {float(proc.stdout.split()[-1]):.1f} s", flush=True)
@@ -148,7 +149,8 @@ def replicate(src: str, dst: str, copies: int) -> int:
 
 def readme_queries() -> list[tuple[str, str]]:
     """(title, SQL) of each query in the README's "### Queries" section."""
-    text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
+    with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
+        text = f.read()
     if "### Queries\n" not in text:
         return []
     part = re.split(r"\n##?#? ", text.split("### Queries\n", 1)[1], maxsplit=1)[0]

@@ -68,7 +68,7 @@ class Drain:
                         new = [{"id": subs + k + 1, "channelId": ch["id"]} for k, ch in enumerate(op["channels"])]
                         subs += len(new)
                         ws.send(json.dumps({"op": "subscribe", "subscriptions": new}))
-            except Exception:   # the tap stopped: the connection is gone
+            except Exception:   # noqa: BLE001, S110 - the tap stopped: the connection is gone
                 pass
 
 

@@ -56,9 +56,7 @@ def write_session(path: str, seconds: int) -> None:
                                "total probes=2\nsamplerate=1 MHz\ntotal analog=0\nprobe1=TX\nprobe2=RX\n"
                                "unitsize=1\n")
         per_chunk = CHUNK // len(second) or 1
-        n = 0
-        for start in range(0, seconds, per_chunk):
-            n += 1
+        for n, start in enumerate(range(0, seconds, per_chunk), start=1):
             z.writestr(f"logic-1-{n}", second * min(per_chunk, seconds - start))
 
 

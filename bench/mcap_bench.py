@@ -131,7 +131,7 @@ def main() -> None:
     n, raw_rate = decode_rate([log])
     out = os.path.join(tmp, "rec.mcap")
     n_rec, rec_rate = record([log], out)
-    n_mcap, mcap_rate = decode_rate([out])
+    _n_mcap, mcap_rate = decode_rate([out])
     size = os.path.getsize(out)
     print(f"capture: {n:,} events, {wire_seconds:.0f} s of {BAUD}-baud traffic on two lines, "
           f"each line busy {busy:.0%} of the time")

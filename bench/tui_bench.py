@@ -173,14 +173,14 @@ def view_figures(path: str) -> dict[str, float]:
             move = EventList.action_move
             EventList.action_move = lambda self, step: (handled.append(time.perf_counter()), move(self, step))[1]
             enter = asyncio.create_task(pilot.press("enter"))
-            while not app._scan_text:
+            while not app.sweep_text:
                 await asyncio.sleep(0.001)
             k = time.perf_counter()
             up = asyncio.create_task(pilot.press("up"))
             while not handled:
                 await asyncio.sleep(0.001)
             figures["key_while_filtering"] = (handled[0] - k) * 1000
-            figures["filter_busy"] = float(bool(app._scan_text))   # the filter was still running then
+            figures["filter_busy"] = float(bool(app.sweep_text))   # the filter was still running then
             EventList.action_move = move
             await enter
             await up
@@ -197,7 +197,7 @@ def view_figures(path: str) -> dict[str, float]:
             await pilot.press("escape")
             await pilot.pause()
             figures["cancel"] = (time.perf_counter() - t) * 1000
-            figures["cancelled"] = float(app.model.filter_text == 'status == "nak"' and not app._scan_text)
+            figures["cancelled"] = float(app.model.filter_text == 'status == "nak"' and not app.sweep_text)
             figures["rss"] = vm_hwm_mb()
     asyncio.run(drive())
     stop_feed(app)
@@ -213,7 +213,7 @@ def view_report(path: str) -> None:
     out = subprocess.run([sys.executable, __file__, "--view-figures", path], capture_output=True, text=True,
                          check=True).stdout
     f = json.loads(out.strip().splitlines()[-1])
-    jsonl, jsonl_rss = run_measured(["decode", path, "--format", "jsonl"])
+    jsonl, _jsonl_rss = run_measured(["decode", path, "--format", "jsonl"])
     n = f["events"]
     print(f"1. view of {n:,} events: first screen after {f['first']:.2f} s (target < 1 s); all loaded after "
           f"{f['loaded']:.1f} s ({n / f['loaded']:,.0f} events/s), decode --format jsonl of the same file "
@@ -302,9 +302,11 @@ def live_figures(seconds: float) -> None:
         async with app.run_test(size=SIZE) as pilot:
             await pilot.pause(0.5)
             start = time.monotonic() + 0.3
-            writer = subprocess.Popen([sys.executable, __file__, "--feed-ptys", str(ptys[0][0]), str(ptys[1][0]),
-                                       "--live-seconds", str(seconds), "--seed", str(seed), "--start", repr(start)],
-                                      pass_fds=(ptys[0][0], ptys[1][0]))
+            # Popen starts the writer and returns: the app polls it between pauses
+            writer = subprocess.Popen(  # noqa: ASYNC220
+                [sys.executable, __file__, "--feed-ptys", str(ptys[0][0]), str(ptys[1][0]),
+                 "--live-seconds", str(seconds), "--seed", str(seed), "--start", repr(start)],
+                pass_fds=(ptys[0][0], ptys[1][0]))
             while writer.poll() is None:
                 await pilot.pause(0.1)
             await pilot.pause(1.5)   # let the last batch arrive
