@@ -1,5 +1,5 @@
 """The optional compiled part of the package: the deframer's steady state in C
-(dissectors/_scan.c). Everything else is in pyproject.toml.
+(dissectors/_deframe.c). Everything else is in pyproject.toml.
 
 ``optional=True``: an install without a C compiler (or Python headers) still
 succeeds, and the deframer then runs its pure-Python loop, which gives the same
@@ -10,5 +10,5 @@ from setuptools import Extension, setup
 
 # -ffp-contract=off: event times are computed as Python computes them, a multiply
 # then an add, never fused (a fused multiply-add rounds once, and gives other floats)
-setup(ext_modules=[Extension("dissectors._scan", ["dissectors/_scan.c"], optional=True,
+setup(ext_modules=[Extension("dissectors._deframe", ["dissectors/_deframe.c"], optional=True,
                              extra_compile_args=["-ffp-contract=off"])])

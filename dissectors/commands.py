@@ -9,9 +9,11 @@ docs/decoding.md where the tables leave them open.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
-from .fields import Field, Layout, choice, decimal, hexnum, text
+from .fields import Derive, Field, Layout, choice, decimal, hexnum, text
 from .problems import OUT_OF_RANGE, RESERVED, Problem
 
 NONE = "none"          # ACK only
@@ -43,8 +45,9 @@ class Command:
 COMMANDS: list[Command] = []
 
 
-def cmd(id: str, name: str, parts: tuple, ref: str, *, result: list = (), due: str | None = None,
-        derive=None, result_derive=None, **kw) -> Command:
+def cmd(id: str, name: str, parts: Sequence[bytes | Field], ref: str, *,
+        result: Sequence[Sequence[bytes | Field]] = (), due: str | None = None,
+        derive: Derive | None = None, result_derive: Derive | None = None, **kw: Any) -> Command:
     layouts = tuple(Layout(tuple(r), result_derive) for r in result)
     c = Command(id, name, Layout(tuple(parts), derive), ref, layouts,
                 due if due is not None else (DUE if layouts else NONE), **kw)
@@ -125,18 +128,20 @@ STATUS_BITS = {0: "not initialized", 1: "positive limit found", 2: "negative lim
                6: "negative hard stop", 7: "error code present"}
 
 
-def _names(bits: int, table: dict[int, str]) -> list[str]:
+def bit_names(bits: int, table: dict[int, str]) -> list[str]:
+    """The names of the bits set in ``bits``, in the table's order (``ERROR_BITS``,
+    ``STATUS_BITS``)."""
     return [name for bit, name in table.items() if bits >> bit & 1]
 
 
 def _errors(values: dict) -> None:
-    values["azimuth_errors"] = _names(values["azimuth_error_bits"], ERROR_BITS)
-    values["elevation_errors"] = _names(values["elevation_error_bits"], ERROR_BITS)
+    values["azimuth_errors"] = bit_names(values["azimuth_error_bits"], ERROR_BITS)
+    values["elevation_errors"] = bit_names(values["elevation_error_bits"], ERROR_BITS)
 
 
 def _status(values: dict) -> None:
-    values["azimuth_status"] = _names(values["azimuth_status_bits"], STATUS_BITS)
-    values["elevation_status"] = _names(values["elevation_status_bits"], STATUS_BITS)
+    values["azimuth_status"] = bit_names(values["azimuth_status_bits"], STATUS_BITS)
+    values["elevation_status"] = bit_names(values["elevation_status_bits"], STATUS_BITS)
 
 
 def _relays(values: dict) -> None:

@@ -24,7 +24,7 @@ How broken input is handled (docs/decoding.md, "Deframing"):
   frame was cut short.
 - A failed candidate that ends exactly where something else begins, or whose payload
   is mostly printable, is reported as a frame with a bad checksum; otherwise its
-  start byte is treated as noise and scanning goes on.
+  start byte is treated as noise and deframing goes on.
 """
 
 from __future__ import annotations
@@ -32,26 +32,29 @@ from __future__ import annotations
 import os
 import re
 from bisect import bisect_right
+from collections.abc import Callable
+from typing import Protocol
 
-from .event import (
-    ACK as K_ACK,
-)
-from .event import (
-    COMMAND,
-    FRAME,
-    NOISE,
-    RESULT,
-    Event,
-)
-from .event import (
-    NAK as K_NAK,
-)
-from .event import (
-    NIC as K_NIC,
-)
+from .event import ACK as K_ACK
+from .event import COMMAND, FRAME, NOISE, RESULT, Event
+from .event import NAK as K_NAK
+from .event import NIC as K_NIC
 from .problems import CHECKSUM, LENGTH, TRUNCATED, Problem
 from .problems import NOISE as NOISE_PROBLEM
 from .wire import ACK, NAK, NIC, START, LineSettings
+
+
+class _BufferLoop(Protocol):
+    """The C loop over a buffer (dissectors/_deframe.c, ``deframe``): from index
+    ``i``, it appends the events of what needs no decision to ``out`` and returns
+    the index it stopped at. ``segments``: a timed buffer's chunk offsets, times
+    and byte times."""
+    def __call__(self, buf: bytes, i: int, kinds: tuple[str | None, ...], line: str, frame_kind: str,
+                 base: int, out: list[Event], /, *segments: list[int] | list[float]) -> int: ...
+
+
+# One read that is exactly one token, as its event, or None (``Deframer._whole``).
+_WholeRead = Callable[[bytes, float | None, float, int, str, str, tuple[str | None, ...]], Event | None]
 
 _SIMPLE = {ACK: K_ACK, NAK: K_NAK, NIC: K_NIC}
 _FRAME_KIND = {"A": COMMAND, "B": RESULT}
@@ -62,28 +65,40 @@ _NOT_NOISE = re.compile(b"[" + re.escape(bytes([START, ACK, NAK, NIC])) + b"]")
 _START = re.compile(re.escape(bytes([START])))   # line A: only a frame
 
 
-_SCAN_INTERFACE = 3   # the version of scan() and whole() this module calls (_scan.c, INTERFACE)
+_C_INTERFACE = 4   # the version of deframe() and whole() this module calls (_deframe.c, INTERFACE)
 
 
-def _compiled():
+def _compiled() -> tuple[_BufferLoop | None, _WholeRead | None]:
     """The C loop for whole valid frames and simple responses, and its one-read
-    form (dissectors/_scan.c: ``scan``, ``whole``), or Nones: not built (no
+    form (dissectors/_deframe.c: ``deframe``, ``whole``), or Nones: not built (no
     compiler at install), or ``GIMBALSCOPE_PURE=1`` in the environment. Both give
     the same events; the pure code below is the reference."""
     if os.environ.get("GIMBALSCOPE_PURE", "") not in ("", "0"):
         return None, None
     try:
-        from . import _scan
+        from . import _deframe
     except ImportError:
         return None, None
-    if getattr(_scan, "INTERFACE", None) != _SCAN_INTERFACE:   # built from another version of _scan.c
+    if _deframe.INTERFACE != _C_INTERFACE:   # built from another version of _deframe.c
         return None, None
-    _scan.configure(Event("", 0, NOISE, b""), Event.__slots__)
-    return _scan.scan, _scan.whole
+    _deframe.configure(Event("", 0, NOISE, b""), Event.__slots__)
+    return _deframe.deframe, _deframe.whole
 
 
-_scan, _whole_read = _compiled()
-COMPILED = _scan is not None   # whether this process deframes with the C loop
+_BUILT = _compiled()
+_c_loop, _c_whole = _BUILT
+COMPILED = _c_loop is not None   # whether this process deframes with the C loop
+
+
+def use_compiled_loop(compiled: bool) -> bool:
+    """Deframe in this process with the C loop (``compiled``, when it was built)
+    or with the pure-Python loop, from the next read on; returns whether the C
+    loop was in use before. The two give the same events (the tests run both);
+    ``GIMBALSCOPE_PURE=1`` makes the choice for a whole process."""
+    global _c_loop, _c_whole
+    before = _c_loop is not None
+    _c_loop, _c_whole = _BUILT if compiled else (None, None)
+    return before
 
 
 def _suspect(buf: bytes, start: int, end: int) -> bool:
@@ -135,7 +150,7 @@ class Deframer:
         self.last_end: float | None = None
         self._noise_start: int | None = None  # absolute offset of a pending noise run
         self._timed = False
-        self._resume = 0             # absolute offset where scanning resumes
+        self._resume = 0             # absolute offset where deframing resumes
         self._ends = "end of capture"   # what a frame cut at the end of the buffer met
 
     # ----------------------------------------------------------------- input
@@ -188,8 +203,8 @@ class Deframer:
         if not buf and self._noise_start is None and not self._gaps:
             # the usual read: one whole token with nothing pending becomes its event
             # directly (no segment bookkeeping: nothing of it stays buffered)
-            if _whole_read is not None:
-                ev = _whole_read(bytes(data), t, bt, self._base, self.line, self.frame_kind, self._kinds)
+            if _c_whole is not None:
+                ev = _c_whole(bytes(data), t, bt, self._base, self.line, self.frame_kind, self._kinds)
             else:
                 ev = self._whole(bytes(data), t, bt)
             if ev is not None:
@@ -323,7 +338,7 @@ class Deframer:
         """The events the buffered bytes make, as far as no later byte can change
         them (all of them when ``final``); consumed bytes are dropped."""
         out: list[Event] = []
-        i = self._scan_buffer(out, final)
+        i = self._deframe_buffer(out, final)
         buf = self._buf
         base = self._base
         if final and i >= len(buf):
@@ -337,8 +352,8 @@ class Deframer:
             self._prune()
         return out
 
-    def _scan_buffer(self, out: list[Event], final: bool) -> int:
-        """Append to ``out`` the events of the buffer from where scanning resumes;
+    def _deframe_buffer(self, out: list[Event], final: bool) -> int:
+        """Append to ``out`` the events of the buffer from where deframing resumes;
         returns the buffer index it stopped at (its end, or a frame still arriving).
         The C loop takes what needs no decision; this loop takes the rest."""
         append = out.append
@@ -349,12 +364,12 @@ class Deframer:
         line, frame_kind, timed, kinds = self.line, self.frame_kind, self._timed, self._kinds
         fast = not self._gaps   # no silence inside the buffer: frames cannot be cut
         not_noise = (_NOT_NOISE if self.simple else _START).search
-        scan = _scan if fast else None   # (no silence inside: the C loop may run)
+        c_loop = _c_loop if fast else None   # (no silence inside: the C loop may run)
         segments = (self._seg_off, self._seg_t, self._seg_bt) if timed else ()
         i = self._resume - base
         while i < n:
-            if scan is not None and self._noise_start is None:
-                i = scan(buf, i, kinds, line, frame_kind, base, out, *segments)
+            if c_loop is not None and self._noise_start is None:
+                i = c_loop(buf, i, kinds, line, frame_kind, base, out, *segments)
                 if i >= n:
                     break
             b = buf[i]
@@ -552,7 +567,7 @@ class Deframer:
         return end <= rend and _printable_share(buf[rq + 6:end - 1]) >= 0.75
 
     def _as_noise(self, out: list[Event], p: int) -> int:
-        """Treat the byte at p as noise and go on scanning after it."""
+        """Treat the byte at p as noise and go on after it."""
         return self._noise(out, p, p + 1)
 
     def _noise(self, out: list[Event], p: int, q: int) -> int:
@@ -601,7 +616,7 @@ class Deframer:
                 return q
         return self._broken(out, p, q, CHECKSUM.problem(f"broken frame, resynchronised on the frame at offset {q}"))
 
-    def _length_repair(self, p: int, length: int, cut: int | None, final: bool) -> int:
+    def _length_repair(self, p: int, length: int, cut: int | None, final: bool) -> int | None:
         """End offset of a repaired frame at p, 0 if none, None if more bytes are needed.
 
         A candidate end e must be followed by a start byte (or a silence, or the end

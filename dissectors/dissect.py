@@ -12,7 +12,7 @@ import re
 from typing import Any, NamedTuple
 
 from .commands import COMMANDS, NONE, Command
-from .event import COMMAND
+from .event import COMMAND, Event
 from .fields import Layout
 from .problems import MALFORMED, RESERVED, UNKNOWN_COMMAND, Problem
 from .wire import payload_text
@@ -37,7 +37,7 @@ def _build_index() -> dict[int, list[Command]]:
 _INDEX = _build_index()
 _CACHE: dict[bytes, Decoded] = {}
 # results by command id, then by payload (a result's layout depends on its command)
-_RESULT_CACHE: dict[str, dict[bytes, tuple[dict, tuple[Problem, ...]]]] = {}
+_RESULT_CACHE: dict[str, dict[bytes, tuple[dict[str, Any], tuple[Problem, ...]]]] = {}
 _result_count = 0   # entries in all of them
 _CACHE_MAX = 8192   # per cache (all results together); polls repeat, positions vary: bounded memory
 _UNKNOWN_CODE = re.compile(rb"\*[A-Za-z]{1,3}|[\s\S]{1,2}")
@@ -94,7 +94,7 @@ def _closer(a: Layout, b: Layout, n: int) -> bool:
     return da < db
 
 
-def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[Problem, ...]]:
+def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict[str, Any], tuple[Problem, ...]]:
     """Decode a result payload as an answer to ``entry`` (never raises)."""
     if entry is None:
         return {}, ()
@@ -105,7 +105,7 @@ def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[P
     hit = memo.get(payload)
     if hit is not None:
         return hit
-    out: tuple[dict, tuple[Problem, ...]] | None = None
+    out: tuple[dict[str, Any], tuple[Problem, ...]] | None = None
     for layout in entry.result:
         m = layout.match(payload)
         if m is not None:
@@ -121,14 +121,14 @@ def dissect_result(entry: Command | None, payload: bytes) -> tuple[dict, tuple[P
     global _result_count
     _result_count += 1
     if _result_count > _CACHE_MAX:   # all memos together stay bounded
-        for m in _RESULT_CACHE.values():
-            m.clear()
+        for results in _RESULT_CACHE.values():
+            results.clear()
         _result_count = 1
     memo[payload] = out
     return out
 
 
-def field_spans(ev) -> list[tuple[str, int, int]]:
+def field_spans(ev: Event) -> list[tuple[str, int, int]]:
     """Byte ranges of an event's decoded fields, as absolute offsets into ``ev.raw``
     (for highlighting the selected field's bytes)."""
     entry = ev.entry
@@ -142,35 +142,39 @@ def field_spans(ev) -> list[tuple[str, int, int]]:
     return []
 
 
-def result_fits(entry: Command | None, payload: bytes) -> bool:
+def result_fits(entry: Command | None, payload: bytes | None) -> bool:
     """Does ``payload`` have one of the result layouts of ``entry``? (Decodes it
-    through the memo, so decoding it afterwards costs nothing.)"""
-    if entry is None or not entry.result:
+    through the memo, so decoding it afterwards costs nothing.) An event without
+    a payload (not a frame) fits none."""
+    if entry is None or not entry.result or payload is None:
         return False
     return bool(dissect_result(entry, payload)[0])
 
 
-def _show(v):
-    if isinstance(v, list):
-        return ", ".join(map(str, v)) if v else "none"
-    return v
+def summary_value(value: Any) -> Any:
+    """A field's value as a summary shows it: a list (the names of the bits set)
+    as its items, or "none"; any other value as it is, for the template to format."""
+    if isinstance(value, list):
+        return ", ".join(map(str, value)) if value else "none"
+    return value
 
 
-def summarize(template: str, fields: dict) -> str:
+def summarize(template: str, fields: dict[str, Any]) -> str:
     """Fill a table summary template; falls back to name=value pairs."""
     if not template or "{_values}" in template:
-        return " ".join(f"{k}={_show(v)}" for k, v in fields.items())
+        return " ".join(f"{k}={summary_value(v)}" for k, v in fields.items())
     if any(isinstance(v, list) for v in fields.values()):
-        fields = {k: _show(v) for k, v in fields.items()}
+        fields = {k: summary_value(v) for k, v in fields.items()}
     try:
         return template.format_map(fields)
     except (KeyError, ValueError, TypeError, IndexError):
         return " ".join(f"{k}={v}" for k, v in fields.items())
 
 
-def apply_command(ev) -> None:
+def apply_command(ev: Event) -> None:
     """Fill a command event's id, fields, problems and table entry."""
     payload = ev.payload
+    assert payload is not None   # a command is a frame
     decoded = _CACHE.get(payload)   # dissect_command's memo, looked up here: once per command
     if decoded is None:
         decoded = dissect_command(payload)

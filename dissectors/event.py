@@ -8,11 +8,15 @@ language, the statistics, MCAP recordings and the TUI use the same names.
 from __future__ import annotations
 
 import datetime as _dt
-from typing import Any
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any, Protocol
 
 from . import problems as _problems
 from .problems import Problem, ProblemInfo
 from .wire import payload_text
+
+if TYPE_CHECKING:
+    from .commands import Command
 
 # Event kinds. A single-line tap first yields "frame" for every frame; pairing then
 # decides between command and result (docs/decoding.md, "Pairing").
@@ -64,11 +68,11 @@ P_LATE = _problems.LATE.text
 # events); emptied when garbled input names thousands. A plain dict: pairing
 # formats every command's address, and a dict lookup costs a fraction of an LRU
 # cache's bookkeeping.
-_ADDRESS_TEXT: dict[tuple[int, int, int], str] = {}
+_ADDRESS_TEXT: dict[Sequence[int | None], str] = {}   # keyed by tuples
 _ADDRESS_TEXT_MAX = 4096
 
 
-def format_address(address) -> str:
+def format_address(address: Sequence[int | None]) -> str:
     """A device address as people write it, "group.port.device" (``(1, 1, 2)`` ->
     ``"1.1.2"``). The one place addresses become text."""
     try:
@@ -84,25 +88,40 @@ def format_address(address) -> str:
     return text
 
 
+class PairingRecord(Protocol):
+    """What a reader of any event may ask of its pairing record
+    (``Event.transaction``): pairing's ``analyzer.analysis.pairing.Transaction``,
+    a rebuilt event's link (``analyzer.tui.store``) or a device given by hand."""
+
+    @property
+    def command(self) -> str | None:
+        """The command's id."""
+
+    @property
+    def device(self) -> str | None:
+        """The device's "group.port.device"."""
+
+
 class DeviceOnly:
     """The part of a pairing record an address-less event reads, for events given
-    a device by hand rather than by pairing."""
+    a device by hand rather than by pairing: no command."""
 
     __slots__ = ("device",)
+    command = None
 
     def __init__(self, device: str) -> None:
         self.device = device
 
 
 # Payload texts by payload: polls repeat their payloads, and the text is the one
-# part of an event's JSON that costs a scan of its bytes. Bounded like the
+# part of an event's JSON that costs a pass over its bytes. Bounded like the
 # dissector's memos.
 _PAYLOAD_TEXT: dict[bytes, str] = {}
 _PAYLOAD_TEXT_MAX = 8192
 
 # Shared, never mutated: most events have no fields and no problems.
-NO_FIELDS: dict = {}
-NO_PROBLEMS: tuple = ()
+NO_FIELDS: dict[str, Any] = {}
+NO_PROBLEMS: tuple[Problem, ...] = ()
 
 
 class Origin:
@@ -179,17 +198,19 @@ class Event:
         self.src = src
         self.payload = payload
         self.checksum_ok = checksum_ok
-        self.command = None
-        self.fields = NO_FIELDS
-        self.problems = NO_PROBLEMS
-        self.txn = None
-        self.status = None
-        self.latency = None
+        self.command: str | None = None
+        self.fields: dict[str, Any] = NO_FIELDS
+        self.problems: Sequence[Problem] = NO_PROBLEMS
+        self.txn: int | None = None
+        self.status: str | None = None
+        self.latency: float | None = None
         self.retransmission = False
-        self.request = None
-        self.entry = None  # the command-table entry, for summaries (not serialised)
-        self.transaction = None   # set by pairing: the command's and its answers' record
-        self.origin = None        # set by the capture: an ``Origin`` (where, and when t = 0 was)
+        self.request: int | None = None
+        self.entry: Command | None = None  # the command-table entry, for summaries (not serialised)
+        # set by pairing: the command's and its answers' record
+        self.transaction: PairingRecord | None = None
+        # set by the capture: an ``Origin`` (where, and when t = 0 was)
+        self.origin: Origin | None = None
 
     @property
     def source(self) -> str | None:
@@ -251,11 +272,7 @@ class Event:
         A plain "category: detail" string gets its category's id (and raises
         ValueError when the category is not in the table): every problem has one."""
         if problems:
-            for p in problems:
-                if not isinstance(p, Problem):
-                    problems = tuple(map(_problems.parse, problems))
-                    break
-            self.problems = [*self.problems, *problems]
+            self.problems = [*self.problems, *map(_problems.parse, problems)]
 
     def has_problem(self, what: ProblemInfo | str) -> bool:
         """Does the event carry this problem? ``what`` is an id of the table (a

@@ -17,6 +17,9 @@ from typing import Any
 
 from .problems import LOWERCASE_HEX, OUT_OF_RANGE, Problem
 
+# A layout's derived fields: filled into the decoded values, with any problems they show.
+Derive = Callable[[dict[str, Any]], list[Problem] | None]
+
 HEX = rb"[0-9A-Fa-f]"
 # one shared value: problems are immutable, and lower-case payloads repeat
 _LOWERCASE = LOWERCASE_HEX.problem("numbers must be upper-case ASCII hex (§1.4.1.2)")
@@ -68,6 +71,7 @@ def hexnum(name: str, digits: int | tuple[int, int], *, scale: float | None = No
     else:
         def base(raw: bytes) -> int:
             return int(raw, 16)
+    dec: Callable[[bytes], float]
     if scale is None:
         dec = base
     else:
@@ -75,7 +79,7 @@ def hexnum(name: str, digits: int | tuple[int, int], *, scale: float | None = No
         # nearest 10.25); multiplying by 0.01 is not (3 * 0.1 = 0.30000000000000004)
         divisor = round(1 / scale)
 
-        def dec(raw: bytes, _b=base, _d=divisor) -> float:
+        def dec(raw: bytes, _b: Callable[[bytes], int] = base, _d: int = divisor) -> float:
             return _b(raw) / _d
     return Field(name, rx, dec, unit, desc, hexdigits=True, valid=valid, lead=HEX,
                  type="integer" if scale is None else "number", codec="hex",
@@ -113,7 +117,7 @@ def choice(name: str, mapping: dict[bytes, Any], *, desc: str = "", regex: bytes
     f = Field(name, regex, dec, "", desc, type=types.pop(), codec="choice", choices=tuple(mapping.items()))
     allowed = ", ".join(f"{k.decode('latin-1')} ({v})" for k, v in mapping.items())
 
-    def check(value: Any, _f=f) -> Problem | None:
+    def check(value: Any) -> Problem | None:
         if value is None:
             return OUT_OF_RANGE.problem(f"{name} is none of {allowed}")
         return None
@@ -136,7 +140,7 @@ def _json_type(value: Any) -> str:
 class Layout:
     """A payload layout: literals and fields in order, plus derived fields."""
     parts: tuple
-    derive: Callable[[dict], list[Problem] | None] | None = None
+    derive: Derive | None = None
     regex: re.Pattern = dc_field(init=False, repr=False, compare=False)
     fields: tuple[Field, ...] = dc_field(init=False, repr=False, compare=False)
     _checked: tuple = dc_field(init=False, repr=False, compare=False)

@@ -14,6 +14,7 @@ Make one with ``CHECKSUM.problem("expected 0x12, got 0x34")`` or
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 ERROR = "error"       # the bytes or the exchange are broken
@@ -34,7 +35,7 @@ class Problem(str):
         """The id of the problem's category (itself when it has no sub-cases)."""
         return self.id.category
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Callable[[str, str], Problem], tuple[str, str]]:
         # by the id's name: unpickled, ``p.id`` is the very table entry again
         return _restore, (self.id.name, str(self))
 
@@ -47,7 +48,7 @@ class ProblemInfo:
     severity: str    # ERROR, WARNING or NOTE
     summary: str
     parent: ProblemInfo | None = None   # the category of a sub-case
-    _cls: type = field(init=False, repr=False)     # this entry's Problem subclass
+    _cls: type[Problem] = field(init=False, repr=False)     # this entry's Problem subclass
     _prefix: str = field(init=False, repr=False)  # "category: "
 
     def __post_init__(self) -> None:
@@ -63,15 +64,20 @@ class ProblemInfo:
         """This problem with its detail, as events carry it."""
         return self._cls(self._prefix + detail if detail else self.text)
 
+    def with_text(self, text: str) -> Problem:
+        """This problem carrying ``text`` whole ("category: detail"), as a problem
+        written out and read back is."""
+        return self._cls(text)
+
     def matches(self, p: str) -> bool:
         """Is ``p`` this problem, or one of its sub-cases? A plain string (an event
         built by hand) carries no id: its category text decides, for categories."""
-        info = getattr(p, "id", None)
-        if info is not None:
+        if isinstance(p, Problem):
+            info = p.id
             return info is self or info.parent is self
         return self.parent is None and (p == self.text or p.startswith(self.text + ":"))
 
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Callable[[str], ProblemInfo], tuple[str]]:
         return by_name, (self.name,)
 
 
@@ -157,8 +163,8 @@ def parse(text: str) -> Problem:
     info = BY_TEXT.get(text.split(":", 1)[0])
     if info is None:
         raise ValueError(f"{text!r} does not start with a problem category of the table")
-    return info._cls(text)
+    return info.with_text(text)
 
 
 def _restore(name: str, text: str) -> Problem:
-    return BY_NAME[name]._cls(text)
+    return BY_NAME[name].with_text(text)

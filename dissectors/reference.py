@@ -38,9 +38,9 @@ def render() -> str:
     lines += ["", "Derived fields (computed from the decoded ones): "
               + ", ".join(f"`{n}`" for n in DERIVED_FIELDS) + ".", ""]
     lines += ["## Field types", "",
-              "One name, one type, wherever it appears (the JSON types of the MCAP and Foxglove schemas, "
-              "docs/foxglove.md). A value that cannot be given (a reserved rate code's `baud`, an unknown "
-              "choice) is `null` in JSON Lines and left out of MCAP messages.", "",
+              ("One name, one type, wherever it appears (the JSON types of the MCAP and Foxglove schemas, "
+               "docs/foxglove.md). A value that cannot be given (a reserved rate code's `baud`, an unknown "
+               "choice) is `null` in JSON Lines and left out of MCAP messages."), "",
               "| field | type | unit | meaning |", "|---|---|---|---|"]
     for name, ft in sorted(field_types().items()):
         what = ft.type if ft.items is None else f"array of {ft.items}"

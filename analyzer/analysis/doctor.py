@@ -35,11 +35,13 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 from statistics import median
+from typing import Any
 
 from dissectors.event import ACK, COMMAND, NAK, NIC, NO_ACK, NO_RESULT, NOISE, RATE, RESULT, ST_NAK, ST_NIC, Event
 from dissectors.problems import NO_RESULT_SENT_AGAIN, UNANSWERED_SUPERSEDED
 
 from ..physical.bitrate import STANDARD_RATES, nominal_rate
+from ..physical.report import LineReport
 from ..styles import ERROR, INFO, WARNING  # the severities every view colours
 from ..words import counted
 from .findings import (
@@ -178,7 +180,9 @@ def _length_note(line: LineTally) -> tuple[str, str]:
     return "", noisy.phrase("check_cable")
 
 
-class _Device:
+class DeviceTally:
+    """What the doctor counts of one device address."""
+
     def __init__(self) -> None:
         self.commands = 0
         self.answers = 0
@@ -195,28 +199,14 @@ class _Device:
         self.unanswered_since_rate = _Tally()
 
 
-class WiringDoctor:
-    """Every structure is bounded (tallies, windows, capped maps) and each event
-    costs the same however long the capture: time and memory stay linear and flat."""
+class ControllerWatch:
+    """What the controller does, from its commands in wire order (``command``):
+    whether it waits for answers, how soon it sends a failed command again,
+    whether it does at all, and whether it gives IX the time it takes."""
 
-    def __init__(self, lines: tuple[str, ...] = ("A", "B"), ack_timeout: float = 0.5,
-                 invocation: Invocation | None = None) -> None:
+    def __init__(self, ack_timeout: float = 0.5) -> None:
         self.ack_timeout = ack_timeout
-        self.invocation = invocation or Invocation()
-        self.signs = WiringSigns(lines)   # per-line tallies, and the signs of swapped lines
-        self.signs.read_baud = self.invocation.baud
-        self.two_lines = self.signs.two_lines
-        self.lines = self.signs.lines
-        self.devices: dict[str, _Device] = {}
-        self.other_addresses = _Tally()   # commands to addresses beyond the first _MAX_DEVICES
-        self.events = 0
         self.commands = 0
-        self.answers = 0          # answers paired with a command
-        self.first_t: float | None = None
-        self.last_t: float | None = None
-        # echo
-        self.echoes = _Tally()
-        # controller
         self.next_gaps: deque[tuple[int, float]] = deque(maxlen=500)   # (unanswered command, s to the next)
         self._prev_cmd: Event | None = None
         self._prev_failed: Event | None = None     # the previous command, if it failed (retry gaps)
@@ -227,85 +217,17 @@ class WiringDoctor:
         self.never_retried = _Tally()
         self.retried = 0                            # failed first attempts sent again
         self.ix_given_up = _Tally()
-        self.nak_count = 0
-        self.naks: deque[tuple[float, int]] = deque(maxlen=200)
-        self.ack_latency = Latency()               # every device's ACKs: the 95th percentile
-        self.trend_from = float("-inf")            # ACKs before this time are left out of the trend
-        self._first_seen: dict[tuple[str, str], tuple[float | None, int]] = {}   # (time, events seen)
-        # the link's latest rate change: (rate event, the rate-set command's number, its device)
-        self.rate_change: tuple[Event, int | None, str | None] | None = None
-        # a logic capture's lines as its software UART measured them (analyzer/physical/report.py),
-        # kept up to date by the source: the waveform rules read them
-        self.physical: dict | None = None
 
-    # ------------------------------------------------------------------ input
-    def add(self, ev: Event) -> None:
-        self.events += 1
-        t = ev.t
-        if t is not None:
-            if self.first_t is None:
-                self.first_t = t
-            self.last_t = ev.t_end if ev.t_end is not None else t
-        misplaced = self.signs.add(ev)
-        kind = ev.kind
-        if kind == RATE:
-            self._rate(ev)
-            return
-        if kind == NOISE or misplaced:
-            return
-        if kind == COMMAND:
-            self._command(ev)
-        elif kind in (ACK, NAK, NIC, RESULT):
-            self._answer(ev)
-
-    def _rate(self, ev: Event) -> None:
-        """The link changed rate: every device starts over at the new rate."""
-        txn = ev.transaction
-        self.rate_change = (ev, ev.request, txn.device if txn is not None else None)
-        for dev in self.devices.values():
-            dev.commands_since_rate = dev.answers_since_rate = 0
-            dev.unanswered_since_rate = _Tally()
-
-    def echoed(self, command: Event) -> None:
-        """The capture stripped line B's copy of this command (an echo)."""
-        self.echoes.add(command.number)
-
-    def _device(self, addr: str) -> _Device | None:
-        """The device at an address, tracked from its first command; past
-        _MAX_DEVICES addresses (garbled input) new ones are only counted."""
-        dev = self.devices.get(addr)
-        if dev is None and len(self.devices) < _MAX_DEVICES:
-            dev = self.devices[addr] = _Device()
-        return dev
-
-    def _command(self, ev: Event) -> None:
+    def command(self, ev: Event) -> None:
+        """The next command, paired (its status final)."""
         self.commands += 1
-        addr = ev.transaction.device
-        dev = self._device(addr)
-        if dev is None:
-            self.other_addresses.add(ev.number)
-        else:
-            self._count(dev, ev)
         prev, prev_failed = self._prev_cmd, self._prev_failed
         self._prev_cmd = ev
         self._prev_failed = ev if ev.status in (ST_NAK, NO_ACK) else None
         self._patience(ev, prev)
-        if ev.status == ST_NAK:
-            self.nak_count += 1
-            if ev.t is not None:     # bursts need time
-                self.naks.append((ev.t, ev.number))
         if ev.command == "IX" and ev.status == NO_RESULT and ev.has_problem(NO_RESULT_SENT_AGAIN):
             self.ix_given_up.add(ev.number)
         self._retries(ev, prev, prev_failed)
-
-    def _count(self, dev: _Device, ev: Event) -> None:
-        dev.commands += 1
-        dev.commands_since_rate += 1
-        if ev.status == NO_ACK:
-            dev.unanswered.add(ev.number)
-            dev.unanswered_since_rate.add(ev.number)
-        elif ev.status == ST_NIC and ev.command and len(dev.nic) < _MAX_NIC:
-            dev.nic.add(ev.command)
 
     def _patience(self, ev: Event, prev: Event | None) -> None:
         """How long the controller waited for an ACK that did not come."""
@@ -356,13 +278,144 @@ class WiringDoctor:
         del self.failed[num]
         self.never_retried.add(num)
 
+    def findings(self, p95: float) -> list[Finding]:
+        """Its findings; ``p95``: the 95th percentile of the devices' ACK latency
+        (0 when not known), what the controller should wait for."""
+        out = []
+        # the next command came sooner than devices answer: the controller did not wait
+        hasty = [(n, g) for n, g in self.next_gaps if p95 and g < p95]
+        if len(hasty) >= 3:
+            out.append(FINDINGS[CONTROLLER_NO_WAIT].found(
+                "controller", [n for n, _g in hasty], commands=len(hasty),
+                gap_ms=median(g for _n, g in hasty) * 1000, p95_ms=p95 * 1000))
+        # retransmissions sooner than devices answer
+        fast = [(n, g) for n, g in self.retry_gaps if g < p95] if p95 else []
+        if len(fast) >= 3:
+            out.append(FINDINGS[CONTROLLER_FAST_RETRY].found(
+                "controller", [n for n, _g in fast], retries=len(fast),
+                gap_ms=median(g for _n, g in fast) * 1000, p95_ms=p95 * 1000))
+        # most failures left alone: a controller that gives up after a few attempts
+        # (or an untimed capture's alignment guessing which command went unanswered)
+        # leaves some, but retries most
+        given_up = len(self.never_retried)
+        if given_up >= 3 and given_up > self.retried:
+            no_retry = FINDINGS[CONTROLLER_NO_RETRY]
+            retried = "" if not self.retried else no_retry.phrase("retried_one") if self.retried == 1 \
+                else no_retry.phrase("retried", retried=self.retried)
+            out.append(no_retry.found("controller", self.never_retried.evidence(), given_up=given_up,
+                                      retried=retried))
+        if self.ix_given_up:
+            ix = FINDINGS[CONTROLLER_IX_TIMEOUT]
+            resent = len(self.ix_given_up)
+            out.append(ix.found("controller", self.ix_given_up.evidence(),
+                                resent=ix.phrase("resent_one") if resent == 1 else ix.phrase("resent", resent=resent)))
+        return out
+
+
+class WiringDoctor:
+    """Every structure is bounded (tallies, windows, capped maps) and each event
+    costs the same however long the capture: time and memory stay linear and flat."""
+
+    def __init__(self, lines: tuple[str, ...] = ("A", "B"), ack_timeout: float = 0.5,
+                 invocation: Invocation | None = None) -> None:
+        self.ack_timeout = ack_timeout
+        self.invocation = invocation or Invocation()
+        self.signs = WiringSigns(lines)   # per-line tallies, and the signs of swapped lines
+        self.signs.read_baud = self.invocation.baud
+        self.two_lines = self.signs.two_lines
+        self.lines = self.signs.lines
+        self.devices: dict[str, DeviceTally] = {}
+        self.other_addresses = _Tally()   # commands to addresses beyond the first _MAX_DEVICES
+        self.events = 0
+        self.commands = 0
+        self.answers = 0          # answers paired with a command
+        self.first_t: float | None = None
+        self.last_t: float | None = None
+        # echo
+        self.echoes = _Tally()
+        self.controller = ControllerWatch(ack_timeout)
+        self.nak_count = 0
+        self.naks: deque[tuple[float, int]] = deque(maxlen=200)
+        self.ack_latency = Latency()               # every device's ACKs: the 95th percentile
+        self.trend_from = float("-inf")            # ACKs before this time are left out of the trend
+        self._first_seen: dict[tuple[str, str], tuple[float | None, int]] = {}   # (time, events seen)
+        # the link's latest rate change: (rate event, the rate-set command's number, its device)
+        self.rate_change: tuple[Event, int | None, str | None] | None = None
+        # a logic capture's lines as its software UART measured them (analyzer/physical/report.py),
+        # kept up to date by the source: the waveform rules read them
+        self.physical: dict | None = None
+
+    # ------------------------------------------------------------------ input
+    def add(self, ev: Event) -> None:
+        self.events += 1
+        t = ev.t
+        if t is not None:
+            if self.first_t is None:
+                self.first_t = t
+            self.last_t = ev.t_end if ev.t_end is not None else t
+        misplaced = self.signs.add(ev)
+        kind = ev.kind
+        if kind == RATE:
+            self._rate(ev)
+            return
+        if kind == NOISE or misplaced:
+            return
+        if kind == COMMAND:
+            self._command(ev)
+        elif kind in (ACK, NAK, NIC, RESULT):
+            self._answer(ev)
+
+    def _rate(self, ev: Event) -> None:
+        """The link changed rate: every device starts over at the new rate."""
+        txn = ev.transaction
+        self.rate_change = (ev, ev.request, txn.device if txn is not None else None)
+        for dev in self.devices.values():
+            dev.commands_since_rate = dev.answers_since_rate = 0
+            dev.unanswered_since_rate = _Tally()
+
+    def echoed(self, command: Event) -> None:
+        """The capture stripped line B's copy of this command (an echo)."""
+        self.echoes.add(command.number)
+
+    def _device(self, addr: str) -> DeviceTally | None:
+        """The device at an address, tracked from its first command; past
+        _MAX_DEVICES addresses (garbled input) new ones are only counted."""
+        dev = self.devices.get(addr)
+        if dev is None and len(self.devices) < _MAX_DEVICES:
+            dev = self.devices[addr] = DeviceTally()
+        return dev
+
+    def _command(self, ev: Event) -> None:
+        self.commands += 1
+        txn = ev.transaction   # the command's record (pairing links every command)
+        addr = txn.device if txn is not None else None
+        dev = self._device(addr) if addr is not None else None
+        if dev is None:
+            self.other_addresses.add(ev.number)
+        else:
+            self._count(dev, ev)
+        if ev.status == ST_NAK:
+            self.nak_count += 1
+            if ev.t is not None:     # bursts need time
+                self.naks.append((ev.t, ev.number))
+        self.controller.command(ev)
+
+    def _count(self, dev: DeviceTally, ev: Event) -> None:
+        dev.commands += 1
+        dev.commands_since_rate += 1
+        if ev.status == NO_ACK:
+            dev.unanswered.add(ev.number)
+            dev.unanswered_since_rate.add(ev.number)
+        elif ev.status == ST_NIC and ev.command and len(dev.nic) < _MAX_NIC:
+            dev.nic.add(ev.command)
+
     def _answer(self, ev: Event) -> None:
         txn = ev.transaction   # the command's record: its device is the answer's
         if txn is None:
             return
         addr = txn.device
         self.answers += 1
-        dev = self.devices.get(addr)
+        dev = self.devices.get(addr) if addr is not None else None
         if dev is None:
             return     # an address past _MAX_DEVICES
         dev.answers += 1
@@ -454,7 +507,7 @@ class WiringDoctor:
         """What a logic analyser's capture shows below the bytes, line by line."""
         out: list[Finding] = []
         for name, r in (self.physical or {}).items():
-            out += _waveform_findings(name, r)
+            out += waveform_findings(name, r)
         return out
 
     def _echo(self) -> list[Finding]:
@@ -555,36 +608,7 @@ class WiringDoctor:
                                          burst=burst)
 
     def _controller(self) -> list[Finding]:
-        out = []
-        p95 = self._ack_p95()
-        # the next command came sooner than devices answer: the controller did not wait
-        hasty = [(n, g) for n, g in self.next_gaps if p95 and g < p95]
-        if len(hasty) >= 3:
-            out.append(FINDINGS[CONTROLLER_NO_WAIT].found(
-                "controller", [n for n, _g in hasty], commands=len(hasty),
-                gap_ms=median(g for _n, g in hasty) * 1000, p95_ms=p95 * 1000))
-        # retransmissions sooner than devices answer
-        fast = [(n, g) for n, g in self.retry_gaps if g < p95] if p95 else []
-        if len(fast) >= 3:
-            out.append(FINDINGS[CONTROLLER_FAST_RETRY].found(
-                "controller", [n for n, _g in fast], retries=len(fast),
-                gap_ms=median(g for _n, g in fast) * 1000, p95_ms=p95 * 1000))
-        # most failures left alone: a controller that gives up after a few attempts
-        # (or an untimed capture's alignment guessing which command went unanswered)
-        # leaves some, but retries most
-        given_up = len(self.never_retried)
-        if given_up >= 3 and given_up > self.retried:
-            no_retry = FINDINGS[CONTROLLER_NO_RETRY]
-            retried = "" if not self.retried else no_retry.phrase("retried_one") if self.retried == 1 \
-                else no_retry.phrase("retried", retried=self.retried)
-            out.append(no_retry.found("controller", self.never_retried.evidence(), given_up=given_up,
-                                      retried=retried))
-        if self.ix_given_up:
-            ix = FINDINGS[CONTROLLER_IX_TIMEOUT]
-            resent = len(self.ix_given_up)
-            out.append(ix.found("controller", self.ix_given_up.evidence(),
-                                resent=ix.phrase("resent_one") if resent == 1 else ix.phrase("resent", resent=resent)))
-        return out
+        return self.controller.findings(self._ack_p95())
 
     def _ack_p95(self) -> float:
         return self.ack_latency.quantile(0.95) or 0.0
@@ -637,7 +661,7 @@ class WiringDoctor:
 CLOCK_WARNING, CLOCK_ERROR = 2.0, 4.0     # per cent off the nominal rate (findings table, clock_off)
 
 
-def _waveform_findings(name: str, r) -> list[Finding]:
+def waveform_findings(name: str, r: LineReport) -> list[Finding]:
     """The waveform's findings about one line (``r``: a LineReport)."""
     out: list[Finding] = []
     chars = counted(r.characters, "character")
@@ -651,9 +675,10 @@ def _waveform_findings(name: str, r) -> list[Finding]:
         if abs(pct) >= CLOCK_ERROR:
             f.severity = ERROR
         out.append(f)
-    if r.measured and not r.given and r.characters >= 4 and nominal_rate(r.measured) is None:
-        nearest = min(STANDARD_RATES, key=lambda rate: abs(rate - r.measured) / rate)
-        out.append(FINDINGS[RATE_NONSTANDARD].found(name, [], line=name, rate=r.measured, characters=chars,
+    measured = r.measured
+    if measured and not r.given and r.characters >= 4 and nominal_rate(measured) is None:
+        nearest = min(STANDARD_RATES, key=lambda rate: abs(rate - measured) / rate)
+        out.append(FINDINGS[RATE_NONSTANDARD].found(name, [], line=name, rate=measured, characters=chars,
                                                     nearest=nearest))
     errors = r.framing_errors + r.parity_errors + r.breaks
     if errors:
@@ -688,7 +713,7 @@ def _waveform_findings(name: str, r) -> list[Finding]:
     return out
 
 
-def waveform_measures(r) -> dict:
+def waveform_measures(r: LineReport) -> dict[str, Any]:
     """What the software UART measured of a line (a LineReport), as the JSON
     report's ``measured`` of each waveform finding gives it."""
     return {"channel": r.channel, "rate": r.measured, "nominal": r.nominal, "rate_sure": r.rate_sure,

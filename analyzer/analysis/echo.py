@@ -45,8 +45,9 @@ class EchoStripper:
         window = self.window
         for ev in results:
             originals = by_raw.get(ev.raw)
-            if originals:
-                match = next((c for c in originals if abs(c.t - ev.t) < window), None)
+            t = ev.t
+            if originals and t is not None:   # (only timed events were taken)
+                match = next((c for c in originals if c.t is not None and abs(c.t - t) < window), None)
                 if match is not None:
                     originals.remove(match)    # one copy per command
                     self.count += 1

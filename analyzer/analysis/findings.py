@@ -28,6 +28,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from string import Formatter
+from typing import Any
 
 from ..styles import ERROR, INFO, WARNING  # the severities every view colours
 
@@ -109,13 +110,13 @@ class FindingKind:
         """The fields a rule passes to ``found``."""
         return fields_of(self.title) | fields_of(self.detail) | fields_of(self.fix)
 
-    def found(self, subject: str, evidence: list[int], **values) -> Finding:
+    def found(self, subject: str, evidence: list[int], **values: Any) -> Finding:
         """The finding, its templates filled with what the rule measured."""
         values = _worded(values)
         return Finding(self.id, self.severity, self.title.format(**values), self.detail.format(**values),
                        self.fix.format(**values), evidence, subject)
 
-    def phrase(self, name: str, **values) -> str:
+    def phrase(self, name: str, **values: Any) -> str:
         """One of the entry's phrases, filled."""
         return self.phrases[name].format(**_worded(values))
 
@@ -131,14 +132,14 @@ class _Count(int):
 PLAIN_NUMBERS = {"baud", "read", "before"}   # line rates are written as the spec writes them: 115200
 
 
-def _worded(values: dict) -> dict:
+def _worded(values: dict[str, Any]) -> dict[str, Any]:
     return {k: _Count(v) if type(v) is int and k not in PLAIN_NUMBERS else v for k, v in values.items()}
 
 
 TABLE: list[FindingKind] = []
 
 
-def _kind(*args, **kw) -> FindingKind:
+def _kind(*args: Any, **kw: Any) -> FindingKind:
     kind = FindingKind(*args, **kw)
     TABLE.append(kind)
     return kind

@@ -68,7 +68,8 @@ class Timeouts:
     untimed_hold: int = 4096
 
     def result_for(self, ev: Event) -> float:
-        t = self.result_by_command.get(ev.command)
+        command = ev.command
+        t = self.result_by_command.get(command) if command is not None else None
         if t is not None:
             return t
         if ev.entry is not None and ev.entry.result_timeout is not None:
@@ -118,10 +119,12 @@ class Transaction:
     )
 
     def __init__(self, number: int, cmd: Event) -> None:
+        dst = cmd.dst
+        assert dst is not None   # a command is a frame
         self.number = number
         self.request: int = cmd.number
         self.command: str | None = cmd.command
-        self.device: str = format_address(cmd.dst)
+        self.device: str = format_address(dst)
         self.status: str | None = None
         self.retransmission: bool = cmd.retransmission
         self.ack: int | None = None
@@ -148,12 +151,22 @@ class Transaction:
                 f"{self.status}, answers {self.answers})")
 
 
+def _record(cmd: Event) -> Transaction:
+    """The record pairing gave a command it numbered (it gives every one a
+    ``Transaction``; the hottest loops check this inline)."""
+    txn = cmd.transaction
+    assert isinstance(txn, Transaction)
+    return txn
+
+
 def address_fits(cmd: Event, res: Event) -> bool:
     """Does a result frame come back from the command's destination (Table 3)?
 
     Groups are swapped, port and device are kept; a wildcard (255) in the command
     matches any value; device 0 (the MCU/GCU as destination, §1.4.1.1) is accepted.
     """
+    if cmd.dst is None or res.dst is None:   # not frames: no address
+        return False
     cg, cp, cd = cmd.dst
     rg, rp, rd = res.dst
     if rg != cmd.src:
@@ -254,7 +267,9 @@ class Pairer:
                 if head.kind == COMMAND:
                     if head.status is None:
                         break
-                    head.transaction.status = head.status   # final: the record takes it
+                    txn = head.transaction
+                    assert isinstance(txn, Transaction)
+                    txn.status = head.status   # final: the record takes it
                 append(held.popleft())
         self._number = number
         return out
@@ -298,7 +313,7 @@ class Pairer:
         if self._provisional is not None:
             self._settle()
         for cmd in ([self._awaiting_ack] if self._awaiting_ack else []) + self._awaiting_result:
-            if not cmd.transaction.optional:
+            if not _record(cmd).optional:
                 cmd.status = PENDING
         self._awaiting_ack = None
         self._awaiting_result = []
@@ -306,14 +321,14 @@ class Pairer:
         self._held.clear()
         for ev in out:
             if ev.kind == COMMAND:
-                ev.transaction.status = ev.status
+                _record(ev).status = ev.status
         return out
 
     # ------------------------------------------------------------ internals
     def _settle(self) -> None:
         cmd = self._provisional
         self._provisional = None
-        if cmd.status is None:
+        if cmd is not None and cmd.status is None:
             cmd.status = OK
 
     def _release(self) -> list[Event]:
@@ -324,28 +339,30 @@ class Pairer:
             if head.kind == COMMAND:
                 if head.status is None:
                     break
-                head.transaction.status = head.status
+                _record(head).status = head.status
             out.append(held.popleft())
         return out
 
     def _expire(self, t: float) -> None:
         cmd = self._awaiting_ack
         if cmd is not None:
-            deadline = cmd.transaction.deadline
+            deadline = _record(cmd).deadline
             if deadline is not None and t > deadline:
                 self._no_ack(cmd, UNANSWERED_TIMEOUT, f"no ACK/NAK within {self.timeouts.ack * 1000:g} ms")
                 self._timed_out = cmd
         awaiting = self._awaiting_result
         if awaiting:
             for cmd in awaiting:
-                deadline = cmd.transaction.deadline
+                txn = cmd.transaction
+                assert isinstance(txn, Transaction)
+                deadline = txn.deadline
                 if deadline is not None and t > deadline:
                     break
             else:
                 return   # none overdue: the usual case, checked without building a list
             keep = []
             for cmd in awaiting:
-                deadline = cmd.transaction.deadline
+                deadline = _record(cmd).deadline
                 if deadline is not None and t > deadline:
                     self._no_result(cmd, NO_RESULT_TIMEOUT,
                                     f"none within {self.timeouts.result_for(cmd):g} s of the ACK")
@@ -360,7 +377,7 @@ class Pairer:
             self._awaiting_ack = None
 
     def _no_result(self, cmd: Event, problem: ProblemInfo, why: str) -> None:
-        if cmd.transaction.optional:
+        if _record(cmd).optional:
             return
         cmd.status = NO_RESULT
         cmd.add_problem(problem, why)
@@ -373,23 +390,25 @@ class Pairer:
         controller's source group), and where it cannot (controller and devices in
         one group) a payload that parses as a command is one.
         """
+        dst, src, payload = ev.dst, ev.src, ev.payload
+        assert dst is not None and src is not None and payload is not None   # a frame
         for cmd in reversed(self._awaiting_result):
-            if address_fits(cmd, ev) and result_fits(cmd.entry, ev.payload):
+            if address_fits(cmd, ev) and result_fits(cmd.entry, payload):
                 return RESULT
-        cmd = self._awaiting_ack
-        if cmd is not None and cmd.dst[0] != cmd.src and address_fits(cmd, ev) \
-                and result_fits(cmd.entry, ev.payload):
+        waiting = self._awaiting_ack
+        if waiting is not None and waiting.dst is not None and waiting.dst[0] != waiting.src \
+                and address_fits(waiting, ev) and result_fits(waiting.entry, payload):
             return RESULT
         groups = self._controller_groups
-        g = ev.dst[0]
-        if groups and ev.src != g:
-            if ev.src in groups and g not in groups:
+        g = dst[0]
+        if groups and src != g:
+            if src in groups and g not in groups:
                 return COMMAND
-            if g in groups and ev.src not in groups:
+            if g in groups and src not in groups:
                 return RESULT
-        if dissect_command(ev.payload).entry is None:
+        if dissect_command(payload).entry is None:
             return RESULT
-        groups.add(ev.src)
+        groups.add(src)
         return COMMAND
 
     def _command(self, ev: Event) -> None:
@@ -402,7 +421,7 @@ class Pairer:
             keep = []
             window = self.timeouts.untimed_window
             for cmd in self._awaiting_result:
-                txn = cmd.transaction
+                txn = _record(cmd)
                 txn.age += 1
                 if cmd.command == ev.command and cmd.dst == ev.dst:
                     self._no_result(cmd, NO_RESULT_SENT_AGAIN, "the command was sent again before it came")
@@ -425,7 +444,7 @@ class Pairer:
 
     def _link(self, ev: Event, cmd: Event) -> None:
         """Make ``ev`` an answer to ``cmd``, in the event and in the record."""
-        txn = cmd.transaction
+        txn = _record(cmd)
         ev.txn = txn.number
         ev.request = cmd.number
         ev.transaction = txn
@@ -461,7 +480,7 @@ class Pairer:
         self._last_ack = (ev, cmd)
         due = cmd.entry.result_due if cmd.entry is not None else None
         if due == DUE or due == OPTIONAL:
-            txn = cmd.transaction
+            txn = _record(cmd)
             txn.optional = due == OPTIONAL
             if ev.t_end is not None:
                 txn.deadline = ev.t_end + self.timeouts.result_for(cmd)
@@ -495,28 +514,32 @@ class Pairer:
         # else the newest from the right address that must have one.
         payload = ev.payload
         decoded = None
+        fits: Event | None = None
         fallback = None
         ack_cmd = self._awaiting_ack
         awaiting = self._awaiting_result
-        for cmd in ((ack_cmd, *reversed(awaiting)) if ack_cmd is not None else reversed(awaiting)):
-            if address_fits(cmd, ev):
-                entry = cmd.entry
-                if entry is not None and entry.result:   # result_fits, keeping the decode
+        for cand in ((ack_cmd, *reversed(awaiting)) if ack_cmd is not None else reversed(awaiting)):
+            if address_fits(cand, ev):
+                entry = cand.entry
+                if entry is not None and entry.result and payload is not None:   # result_fits, keeping the decode
                     decoded = dissect_result(entry, payload)
                     if decoded[0]:
+                        fits = cand
                         break
                     decoded = None
-                if fallback is None and not cmd.transaction.optional:
-                    fallback = cmd
-        else:
-            cmd = fallback
-            if cmd is None:
-                ev.add_problem(ORPHAN, "no command awaits this result")
-                return
+                if fallback is None and not _record(cand).optional:
+                    fallback = cand
+        cmd = fits if fits is not None else fallback
+        if cmd is None:
+            ev.add_problem(ORPHAN, "no command awaits this result")
+            return
         self._link(ev, cmd)
         ev.command = cmd.command
         ev.entry = cmd.entry
-        fields, problems = decoded if decoded is not None else dissect_result(cmd.entry, payload)
+        if decoded is None:
+            assert payload is not None   # a result from a command's address is a frame
+            decoded = dissect_result(cmd.entry, payload)
+        fields, problems = decoded
         ev.fields = fields
         if problems:
             ev.note(*problems)

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from dissectors.event import COMMAND, RESULT, Event
+from dissectors.event import COMMAND, RESULT, Event, format_address
 from dissectors.wire import WILDCARD
 
 AZ, EL = "azimuth_deg", "elevation_deg"
@@ -53,7 +53,7 @@ class PositionTracker:
         dst = ev.dst
         if dst is None or WILDCARD in dst:
             return None
-        device = ev.device
+        device = format_address(dst)   # a command's device: its destination
         fields = ev.fields
         if command in _PRESET_QUERIES:
             if "preset" in fields:
@@ -66,7 +66,7 @@ class PositionTracker:
             target = _angles(fields)
         else:
             preset = fields.get("preset")
-            target = self._presets.get((device, preset))
+            target = self._presets.get((device, preset)) if preset is not None else None
             extra["preset"] = preset
         if target is None:
             return None
@@ -78,7 +78,7 @@ class PositionTracker:
             return None
         command = ev.command
         if command in _PRESET_QUERIES:
-            asked = self._asked.pop(ev.request, None)
+            asked = self._asked.pop(ev.request, None) if ev.request is not None else None
             angles = _angles(ev.fields)
             if asked is not None and angles is not None:
                 self._presets[asked] = angles
@@ -92,7 +92,7 @@ class PositionTracker:
         return device, _message(ev, device, "result", target=self._targets.get(device), reported=reported)
 
 
-def _angles(fields: dict) -> dict[str, float] | None:
+def _angles(fields: dict[str, Any]) -> dict[str, float] | None:
     az, el = fields.get(AZ), fields.get(EL)
     if az is None or el is None:
         return None

@@ -98,7 +98,7 @@ class RateFollower:
         """A rate-set waits for its answer, or an ACK for a NIC that would take it back."""
         return self._asked is not None or self._done is not None
 
-    def scan(self, events: list[Event]) -> list[RateChange]:
+    def follow(self, events: list[Event]) -> list[RateChange]:
         """``observe`` each of ``events`` that can matter, in order. Called for
         every batch a capture deframes, so it passes over the rest cheaply: while
         no rate-set waits, only a two-byte payload starting with ``C`` is looked at."""

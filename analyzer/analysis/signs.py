@@ -23,6 +23,7 @@ from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import Any
 
 from dissectors import dissect_command
 from dissectors.event import COMMAND, NO_RESULT, NOISE, OK, RATE, RESULT, ST_NIC, Event
@@ -153,7 +154,7 @@ class WiringSigns:
         if kind == RATE:
             return False
         if self._votes_left and ev.t is not None and ev.t_end is not None and n:
-            self._vote(ev, n)
+            self._vote(ev.t_end - ev.t, n)
         if kind == NOISE:
             line.noise_bytes += n
             line.noise_runs += 1
@@ -185,11 +186,11 @@ class WiringSigns:
             return True
         return False
 
-    def _vote(self, ev: Event, n: int) -> None:
-        """The rate the tap read at, from the byte time the capture gave this event
-        (its bytes are spaced at the rate it was read at, 8N1)."""
+    def _vote(self, span: float, n: int) -> None:
+        """The rate the tap read at, from the byte time the capture gave an event
+        of ``n`` bytes that took ``span`` seconds (its bytes are spaced at the rate
+        it was read at, 8N1)."""
         self._votes_left -= 1
-        span = ev.t_end - ev.t
         if span <= 0:
             return
         baud = 10 * n / span
@@ -283,29 +284,20 @@ class WiringSigns:
         if not bad:
             return []
         guess = self.misread(list(bad))
-        rhythm = self.rhythm
-        wrong_rate = guess.looks_misread(rhythm)
+        wrong_rate = guess.looks_misread(self.rhythm)
         # nothing of the protocol on any line (the lines too short to judge have no valid
         # frame either), and no sign of a wrong rate
         if not live and not wrong_rate and all(line.share < UNRECOGNISED for line in bad.values()) \
                 and all(line.frames == line.bad_frames for name, line in carrying.items() if name not in bad):
-            total = sum(line.bytes for line in bad.values())
-            good = sum(line.good_bytes for line in bad.values())
-            evidence = sorted(n for line in bad.values() for n in line.errors.evidence())
-            nt = FINDINGS[NOT_THIS_PROTOCOL]
-            look = guess.look
-            if look == TEXT:
-                looks = nt.phrase("text", excerpt=guess.excerpt)
-            elif look == SAME:
-                looks = nt.phrase("same", value=guess.value)
-            else:
-                looks = nt.phrase("binary")
-            f = nt.found(",".join(bad), evidence, bytes=total, share=good / total, looks=looks, baud_fix=baud_fix)
-            f.measured = {"looks": look, "misread_bits_per_byte": guess.rounded_score}
-            return [f]
+            return [_not_this_protocol(bad, guess, baud_fix)]
+        return self._wrong_baud(bad, guess, wrong_rate, baud_fix, live, rate_fix)
+
+    def _wrong_baud(self, bad: dict[str, LineTally], guess: Misread, wrong_rate: bool, baud_fix: str, live: bool,
+                    rate_fix: Callable[[int, int], str] | None) -> list[Finding]:
+        """``wrong_baud`` for each garbled line: the rate named when one stands out."""
         wb = FINDINGS[WRONG_BAUD]
         read = guess.read
-        measured: dict = {"misread_bits_per_byte": guess.rounded_score, "exchanges": self.exchanges}
+        measured: dict[str, Any] = {"misread_bits_per_byte": guess.rounded_score, "exchanges": self.exchanges}
         if guess.named is not None:
             if live:
                 said = wb.phrase("rate", baud=guess.named, read=read)
@@ -321,7 +313,7 @@ class WiringSigns:
         else:
             said = wb.phrase("misread") if wrong_rate else ""
             fix = baud_fix
-        exchanges = wb.phrase("rhythm", exchanges=counted(self.exchanges, "time")) if rhythm else ""
+        exchanges = wb.phrase("rhythm", exchanges=counted(self.exchanges, "time")) if self.rhythm else ""
         out = []
         for name, line in bad.items():
             f = wb.found(name, line.errors.evidence(), line=name, bytes=line.bytes, share=line.share,
@@ -340,6 +332,24 @@ class WiringSigns:
 
 # what bytes look like, when they are not the protocol
 TEXT, SAME, BINARY = "text", "same", "binary"
+
+
+def _not_this_protocol(bad: dict[str, LineTally], guess: Misread, baud_fix: str) -> Finding:
+    """One finding about the input: its garbled lines carry nothing of the protocol."""
+    total = sum(line.bytes for line in bad.values())
+    good = sum(line.good_bytes for line in bad.values())
+    evidence = sorted(n for line in bad.values() for n in line.errors.evidence())
+    nt = FINDINGS[NOT_THIS_PROTOCOL]
+    look = guess.look
+    if look == TEXT:
+        looks = nt.phrase("text", excerpt=guess.excerpt)
+    elif look == SAME:
+        looks = nt.phrase("same", value=guess.value)
+    else:
+        looks = nt.phrase("binary")
+    f = nt.found(",".join(bad), evidence, bytes=total, share=good / total, looks=looks, baud_fix=baud_fix)
+    f.measured = {"looks": look, "misread_bits_per_byte": guess.rounded_score}
+    return f
 
 
 def looks_of(sample: bytes) -> tuple[str, str, str]:

@@ -16,6 +16,8 @@ from typing import Any
 
 from dissectors.event import COMMAND, Event
 
+from .pairing import Transaction
+
 
 def without_nulls(fields: dict[str, Any]) -> dict[str, Any]:
     """``fields`` without the names that have no value (a reserved rate code's
@@ -41,7 +43,7 @@ class OpenTransaction:
         """The record's facts, as far as the answers seen so far go; fields and
         problems are the command's, then its answers' (a key without a value is
         left out: the /transactions schema, analyzer/formats/mcap_schemas.py)."""
-        cmd, record, answers = self.command, self.record, self.answers
+        cmd, record, answers = self.command, self._paired(), self.answers
         numbers = [a.number for a in answers]
         fields = dict(without_nulls(cmd.fields))
         problems = list(cmd.problems)
@@ -65,9 +67,17 @@ class OpenTransaction:
 
     def answer_numbers(self) -> tuple[int | None, int | None, int | None]:
         """The ACK (or NAK), NIC and result event numbers among the answers seen."""
-        record = self.record
+        record = self._paired()
         seen = {a.number for a in self.answers}
-        return tuple(n if n in seen else None for n in (record.ack, record.nic, record.result))
+        ack, nic, result = (n if n in seen else None for n in (record.ack, record.nic, record.result))
+        return ack, nic, result
+
+    def _paired(self) -> Transaction:
+        """The command's record: rows are made of paired events, and pairing gives
+        every command a ``Transaction``."""
+        record = self.record
+        assert isinstance(record, Transaction)
+        return record
 
 
 class TransactionRows:

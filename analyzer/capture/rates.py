@@ -55,7 +55,7 @@ class RateFollowing:
         link's new byte time applied from here on."""
         follower = self.follower
         seen = follower.marked
-        out = [self._changed(change) for change in follower.scan(events)]
+        out = [self._changed(change) for change in follower.follow(events)]
         if follower.marked != seen:
             self.marks = max(0, self.marks - (follower.marked - seen))
             self._misses = 0

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Iterator
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -98,7 +98,8 @@ class PackedSamples(Waveform):
         self.samples = 0   # read so far
 
     def blocks(self) -> Iterator[Block]:
-        dtype = {1: np.uint8, 2: np.dtype("<u2"), 4: np.dtype("<u4")}[self.unitsize]
+        dtypes: dict[int, np.dtype[Any]] = {1: np.dtype(np.uint8), 2: np.dtype("<u2"), 4: np.dtype("<u4")}
+        dtype = dtypes[self.unitsize]
         bits = dict(enumerate(self.bits))
         previous: int | None = None
         left = b""

@@ -116,6 +116,13 @@ class SoftUart:
         if self.bit is not None and baud > 0 and abs(self.rate / baud - self.bit) / self.bit >= SAME_RATE:
             self._hint = (tick, self.rate / baud)
 
+    @property
+    def _known_bit(self) -> float:
+        """The bit time in ticks, once measured or given: reading starts only then."""
+        bit = self.bit
+        assert bit is not None
+        return bit
+
     # ------------------------------------------------------------------ measuring
     def measure(self, final: bool = False) -> bool:
         """Measure the rate (unless given), the idle level and the format (unless
@@ -132,9 +139,9 @@ class SoftUart:
             r.measured_from, r.rate_fit, r.rate_sure = m.intervals, m.fit, m.sure
         else:
             start = 0
-            m = measure_bit(self.ticks[:WINDOW], self.min_bit)   # the clock, for the doctor
-            if m is not None:
-                r.measured = self.rate / m.bit
+            clock = measure_bit(self.ticks[:WINDOW], self.min_bit)   # the clock, for the doctor
+            if clock is not None:
+                r.measured = self.rate / clock.bit
             r.given = True
             r.nominal = round(self.rate / self.bit)
         self.idle, verdict = self._idle_and_format(start)
@@ -191,15 +198,16 @@ class SoftUart:
         """The idle level and the format the first characters from edge ``start``
         show (ties: the level the line rests at); a level the line clearly rests
         at through its silences is kept unless the other reads far better."""
+        bit = self._known_bit
         t = self.ticks[start:start + FORMAT_EDGES]
         level = self._level_at(start)
         end = self.end if start + FORMAT_EDGES >= self.ticks.size else int(self.ticks[start + FORMAT_EDGES])
-        rests, sure = idle_level(t, level, end, self.bit, begin=int(self.ticks[start - 1]) if start else 0)
+        rests, sure = idle_level(t, level, end, bit, begin=int(self.ticks[start - 1]) if start else 0)
         best = None
         for idle in (rests, 1 - rests):
             self.idle = idle
             if self.fmt_given:
-                chars = self._read(t, level, self.fmt, self.bit, end, probe=True)[0]
+                chars = self._read(t, level, self.fmt, bit, end, probe=True)[0]
                 verdict = Verdict(self.fmt, sum(1 for c in chars if c.fault is not None))
             else:
                 verdict = tell_format([self._reading(t, level, width, end) for width in WIDTHS])
@@ -211,16 +219,17 @@ class SoftUart:
             key = (errors, idle != rests)
             if best is None or key < best[0]:
                 best = (key, idle, verdict)
+        assert best is not None   # (both levels were tried)
         _, idle, verdict = best
         self.idle = idle
         if not self.fmt_given:
-            chars = self._read(t, level, verdict.fmt, self.bit, end, probe=True)[0]
+            chars = self._read(t, level, verdict.fmt, bit, end, probe=True)[0]
             verdict = verdict._replace(fmt=verdict.fmt._replace(
-                stop_bits=stop_bits([c.tick for c in chars], verdict.fmt, self.bit)))
+                stop_bits=stop_bits([c.tick for c in chars], verdict.fmt, bit)))
         return idle, verdict
 
     def _reading(self, ticks: np.ndarray, level: int, width: int, end: int) -> Reading:
-        chars = self._read(ticks, level, LineFormat(width), self.bit, end, probe=True)[0]
+        chars = self._read(ticks, level, LineFormat(width), self._known_bit, end, probe=True)[0]
         values = [c.value for c in chars if c.fault is None and c.value is not None]
         return Reading(width, values, len(chars) - len(values), [c.tick for c in chars])
 
@@ -252,7 +261,7 @@ class SoftUart:
                     changes += 1
                     continue
             self._filter_glitches()
-            chars, used, level = self._read(self.ticks, self.level, self.fmt, self.bit, self.end)
+            chars, used, level = self._read(self.ticks, self.level, self.fmt, self._known_bit, self.end)
             slowed = self._slowed_down(chars) if changes < MAX_CHANGES else None
             if slowed is None:
                 held = None if final or changes >= MAX_CHANGES else self._held_back(chars)
@@ -277,9 +286,9 @@ class SoftUart:
         cut = int(np.searchsorted(self.ticks, tick, side="left"))
         if cut == 0:
             return
-        head, removed = without_glitches(self.ticks[:cut], max(self._clean_upto - 1, 0), self.bit / 4)
+        head, removed = without_glitches(self.ticks[:cut], max(self._clean_upto - 1, 0), self._known_bit / 4)
         self.report.glitches += removed
-        chars, _, _ = self._read(head, self.level, self.fmt, self.bit, int(tick))
+        chars, _, _ = self._read(head, self.level, self.fmt, self._known_bit, int(tick))
         self._commit(chars, out)
         self._cut_at(tick)
         self._clean_upto = 0
@@ -289,7 +298,7 @@ class SoftUart:
         self._cut_at(tick)
         self._clean_upto = 0    # glitches are judged again against the new bit time
         r = self.report
-        r.rate_changes.append(RateChange(tick / self.rate, self.rate / self.bit, self.rate / new_bit))
+        r.rate_changes.append(RateChange(tick / self.rate, self.rate / self._known_bit, self.rate / new_bit))
         self.bit = new_bit
         r.measured = self.rate / new_bit
         r.nominal = named_rate(r.measured)
@@ -327,7 +336,8 @@ class SoftUart:
             return None
         tick, new_bit = self._hint
         self._hint = None
-        if abs(new_bit - self.bit) / self.bit < SAME_RATE:
+        bit = self._known_bit
+        if abs(new_bit - bit) / bit < SAME_RATE:
             return None       # the UART followed the change itself already
         i = int(np.searchsorted(self.ticks, tick, side="left"))
         m = measure_bit(self.ticks[i:i + WINDOW], self.min_bit)
@@ -345,12 +355,12 @@ class SoftUart:
         lo = int(np.searchsorted(t, self._burst_checked, side="right"))
         if t.size - lo < BURST_PULSES:
             return None
-        short = np.flatnonzero(np.diff(t[lo:]) < self.bit / 4)
+        short = np.flatnonzero(np.diff(t[lo:]) < self._known_bit / 4)
         if short.size < BURST_PULSES:
             return None
         first = lo + int(short[0])
         # back to the silence before the first short pulse: a rate changes between messages
-        silence = 1.5 * (self.fmt.bits + 1) * self.bit
+        silence = 1.5 * (self.fmt.bits + 1) * self._known_bit
         gaps = np.flatnonzero(np.diff(t[:first + 1]) > silence)
         start = int(gaps[-1]) + 1 if gaps.size else 0
         window = t[start:start + WINDOW]
@@ -358,7 +368,7 @@ class SoftUart:
             return int(t[start]), None
         self._burst_checked = int(window[-1])
         m = measure_bit(window, self.min_bit)
-        if m is None or m.bit > self.bit / 2:
+        if m is None or m.bit > self._known_bit / 2:
             return None
         chars = self._read(window, self._level_at(start), self.fmt, m.bit, int(window[-1]), probe=True)[0]
         if len(chars) < 4 or sum(1 for c in chars if c.fault is not None) * 8 > len(chars):
@@ -382,7 +392,8 @@ class SoftUart:
             return None
         start = int(np.searchsorted(self.ticks, chars[keep].tick, side="left"))
         m = measure_bit(self.ticks[start:start + 4 * WINDOW], self.min_bit)
-        if m is None or abs(m.bit - self.bit) / self.bit < SAME_RATE:
+        bit = self._known_bit
+        if m is None or abs(m.bit - bit) / bit < SAME_RATE:
             return None
         level = self._level_at(start)
         again = self._read(self.ticks[start:], level, self.fmt, m.bit, self.end, probe=True)[0]
@@ -396,7 +407,7 @@ class SoftUart:
         by default two characters, or longer where the run's characters come
         further apart (a slower rate's, read at this one)."""
         if gap is None:
-            gap = 2 * self.fmt.bits * self.bit
+            gap = 2 * self.fmt.bits * self._known_bit
             ticks = [c.tick for c in chars[first:]]
             if len(ticks) > 2:
                 gap = max(gap, 1.5 * float(np.median(np.diff(ticks))))
@@ -415,11 +426,11 @@ class SoftUart:
         past HOLD_EDGES the run is what it is."""
         if self.report.given or not chars:
             return None
-        if self.end - int(self.ticks[-1]) > 3 * self.fmt.bits * self.bit:
+        if self.end - int(self.ticks[-1]) > 3 * self.fmt.bits * self._known_bit:
             return None    # the line is silent since: the run has ended
         # back over characters up to a character of half this rate apart (a
         # slower rate's first ones may read as valid): holding a few more is harmless
-        keep = self._run_start(chars, len(chars) - 1, gap=2.5 * (self.fmt.bits + 1) * self.bit)
+        keep = self._run_start(chars, len(chars) - 1, gap=2.5 * (self.fmt.bits + 1) * self._known_bit)
         run = chars[keep:]
         bad = len(_misread(run))
         if bad >= RATE_ERRORS or (bad == 0 and len(run) > RATE_ERRORS):
@@ -442,41 +453,23 @@ class SoftUart:
         used, the level before the first edge left)."""
         if ticks.size == 0:
             return [], 0, level
-        idle, active = self.idle, 1 - self.idle
-        n = fmt.bits
-        span = (n + 0.5) * bit                 # start edge to the middle of the (first) stop bit
-        after = level ^ 1 ^ (np.arange(ticks.size) & 1)     # the level after each edge
-        edge = ticks[after == active]
-        # a receiver checks the start bit in its middle: back at idle there, the
-        # edge was a pulse (noise, ringing), no start bit (an edge whose middle is
-        # past ``end`` is not judged yet: it ends the loop below)
-        k = np.searchsorted(ticks, (edge + 0.5 * bit).astype(np.int64), side="right") - 1
-        cand = edge[((level ^ 1 ^ (k & 1)) == active) | (edge + span >= end)].tolist()
-        starts: list[int] = []
-        j = 0
-        while j < len(cand):
-            s = cand[j]
-            if s + span >= end:
-                break
-            starts.append(s)
-            j = bisect_right(cand, s + span, j + 1)
-        if starts:
-            used = int(np.searchsorted(ticks, starts[-1] + span, side="right"))
-        else:
-            used = 0
-        if j < len(cand):
-            # the first edge not judged yet stays, with all after it
-            used = max(used, int(np.searchsorted(ticks, cand[j], side="left")))
-        else:
-            used = max(used, ticks.size - 1)   # every start judged: the last edge waits for the next
+        span = (fmt.bits + 0.5) * bit          # start edge to the middle of the (first) stop bit
+        starts, used = _start_bits(ticks, level, 1 - self.idle, bit, span, end)
         if not starts:
             return [], used, level ^ (used & 1)
+        return self._characters(ticks, level, fmt, bit, span, starts, probe), used, level ^ (used & 1)
+
+    def _characters(self, ticks: np.ndarray, level: int, fmt: LineFormat, bit: float, span: float,
+                    starts: list[int], probe: bool) -> list[Char]:
+        """The characters at ``starts``: every bit sampled at its middle, for all
+        of them at once; then the receiver's errors."""
+        n = fmt.bits
         s_arr = np.asarray(starts, dtype=np.float64)
         offs = (np.arange(n + 1) + 0.5) * bit              # the start bit's middle, then each bit's
         at = (s_arr[:, None] + offs[None, :]).astype(np.int64)
         idx = np.searchsorted(ticks, at, side="right") - 1
         lv = np.where(idx < 0, level, level ^ 1 ^ (idx & 1))
-        logical = lv if idle == 1 else 1 - lv
+        logical = lv if self.idle == 1 else 1 - lv
         data = logical[:, 1:1 + fmt.data_bits]
         values = (data << np.arange(fmt.data_bits)).sum(axis=1)
         framing = logical[:, n] == 0
@@ -501,7 +494,39 @@ class SoftUart:
                                   bool(off_grid[i])))
             else:
                 chars.append(Char(s, int(values[i]), None, bool(off_grid[i])))
-        return chars, used, level ^ (used & 1)
+        return chars
+
+
+def _start_bits(ticks: np.ndarray, level: int, active: int, bit: float, span: float,
+                end: int) -> tuple[list[int], int]:
+    """The sequential part of reading: which edges start a character (each one
+    after the last's stop bit), and how many edges that uses up. ``level``: the
+    level before ``ticks[0]``; ``span``: start edge to the middle of the stop bit."""
+    after = level ^ 1 ^ (np.arange(ticks.size) & 1)     # the level after each edge
+    edge = ticks[after == active]
+    # a receiver checks the start bit in its middle: back at idle there, the
+    # edge was a pulse (noise, ringing), no start bit (an edge whose middle is
+    # past ``end`` is not judged yet: it ends the loop below)
+    k = np.searchsorted(ticks, (edge + 0.5 * bit).astype(np.int64), side="right") - 1
+    cand = edge[((level ^ 1 ^ (k & 1)) == active) | (edge + span >= end)].tolist()
+    starts: list[int] = []
+    j = 0
+    while j < len(cand):
+        s = cand[j]
+        if s + span >= end:
+            break
+        starts.append(s)
+        j = bisect_right(cand, s + span, j + 1)
+    if starts:
+        used = int(np.searchsorted(ticks, starts[-1] + span, side="right"))
+    else:
+        used = 0
+    if j < len(cand):
+        # the first edge not judged yet stays, with all after it
+        used = max(used, int(np.searchsorted(ticks, cand[j], side="left")))
+    else:
+        used = max(used, ticks.size - 1)   # every start judged: the last edge waits for the next
+    return starts, used
 
 
 def _misread(chars: list[Char]) -> list[int]:

@@ -19,8 +19,8 @@ import pprint
 import re
 
 from dissectors import problems as P
-from dissectors.commands import BAUD_CODES, COMMANDS, ERROR_BITS, STATUS_BITS, Command, field_types
-from dissectors.dissect import _show, summarize
+from dissectors.commands import BAUD_CODES, COMMANDS, ERROR_BITS, STATUS_BITS, Command, bit_names, field_types
+from dissectors.dissect import summarize, summary_value
 from dissectors.fields import Field, Layout
 
 from ..templates import fill
@@ -28,8 +28,8 @@ from ..version import __version__
 from .pd_template import TEMPLATE
 
 DECODER_ID = "gimbal"
-# helpers the derive functions of the table call, copied in with them
-_DERIVE_HELPERS = ("_names",)
+# what the derive functions of the table call, copied in with them
+_DERIVE_HELPERS = (bit_names,)
 
 
 def _field(f: Field) -> dict:
@@ -67,9 +67,8 @@ def _derives() -> list:
 
 
 def _functions() -> str:
-    import dissectors.commands as table
-    helpers = [getattr(table, name) for name in _DERIVE_HELPERS]
-    return "\n\n".join(inspect.getsource(fn).strip() for fn in [*helpers, *_derives(), _show, summarize])
+    return "\n\n".join(inspect.getsource(fn).strip()
+                       for fn in [*_DERIVE_HELPERS, *_derives(), summary_value, summarize])
 
 
 def pd_source() -> str:

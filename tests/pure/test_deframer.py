@@ -4,18 +4,17 @@ behaviour on broken input (resync, repair, silence, noise)."""
 import pytest
 from hypothesis import example, given, settings, strategies as st
 
-import dissectors.deframer as deframer_module
 from dissectors import Deframer
-from dissectors.deframer import NOISE_PIECE
+from dissectors.deframer import COMPILED, NOISE_PIECE
 from dissectors.wire import build_frame
 from tests.pure.test_deframer_paths import pure_loop
 
 
 @pytest.fixture(scope="module", autouse=True, params=["compiled", "pure"])
 def deframing_path(request):
-    """Every test here runs on both deframing loops: the C one (dissectors/_scan.c,
+    """Every test here runs on both deframing loops: the C one (dissectors/_deframe.c,
     when it was built) and the pure-Python one it stands in for."""
-    if request.param == "compiled" and deframer_module._scan is None:
+    if request.param == "compiled" and not COMPILED:
         pytest.skip("the C deframing loop is not built (no compiler at install, or GIMBALSCOPE_PURE=1)")
     with pure_loop(request.param == "pure"):
         yield request.param

@@ -1,4 +1,4 @@
-"""The C deframing loop (dissectors/_scan.c) against the pure-Python loop it stands
+"""The C deframing loop (dissectors/_deframe.c) against the pure-Python loop it stands
 in for: the same events, field by field, for any bytes in any split; and the
 environment switch that selects the pure loop."""
 
@@ -11,11 +11,11 @@ import sys
 import pytest
 from hypothesis import given, settings, strategies as st
 
-import dissectors.deframer as deframer_module
 from dissectors import Deframer
+from dissectors.deframer import COMPILED, use_compiled_loop
 from dissectors.event import Event
 
-compiled = pytest.mark.skipif(deframer_module._scan is None,
+compiled = pytest.mark.skipif(not COMPILED,
                               reason="the C deframing loop is not built (no compiler at install, or GIMBALSCOPE_PURE=1)")
 
 
@@ -28,13 +28,11 @@ def frame(dst, src, payload: bytes) -> bytes:
 @contextlib.contextmanager
 def pure_loop(pure: bool = True):
     """Deframe with the pure-Python code while inside (``pure``), the C parts put back after."""
-    saved = deframer_module._scan, deframer_module._whole_read
-    if pure:
-        deframer_module._scan = deframer_module._whole_read = None
+    before = use_compiled_loop(not pure)
     try:
         yield
     finally:
-        deframer_module._scan, deframer_module._whole_read = saved
+        use_compiled_loop(before)
 
 
 def events(data: bytes, line: str, cuts: list[int], pure: bool, times: list[float] | None = None,
@@ -99,7 +97,7 @@ def test_compiled_loop_gives_the_pure_loops_times(parts, line, cuts, times, byte
        st.sampled_from([1 / 9600 * 10, 1 / 115200 * 10, 0.0]), st.booleans())
 def test_one_token_a_read_gives_the_pure_events(parts, line, times, byte_time, timed):
     # a recording or a live port: each read is usually one whole token, which
-    # the C code turns into its event directly (_scan.c, whole)
+    # the C code turns into its event directly (_deframe.c, whole)
     data = b"".join(parts)
     cuts = list(itertools.accumulate(len(p) for p in parts))[:-1]
     times = times if timed else None

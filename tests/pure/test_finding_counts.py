@@ -18,7 +18,7 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from analyzer.analysis import findings
-from analyzer.analysis.doctor import _waveform_findings
+from analyzer.analysis.doctor import waveform_findings
 from analyzer.analysis.findings import FINDINGS, FRAMING_ERRORS, TABLE, TWO_DRIVERS
 from analyzer.physical.bitrate import named_rate
 from analyzer.physical.charformat import LineFormat
@@ -114,7 +114,7 @@ def line_reports(draw) -> LineReport:
 @settings(max_examples=400, deadline=None)
 @given(line_reports())
 def test_every_waveform_finding_counts_a_part_of_its_whole_in_words_said_once(r):
-    for f in _waveform_findings("A", r):
+    for f in waveform_findings("A", r):
         for text in _texts(f):
             for part, whole, clause in parts_over_wholes(text):
                 assert part <= whole, f"{f.code}: {clause!r} in {text!r}"
@@ -124,7 +124,7 @@ def test_every_waveform_finding_counts_a_part_of_its_whole_in_words_said_once(r)
 @settings(max_examples=200, deadline=None)
 @given(line_reports())
 def test_two_senders_and_framing_errors_state_the_counts_of_the_report(r):
-    found = {f.code: f for f in _waveform_findings("A", r)}
+    found = {f.code: f for f in waveform_findings("A", r)}
     if TWO_DRIVERS in found:
         assert found[TWO_DRIVERS].detail == \
             f"{r.off_grid:,} of {r.characters:,} characters have edges off the bit grid"
@@ -279,11 +279,11 @@ def test_a_contended_noisy_line_counts_off_grid_characters_among_its_characters(
         assert (r.characters, r.off_grid, r.breaks, r.glitches) == (CLEAN + CONTENDED, CONTENDED, HELD, GLITCHES), block
         assert (r.framing_errors, r.parity_errors) == (0, 0)
         assert r.off_grid <= r.characters
-    found = {f.code: f for f in _waveform_findings("A", r)}
+    found = {f.code: f for f in waveform_findings("A", r)}
     assert found[TWO_DRIVERS].detail == "12 of 32 characters have edges off the bit grid"
     # two senders explain the line's framing errors and breaks (the findings table's "hides")
     assert FRAMING_ERRORS not in found
-    alone = {f.code: f for f in _waveform_findings("A", replace(r, off_grid=0))}
+    alone = {f.code: f for f in waveform_findings("A", replace(r, off_grid=0))}
     assert alone[FRAMING_ERRORS].title == "line A: 60 breaks"
 
 
@@ -307,7 +307,7 @@ def test_any_contended_noisy_line_keeps_every_count_within_its_whole(data, offse
     assert r.off_grid <= r.characters
     assert r.framing_errors + r.parity_errors <= r.characters
     assert 2 * r.glitches <= r.edges
-    for f in _waveform_findings("A", r):
+    for f in waveform_findings("A", r):
         for text in _texts(f):
             assert all(part <= whole for part, whole, _c in parts_over_wholes(text)), text
             assert doubled_words(text) == [], text

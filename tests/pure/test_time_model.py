@@ -173,7 +173,7 @@ def test_what_is_and_is_not_a_rate_change(payload, answer, baud):
     f = RateFollower(9600)
     (cmd,) = Deframer("A").feed(frame((1, 1, 1), 0, payload))
     events = [cmd, *Deframer("B").feed(answer)]
-    f.scan(events)
+    f.follow(events)
     assert f.baud == baud
 
 
@@ -181,7 +181,7 @@ def test_a_nic_after_the_ack_takes_the_change_back():
     f = RateFollower(9600)
     (cmd,) = Deframer("A").feed(C7)
     ack, nic = Deframer("B").feed(b"\x06?")
-    changes = f.scan([cmd, ack, nic])
+    changes = f.follow([cmd, ack, nic])
     assert [(c.baud, c.taken_back) for c in changes] == [(115200, False), (9600, True)] and f.baud == 9600
 
 
@@ -189,7 +189,7 @@ def test_an_unanswered_wildcard_rate_set_is_kept_for_a_warning():
     f = RateFollower(9600)
     (bcast,) = Deframer("A").feed(frame((255, 255, 255), 0, b"C7"))
     (nxt,) = Deframer("A").feed(CMD)
-    f.scan([bcast, nxt])
+    f.follow([bcast, nxt])
     assert f.baud == 9600 and [baud for _cmd, baud in f.unconfirmed] == [115200]
 
 

@@ -1,10 +1,10 @@
 /* The deframer's steady state in C (dissectors/deframer.py, Deframer._parse).
  *
- * scan() walks a buffer from an index and turns what needs no decision into
+ * deframe() walks a buffer from an index and turns what needs no decision into
  * events: whole frames whose checksum holds and that carry no start byte in
  * their payload, and simple response bytes. It stops at the first byte that
  * needs one (noise, a bad or incomplete frame) and returns its index; the
- * Python deframer handles that byte and calls scan() again. whole() makes the
+ * Python deframer handles that byte and calls deframe() again. whole() makes the
  * event of a read that is exactly one such token (Deframer._whole: the usual
  * read of a recording or a port) without a buffer. Only buffers with
  * no silence inside come here: no frame can be cut. Timed buffers come with
@@ -26,7 +26,7 @@
 #define START 0xF8
 
 /* what configure() was given: the Event type, a blank event, the offset of
- * every slot, and the offsets of the slots scan() fills */
+ * every slot, and the offsets of the slots deframe() fills */
 static PyTypeObject *event_type = NULL;
 static PyObject *blank = NULL;
 static Py_ssize_t *slot_offsets = NULL;
@@ -46,7 +46,7 @@ typedef struct {
 } Segments;
 
 /* when the byte at absolute offset off starts (after = 1: ends); offsets asked
- * for only grow during one scan, so the segment is found by walking on.
+ * for only grow during one call, so the segment is found by walking on.
  * -1: an error; 1: a time or byte time that is not a float (an int given by
  * hand: Python's arithmetic would keep it an int), for the Python loop. */
 static int time_at(Segments *s, Py_ssize_t off, int after, double *out)
@@ -268,7 +268,7 @@ static Py_ssize_t valid_frame(const unsigned char *p, Py_ssize_t n)
     return len;
 }
 
-/* scan(buf, i, kinds, line, frame_kind, base, out[, seg_off, seg_t, seg_bt])
+/* deframe(buf, i, kinds, line, frame_kind, base, out[, seg_off, seg_t, seg_bt])
  * -> index of the first byte not turned into an event. kinds: a 256-tuple, the
  * simple response kind of each byte value or None. The segments, for a timed
  * buffer: the deframer's lists of where each chunk starts, its first byte's
@@ -282,22 +282,22 @@ static int emit(PyObject *out, PyObject *ev, int timed, double t0, double t1)
     return r;
 }
 
-static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
+static PyObject *deframe(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 {
     if (nargs != 7 && nargs != 10) {
-        PyErr_SetString(PyExc_TypeError, "scan() takes 7 or 10 arguments");
+        PyErr_SetString(PyExc_TypeError, "deframe() takes 7 or 10 arguments");
         return NULL;
     }
     PyObject *bufobj = args[0], *kinds = args[2], *line = args[3], *frame_kind = args[4], *out = args[6];
     if (!PyBytes_Check(bufobj) || !PyTuple_Check(kinds) || PyTuple_GET_SIZE(kinds) != 256 || !PyList_Check(out)) {
-        PyErr_SetString(PyExc_TypeError, "scan(bytes, int, 256-tuple, str, str, int, list[, list, list, list])");
+        PyErr_SetString(PyExc_TypeError, "deframe(bytes, int, 256-tuple, str, str, int, list[, list, list, list])");
         return NULL;
     }
     Segments seg = {0, 0, NULL, NULL, NULL};
     Segments *timed = NULL;
     if (nargs == 10) {
         if (!PyList_Check(args[7]) || !PyList_Check(args[8]) || !PyList_Check(args[9])) {
-            PyErr_SetString(PyExc_TypeError, "scan(): the segments are lists");
+            PyErr_SetString(PyExc_TypeError, "deframe(): the segments are lists");
             return NULL;
         }
         seg.off = args[7];
@@ -305,7 +305,7 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         seg.bt = args[9];
         seg.n = PyList_GET_SIZE(seg.off);
         if (PyList_GET_SIZE(seg.t) != seg.n || PyList_GET_SIZE(seg.bt) != seg.n) {
-            PyErr_SetString(PyExc_ValueError, "scan(): segment lists of different lengths");
+            PyErr_SetString(PyExc_ValueError, "deframe(): segment lists of different lengths");
             return NULL;
         }
         if (seg.n == 0)   /* nothing to time bytes by: the Python loop decides */
@@ -313,7 +313,7 @@ static PyObject *scan(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
         timed = &seg;
     }
     if (event_type == NULL) {
-        PyErr_SetString(PyExc_RuntimeError, "scan() before configure()");
+        PyErr_SetString(PyExc_RuntimeError, "deframe() before configure()");
         return NULL;
     }
     Py_ssize_t i = PyLong_AsSsize_t(args[1]);
@@ -425,24 +425,24 @@ static PyObject *whole(PyObject *self, PyObject *const *args, Py_ssize_t nargs)
 
 static PyMethodDef methods[] = {
     {"configure", configure, METH_VARARGS, "configure(blank_event, slot_names): events are made as copies of it"},
-    {"scan", (PyCFunction)(void (*)(void))scan, METH_FASTCALL,
-     "scan(buf, i, kinds, line, frame_kind, base, out) -> index: whole valid frames and simple responses from i"},
+    {"deframe", (PyCFunction)(void (*)(void))deframe, METH_FASTCALL,
+     "deframe(buf, i, kinds, line, frame_kind, base, out) -> index: whole valid frames and simple responses from i"},
     {"whole", (PyCFunction)(void (*)(void))whole, METH_FASTCALL,
      "whole(data, t, bt, base, line, frame_kind, kinds) -> Event or None: a read that is one whole token"},
     {NULL, NULL, 0, NULL},
 };
 
 static struct PyModuleDef module = {
-    PyModuleDef_HEAD_INIT, "dissectors._scan",
+    PyModuleDef_HEAD_INIT, "dissectors._deframe",
     "The deframer's steady state in C (dissectors/deframer.py).", -1, methods,
 };
 
-PyMODINIT_FUNC PyInit__scan(void)
+PyMODINIT_FUNC PyInit__deframe(void)
 {
     PyObject *m = PyModule_Create(&module);
-    /* what scan() takes and does; deframer.py uses only the version it was written
+    /* what deframe() takes and does; deframer.py uses only the version it was written
      * for (a stale build left in a source tree falls back to the pure loop) */
-    if (m != NULL && PyModule_AddIntConstant(m, "INTERFACE", 3) < 0) {
+    if (m != NULL && PyModule_AddIntConstant(m, "INTERFACE", 4) < 0) {
         Py_DECREF(m);
         return NULL;
     }
