@@ -9,13 +9,34 @@ problem (``bad checksum`` or ``bad length byte``). Some of those are not frames:
 the bytes of a frame broken beyond reading (a good frame starts inside it) are a
 noise event with a ``bad checksum`` problem, so ``broken_frames`` says how many,
 and ``noise`` breaks its events down the same way.
+
+One definition, two drivers. The figures are worked out in one place,
+``Stats.add_columns``, over a batch of events given as columns (``EventColumns``:
+an array a property, with numpy). Columns because the TUI's store holds a day as
+columns (analyzer/tui/store.py), and rebuilding a million events to count them
+one by one would take seconds where the arrays take a fraction of one. Events as
+they come (``gimbalscope stats``, a live tap: ``StatsListener``) are gathered
+into batches of a few thousand and turned into the same columns
+(``EventColumns.of``), so numpy's cost a call is spread over thousands of
+events; the TUI's store hands its columns over as one batch
+(analyzer/tui/store_stats.py). Each batch is counted straight into the running
+figures, and every figure adds up across batches (counts and latency buckets
+add, the first time is the first batch's, the last the last's), so a capture
+counted in batches of any size has the same statistics as counted whole
+(tests/pure/test_store_stats.py). ``Stats.add``, one event, is a batch of one:
+for a handful of events, not a stream.
 """
 
 from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+from operator import attrgetter
 from typing import Any
+
+import numpy as np
 
 from dissectors.event import (
     ACK,
@@ -34,6 +55,7 @@ from dissectors.event import (
     STATUSES,
     Event,
 )
+from dissectors.problems import Problem
 
 _LOG_STEP = math.log(1.01)
 _CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))
@@ -45,12 +67,12 @@ def categories(ev: Event) -> list[str]:
     return problem_categories(ev.problems)
 
 
-def problem_categories(problems) -> list[str]:
+def problem_categories(problems: Iterable[Problem | str]) -> list[str]:
     """The categories of a list of problems, each once, in order."""
     out: list[str] = []
     for p in problems:
-        info = getattr(p, "id", None)   # a plain string (an event built by hand) has none
-        cat = info.text if info is not None else p.split(":", 1)[0]
+        # a plain string (an event built by hand) carries no id: its text names the category
+        cat = p.id.text if isinstance(p, Problem) else p.split(":", 1)[0]
         if cat not in out:
             out.append(cat)
     return out
@@ -59,6 +81,11 @@ def problem_categories(problems) -> list[str]:
 def checksum_problem(ev: Event) -> bool:
     """Does the event have a checksum problem (``Stats.checksum_errors`` counts it)?"""
     return any(cat in _CHECKSUM_PROBLEMS for cat in categories(ev))
+
+
+def bucket_middle(bucket: int) -> float:
+    """The latency in the middle of a ``Latency`` bucket (its samples' stand-in)."""
+    return math.exp((bucket + 0.5) * _LOG_STEP)
 
 
 class Latency:
@@ -78,7 +105,14 @@ class Latency:
         if x <= 1e-9:
             self.zero += 1
         else:
-            self.buckets[int(math.floor(math.log(x) / _LOG_STEP))] += 1
+            self.buckets[math.floor(math.log(x) / _LOG_STEP)] += 1
+
+    def extend(self, xs: Iterable[float]) -> None:
+        """Add the samples ``xs``: each through ``add`` (numpy's log, a last digit
+        off math's now and then, would move a sample on a bucket's edge)."""
+        add = self.add
+        for x in xs:
+            add(x)
 
     def quantile(self, q: float) -> float | None:
         """Nearest-rank quantile: the ceil(q·n)-th smallest sample (to bucket precision)."""
@@ -91,8 +125,7 @@ class Latency:
         for b in sorted(self.buckets):
             seen += self.buckets[b]
             if seen >= rank:
-                mid = math.exp((b + 0.5) * _LOG_STEP)
-                return min(max(mid, self.min), self.max)
+                return min(max(bucket_middle(b), self.min), self.max)
         return self.max
 
     def to_dict(self) -> dict[str, Any]:
@@ -145,6 +178,76 @@ class Counts:
         }
 
 
+# ------------------------------------------------------------------ columns
+@dataclass(frozen=True, slots=True)
+class Coded:
+    """A column of values that repeat, as small codes: row k's value is
+    ``values[codes[k]]`` (several codes may have the same value)."""
+    codes: np.ndarray
+    values: Sequence[Any]
+
+    @classmethod
+    def of(cls, values: Sequence[Any]) -> Coded:
+        """``values`` coded in the order they first appear."""
+        index = {v: i for i, v in enumerate(dict.fromkeys(values))}
+        return cls(np.fromiter(map(index.__getitem__, values), np.intp, len(values)), list(index))
+
+    def among(self, *wanted: Any) -> np.ndarray:
+        """Rows whose value is one of ``wanted``."""
+        return np.array([v in wanted for v in self.values], dtype=bool)[self.codes]
+
+
+def rate_change(ev: Event) -> dict[str, Any]:
+    """A rate-change event as ``Stats.rate_changes`` lists it (docs/time.md)."""
+    return {"number": ev.number, "t": ev.t, "request": ev.request, **ev.fields}
+
+
+@dataclass(frozen=True, slots=True)
+class EventColumns:
+    """A batch of events as the statistics read them: row k is the batch's k-th
+    event, in wire order."""
+    kind: Coded
+    line: Coded
+    status: Coded                # None: not a command (a command without one is pending)
+    command: Coded               # linked rows: the command id of their transaction
+    device: Coded                # linked rows: the device of their transaction
+    size: np.ndarray             # bytes
+    t: np.ndarray                # the first byte's time, on ``timed`` rows
+    t_end: np.ndarray            # the last byte's (NaN: none)
+    timed: np.ndarray
+    linked: np.ndarray           # has a pairing record (``Event.transaction``)
+    checksum_bad: np.ndarray
+    retransmission: np.ndarray
+    latency: np.ndarray          # NaN: none
+    problems: Sequence[tuple[int, Sequence[Problem | str]]]   # (row, its problems) of rows with any, ascending
+    rate_changes: Sequence[dict[str, Any]]                     # of the rate-change rows, in order (``rate_change``)
+
+    def __len__(self) -> int:
+        return len(self.size)
+
+    @classmethod
+    def of(cls, events: Sequence[Event]) -> EventColumns:
+        """The columns of ``events``."""
+        n = len(events)
+        # a comprehension a property: attribute reads in a loop of their own are the quickest
+        kinds = Coded.of([ev.kind for ev in events])
+        txns = [ev.transaction for ev in events]
+        times = np.array([ev.t for ev in events], dtype=np.float64)   # None is NaN
+        return cls(
+            kinds, Coded.of([ev.line for ev in events]), Coded.of([ev.status for ev in events]),
+            Coded.of([None if x is None else x.command for x in txns]),
+            Coded.of([None if x is None else x.device for x in txns]),
+            np.fromiter([len(ev.raw) for ev in events], np.int64, n), times,
+            np.array([ev.t_end for ev in events], dtype=np.float64), ~np.isnan(times),
+            np.array([x is not None for x in txns], dtype=bool),
+            np.array([ev.checksum_ok is False for ev in events], dtype=bool),
+            np.array([ev.retransmission for ev in events], dtype=bool),
+            np.array([ev.latency for ev in events], dtype=np.float64),
+            [(i, ev.problems) for i, ev in enumerate(events) if ev.problems],
+            [rate_change(events[i]) for i in np.flatnonzero(kinds.among(RATE)).tolist()])
+
+
+# ------------------------------------------------------------------ the figures
 class Stats:
     def __init__(self) -> None:
         self.events = 0
@@ -163,61 +266,59 @@ class Stats:
         self.by_device: dict[str, Counts] = {}
 
     def add(self, ev: Event) -> None:
-        self.events += 1
-        kind = ev.kind
-        self.kinds[kind] += 1
-        self.bytes[ev.line] += len(ev.raw)
-        if ev.t is not None:
-            if self.first_t is None:
-                self.first_t = ev.t
-            self.last_t = ev.t_end if ev.t_end is not None else ev.t
-        cats = categories(ev) if ev.problems else ()
-        checksum = False
-        for cat in cats:
-            self.problems[cat] += 1
-            checksum = checksum or cat in _CHECKSUM_PROBLEMS
-        if checksum:
-            self.checksum_errors += 1
-        if kind == RATE:
-            self.rate_changes.append({"number": ev.number, "t": ev.t, "request": ev.request, **ev.fields})
-            return
-        if kind == NOISE:
-            self.noise_bytes += len(ev.raw)
-            self.noise_kinds[cats[0] if cats else P_NOISE] += 1
-            self.broken_frames += checksum
-            return
-        txn = ev.transaction   # the command's record: an answer counts for its command and device
-        if txn is None:
-            if kind != COMMAND:
-                self.orphans += 1
-            return
-        key = (txn.command or "?", txn.device or "?")
-        if kind == COMMAND:
-            for counts in self._counts(key):
-                counts.commands += 1
-                counts.status[ev.status or PENDING] += 1
-                counts.retransmissions += ev.retransmission
-                counts.checksum_errors += ev.checksum_ok is False
-            return
-        for counts in self._counts(key):
-            if ev.checksum_ok is False:
-                counts.checksum_errors += 1
-            if ev.latency is None:
-                continue
-            if kind == ACK or kind == NAK:
-                counts.ack_latency.add(ev.latency)
-            elif kind == RESULT:
-                counts.result_latency.add(ev.latency)
+        """Count one event: a batch of one (feed a stream in batches: ``StatsListener``)."""
+        self.add_events((ev,))
 
-    def _counts(self, key: tuple[str, str]) -> tuple[Counts, Counts]:
-        cmd, dev = key
-        c = self.by_command.get(cmd)
-        if c is None:
-            c = self.by_command[cmd] = Counts()
-        d = self.by_device.get(dev)
-        if d is None:
-            d = self.by_device[dev] = Counts()
-        return c, d
+    def add_events(self, events: Sequence[Event]) -> None:
+        """Count ``events``, the next in wire order."""
+        self.add_columns(EventColumns.of(events))
+
+    def add_columns(self, batch: EventColumns) -> None:
+        """Count the events of ``batch``, the next in wire order: the definition
+        of every figure."""
+        n = len(batch)
+        if not n:
+            return
+        self.events += n
+        kind = batch.kind
+        _add_up(self.kinds, kind)
+        _add_up(self.bytes, batch.line, batch.size)
+        self._times(batch)
+        noise = kind.among(NOISE)
+        self._problems(batch, noise)
+        self.noise_bytes += int(batch.size[noise].sum())
+        self.rate_changes.extend(batch.rate_changes)
+        counted = ~(noise | kind.among(RATE))   # a rate change and noise are in no table
+        self.orphans += int(np.count_nonzero(counted & ~batch.linked & ~kind.among(COMMAND)))
+        linked = counted & batch.linked   # an answer counts for its command's id and device
+        if linked.any():
+            _tables(batch, linked, self.by_command, batch.command)
+            _tables(batch, linked, self.by_device, batch.device)
+
+    def _times(self, batch: EventColumns) -> None:
+        timed = np.flatnonzero(batch.timed)
+        if not len(timed):
+            return
+        if self.first_t is None:
+            self.first_t = float(batch.t[timed[0]])
+        last = timed[-1]
+        end = float(batch.t_end[last])
+        self.last_t = float(batch.t[last]) if math.isnan(end) else end
+
+    def _problems(self, batch: EventColumns, noise: np.ndarray) -> None:
+        """Events per problem category, checksum errors, broken frames, and the
+        noise events by what they are (their first problem's category)."""
+        noise_kind: dict[int, str] = {}
+        for row, problems in batch.problems:
+            cats = problem_categories(problems)
+            self.problems.update(cats)
+            checksum = any(cat in _CHECKSUM_PROBLEMS for cat in cats)
+            self.checksum_errors += checksum
+            if noise[row]:
+                noise_kind[row] = cats[0] if cats else P_NOISE
+                self.broken_frames += checksum
+        for row in np.flatnonzero(noise).tolist():
+            self.noise_kinds[noise_kind.get(row, P_NOISE)] += 1
 
     def to_dict(self) -> dict[str, Any]:
         total = Counts()
@@ -225,9 +326,10 @@ class Stats:
             total.commands += c.commands
             total.status.update(c.status)
             total.retransmissions += c.retransmissions
+        first, last = self.first_t, self.last_t
         return {
             "events": self.events,
-            "duration": (self.last_t - self.first_t) if self.first_t is not None else None,
+            "duration": (last - first) if first is not None and last is not None else None,
             "bytes": dict(sorted(self.bytes.items())),
             "kinds": {k: self.kinds.get(k, 0) for k in KIND_ORDER},
             "commands": total.commands,
@@ -244,3 +346,60 @@ class Stats:
             "by_command": {k: v.to_dict() for k, v in sorted(self.by_command.items())},
             "by_device": {k: v.to_dict() for k, v in sorted(self.by_device.items())},
         }
+
+
+def _add_up(counter: Counter[str], coded: Coded, weights: np.ndarray | None = None) -> None:
+    """Add to ``counter`` the rows of each value, or the sum of their ``weights``
+    (a value some row has is counted even when its sum is 0)."""
+    rows = np.bincount(coded.codes, minlength=len(coded.values))
+    sums = rows if weights is None else np.bincount(coded.codes, weights=weights, minlength=len(coded.values))
+    for code in np.flatnonzero(rows).tolist():
+        counter[coded.values[code]] += int(sums[code])
+
+
+def _tables(batch: EventColumns, linked: np.ndarray, table: dict[str, Counts], key: Coded) -> None:
+    """``by_command`` or ``by_device`` (``key`` says which): a command counts its
+    status, retransmission and checksum; an answer its checksum, an ACK's or
+    NAK's latency and a result's."""
+    size = len(key.values)
+    codes = key.codes
+    kind = batch.kind
+    commands = linked & kind.among(COMMAND)
+
+    def per_key(rows: np.ndarray) -> np.ndarray:
+        return np.bincount(codes[rows], minlength=size)
+
+    n_status = len(batch.status.values)
+    by_status = np.bincount(codes[commands] * n_status + batch.status.codes[commands],
+                            minlength=size * n_status).reshape(size, n_status)
+    sent, again, bad = per_key(commands), per_key(commands & batch.retransmission), per_key(linked & batch.checksum_bad)
+    for code in np.flatnonzero(per_key(linked)).tolist():   # every key an event counts for, even with nothing to add
+        c = _entry(table, key.values[code] or "?")
+        c.commands += int(sent[code])
+        for s in np.flatnonzero(by_status[code]).tolist():
+            c.status[batch.status.values[s] or PENDING] += int(by_status[code, s])
+        c.retransmissions += int(again[code])
+        c.checksum_errors += int(bad[code])
+    timed = linked & ~commands & ~np.isnan(batch.latency)
+    _latencies(table, key, timed & kind.among(ACK, NAK), batch.latency, attrgetter("ack_latency"))
+    _latencies(table, key, timed & kind.among(RESULT), batch.latency, attrgetter("result_latency"))
+
+
+def _latencies(table: dict[str, Counts], key: Coded, rows: np.ndarray, latency: np.ndarray,
+               which: Callable[[Counts], Latency]) -> None:
+    """The latencies at ``rows`` into the ``which`` latency of their key's entry."""
+    codes = key.codes[rows]
+    if not len(codes):
+        return
+    order = np.argsort(codes, kind="stable")
+    codes, xs = codes[order], latency[rows][order]
+    starts = np.flatnonzero(np.concatenate(([True], codes[1:] != codes[:-1])))
+    for code, part in zip(codes[starts].tolist(), np.split(xs, starts[1:])):
+        which(_entry(table, key.values[code] or "?")).extend(part.tolist())
+
+
+def _entry(table: dict[str, Counts], key: str) -> Counts:
+    c = table.get(key)
+    if c is None:
+        c = table[key] = Counts()
+    return c

@@ -5,9 +5,10 @@ statistics screen in the same words (one name per column, the JSON's)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
 
-from dissectors.event import P_CHECKSUM, P_NOISE, P_TRUNCATED, STATUSES
+from dissectors.event import P_CHECKSUM, P_NOISE, P_TRUNCATED, STATUSES, Event
 
 from ..analysis.stats import COUNT_COLUMNS, LATENCY_COLUMNS, Stats
 from ..output import fmt_seconds
@@ -19,17 +20,37 @@ if TYPE_CHECKING:
 
 
 class StatsListener(Listener):
-    """Counts every event ``keep`` accepts (all without a filter)."""
+    """Counts every event ``keep`` accepts (all without a filter), in batches of
+    at least ``BATCH`` events (analyzer/analysis/stats.py: the statistics are
+    worked out over columns, and numpy's cost a call is spread over a batch)."""
 
-    def __init__(self, keep=None) -> None:
-        self.stats = Stats()
+    BATCH = 2048
+
+    def __init__(self, keep: Callable[[Event], bool] | None = None) -> None:
+        self._stats = Stats()
+        self._pending: list[Event] = []   # events not counted yet (a live tap's reads are a few)
         self.keep = keep
 
-    def on_events(self, events) -> None:
-        add, keep = self.stats.add, self.keep
-        for ev in events:
-            if keep is None or keep(ev):
-                add(ev)
+    def on_events(self, events: list[Event]) -> None:
+        keep = self.keep
+        if keep is not None:
+            events = [ev for ev in events if keep(ev)]
+        pending = self._pending
+        if not pending and len(events) >= self.BATCH:
+            self._stats.add_events(events)
+            return
+        pending.extend(events)
+        if len(pending) >= self.BATCH:
+            self._stats.add_events(pending)
+            self._pending = []
+
+    @property
+    def stats(self) -> Stats:
+        """The statistics of every event counted so far."""
+        if self._pending:
+            self._stats.add_events(self._pending)
+            self._pending = []
+        return self._stats
 
 
 # what a noise event is, by its problem category (the deframer's: docs/decoding.md)
@@ -37,7 +58,7 @@ _NOISE_NAMES = {P_NOISE: ("noise run", "noise runs"), P_CHECKSUM: ("broken frame
                 P_TRUNCATED: ("truncated frame", "truncated frames")}
 
 
-def _broken(data: dict) -> str:
+def _broken(data: dict[str, Any]) -> str:
     """Checksum errors count every event with a checksum problem (the problems
     line's `bad checksum` and `bad length byte`); say which are not frames."""
     n = data["broken_frames"]
@@ -47,7 +68,7 @@ def _broken(data: dict) -> str:
     return f" ({frames:,} in frames, {n:,} in {'a broken frame' if n == 1 else 'broken frames'} shown as noise)"
 
 
-def _noise_kinds(data: dict) -> str:
+def _noise_kinds(data: dict[str, Any]) -> str:
     """Noise events are unframed bytes (the problems line's `noise`) and frames
     broken or cut short: say how many of each when they are not all noise runs."""
     kinds = data["noise"]["by_problem"]
@@ -60,7 +81,7 @@ def _noise_kinds(data: dict) -> str:
     return " (" + ", ".join(parts) + ")"
 
 
-def summary(data: dict) -> list[str]:
+def summary(data: dict[str, Any]) -> list[str]:
     """The lines above the tables, of ``Stats.to_dict()``: each short enough for
     80 columns with everyday counts (the problems line names what it meets)."""
     dur, s, noise = data["duration"], data["status"], data["noise"]
@@ -86,7 +107,7 @@ def headers() -> list[str]:
         [name for group in LATENCY_COLUMNS for name, _key, _stat in group]
 
 
-def counts_table(key: str, counts: dict[str, dict], title: str = "") -> FitTable:
+def counts_table(key: str, counts: dict[str, dict[str, Any]], title: str = "") -> FitTable:
     """The table of ``Stats.to_dict()``'s ``by_command`` or ``by_device``: a row per
     command or device (``key`` names the column), every column named as the JSON
     names it; split into more tables where the width is short."""

@@ -25,11 +25,12 @@ from __future__ import annotations
 
 import math
 from array import array
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Hashable, Iterator, Sequence
 from dataclasses import dataclass
 from itertools import accumulate
+from typing import Any, cast, overload
 
-from dissectors.commands import COMMANDS
+from dissectors.commands import COMMANDS, Command
 from dissectors.dissect import dissect_command, dissect_result
 from dissectors.event import (
     ACK,
@@ -50,6 +51,7 @@ from dissectors.event import (
     ST_NIC,
     Event,
 )
+from dissectors.problems import Problem
 
 KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE, RATE, FRAME)
 STATUSES = (None, OK, ST_NAK, ST_NIC, NO_ACK, NO_RESULT, PENDING)
@@ -128,19 +130,19 @@ class _Interned:
 
     __slots__ = ("codes", "taken", "values")
 
-    def __init__(self, none_key=None) -> None:
-        self.values: list = [None]
-        self.codes: dict = {none_key: 0}
+    def __init__(self, none_key: Hashable = None) -> None:
+        self.values: list[Any] = [None]
+        self.codes: dict[Hashable, int] = {none_key: 0}
         self.taken = 1      # values handed on by ``take`` (the None code needs no handing)
 
-    def code(self, key, value) -> int:
+    def code(self, key: Hashable, value: Any) -> int:
         c = self.codes.get(key)
         if c is None:
             c = self.codes[key] = len(self.values)
             self.values.append(value)
         return c
 
-    def codes_of(self, keys: list, values=None) -> list[int]:
+    def codes_of(self, keys: list[Any], values: Callable[[], list[Any]] | None = None) -> list[int]:
         """The codes of ``keys``, new ones made for their ``values()`` (default:
         the keys themselves). Every key known is the common case: one lookup each."""
         codes = self.codes
@@ -148,18 +150,18 @@ class _Interned:
             return [codes[k] for k in keys]
         except KeyError:   # code the new keys only (garbled traffic brings new ones in many batches)
             valued = dict(zip(keys, keys if values is None else values()))
-            for k in valued:
+            for k, v in valued.items():
                 if k not in codes:
-                    self.code(k, valued[k])
+                    self.code(k, v)
             return [codes[k] for k in keys]
 
-    def take(self) -> list:
+    def take(self) -> list[Any]:
         """The values coded since the last take, in code order."""
         new = self.values[self.taken:]
         self.taken = len(self.values)
         return new
 
-    def learn(self, keys: list, values: list) -> None:
+    def learn(self, keys: list[Any], values: list[Any]) -> None:
         """Values another table coded (``take``), given the next codes here."""
         for k, v in zip(keys, values):
             self.codes[k] = len(self.values)
@@ -175,7 +177,7 @@ _ENTRY_PLACE = {id(c): k for k, c in enumerate(COMMANDS)}
 @dataclass
 class StoreChunk:
     """Events stored by one process's store, handed to another's: a file viewed
-    is decoded in a process of its own (decode_apart.py) and the screen's store
+    is decoded in a process of its own (decode_process.py) and the screen's store
     takes its columns, a copy of arrays rather than a million objects.
 
     ``start`` is the index of its first event; ``columns`` the arrays of
@@ -187,11 +189,11 @@ class StoreChunk:
     start: int
     columns: dict[str, array]
     raw: bytes
-    problems: dict[int, list]
-    fields: dict[int, dict]
-    lines: list
-    devices: list
-    commands: list   # (command id, place in COMMANDS, or the entry itself if it is not there)
+    problems: dict[int, Sequence[Problem]]
+    fields: dict[int, dict[str, Any]]
+    lines: list[str | None]
+    devices: list[str | None]
+    commands: list[tuple[str | None, int | Command]]   # (command id, place in COMMANDS, or the entry itself)
 
 
 class EventStore:
@@ -218,8 +220,8 @@ class EventStore:
         self.request = array("i")     # 0: none
         self.txn = array("i")         # txn + 1; 0: none
         self.errors = array("i")      # numbers of error rows, ascending
-        self.problems: dict[int, list] = {}     # index -> the event's problems
-        self.fields: dict[int, dict] = {}       # index -> fields re-dissection does not give
+        self.problems: dict[int, Sequence[Problem]] = {}   # index -> the event's problems
+        self.fields: dict[int, dict[str, Any]] = {}        # index -> fields re-dissection does not give
         self._lines = _Interned()
         self._commands = _Interned(none_key=(None, id(None)))   # code -> (command id, table entry)
         self._devices = _Interned()
@@ -243,12 +245,14 @@ class EventStore:
         self.raw += b"".join(raws)
         self.end = _extend_wide(self.end, ends)
         t = [ev.t for ev in batch]
+        # an event with a time has an end time (readers give both), and rows without
+        # one are told apart first: the casts say so at no cost a row
         if None in t:
             self.t.extend([float(i) if x is None else x for i, x in enumerate(t, start)])
-            self.t_end.extend([_NAN if ev.t is None else ev.t_end for ev in batch])
+            self.t_end.extend(cast("list[float]", [_NAN if ev.t is None else ev.t_end for ev in batch]))
         else:
-            self.t.extend(t)
-            self.t_end.extend([ev.t_end for ev in batch])
+            self.t.extend(cast("list[float]", t))
+            self.t_end.extend(cast("list[float]", [ev.t_end for ev in batch]))
         self.offset = _extend_wide(self.offset, [ev.offset for ev in batch])
         kc = _KIND_CODE
         self.kind.extend([kc[ev.kind] for ev in batch])
@@ -319,7 +323,7 @@ class EventStore:
         self.fields.update(chunk.fields)
 
     @staticmethod
-    def _natural_fields(kind: str, payload: bytes | None, entry) -> dict:
+    def _natural_fields(kind: str, payload: bytes | None, entry: Command | None) -> dict[str, Any]:
         """The fields a re-dissection of the payload gives."""
         if payload is None:
             return NO_FIELDS
@@ -330,6 +334,28 @@ class EventStore:
         return NO_FIELDS
 
     # --------------------------------------------------------------- reading
+    def column(self, name: str) -> array:
+        """The column ``name`` (one of ``COLUMNS``): row i is event i's."""
+        if name not in COLUMNS:
+            raise KeyError(name)
+        return getattr(self, name)
+
+    @property
+    def line_values(self) -> list[str | None]:
+        """The line each code of the ``line`` column stands for (code 0: None)."""
+        return list(self._lines.values)
+
+    @property
+    def device_values(self) -> list[str | None]:
+        """The device each code of the ``device`` column stands for (code 0: None)."""
+        return list(self._devices.values)
+
+    @property
+    def command_ids(self) -> list[str | None]:
+        """The command id each code of the ``command`` column stands for (code 0:
+        None; several codes can have one id, each with its own table entry)."""
+        return [None if v is None else v[0] for v in list(self._commands.values)]
+
     def device_code(self, device: str) -> int | None:
         """The device column's code for ``device``; None if no event has it."""
         return self._devices.codes.get(device)
@@ -384,7 +410,7 @@ class EventStore:
         ev.problems = self.problems.get(i, NO_PROBLEMS)
         ev.status = STATUSES[self.status[i]]
         lat = self.latency[i]
-        if lat == lat:   # not NaN
+        if not math.isnan(lat):
             ev.latency = lat
         ev.retransmission = bool(flags & RETRANSMISSION)
         req = self.request[i]
@@ -411,18 +437,24 @@ class EventStore:
             yield self.event(i)
 
 
-class EventsView(Sequence):
+class EventsView(Sequence[Event]):
     """The first ``count()`` events of a store as a read-only sequence of
     rebuilt events (``model.events``)."""
 
-    def __init__(self, store: EventStore, count) -> None:
+    def __init__(self, store: EventStore, count: Callable[[], int]) -> None:
         self._store = store
         self._count = count
 
     def __len__(self) -> int:
         return self._count()
 
-    def __getitem__(self, k):
+    @overload
+    def __getitem__(self, k: int) -> Event: ...
+
+    @overload
+    def __getitem__(self, k: slice) -> list[Event]: ...
+
+    def __getitem__(self, k: int | slice) -> Event | list[Event]:
         n = self._count()
         if isinstance(k, slice):
             return [self._store.event(i) for i in range(*k.indices(n))]

@@ -29,16 +29,17 @@ from __future__ import annotations
 
 from array import array
 from collections.abc import Callable
-from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
-from dissectors.event import COMMAND, NO_FIELDS, NO_PROBLEMS, RESULT
+from dissectors.event import COMMAND, NO_FIELDS, NO_PROBLEMS, RESULT, Event
 
-from ..analysis.filter import FIELD_NAMES
-from . import scan
-from .scan import Cancelled
+from ..analysis.filter import FIELD_NAMES, TOP_LEVEL, Predicate
+from ..analysis.filter_plan import AllOf, Const, Leaf, Not, Plan
+from . import sweep
 from .store import CHECKSUM_BAD, CHECKSUM_OK, FRAMED, KINDS, RETRANSMISSION, STATUSES, UNTIMED, EventStore
+from .sweep import Cancelled
 
 _OPS = {"==": np.equal, "!=": np.not_equal, "<": np.less, ">": np.greater, "<=": np.less_equal,
         ">=": np.greater_equal}
@@ -47,12 +48,16 @@ _DISSECTED = np.array([k in (COMMAND, RESULT) for k in KINDS])
 _FRAME_NAMES = {"dst", "src", "payload"}
 
 
-def _stand_in(name: str, value) -> SimpleNamespace:
-    """An event holding only ``name``'s value (and no fields): what a leaf's closure reads."""
-    return SimpleNamespace(**{"fields": NO_FIELDS, "problems": NO_PROBLEMS, name: value})
+def _stand_in(name: str, value: Any) -> Event:
+    """An event holding ``name``'s value, no fields and no problems: what a leaf's
+    closure reads (a decoded field's name reads the fields, which it has none of)."""
+    ev = Event("", 0, "", b"")
+    if name in TOP_LEVEL:
+        setattr(ev, name, value)
+    return ev
 
 
-def _number(value) -> bool:
+def _number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
 
@@ -67,7 +72,7 @@ class Columns:
     def column(self, name: str) -> np.ndarray:
         got = self._cache.get(name)
         if got is None:
-            a = getattr(self.store, name)[self.start:self.stop]   # a copy: the store keeps growing
+            a = self.store.column(name)[self.start:self.stop]   # a copy: the store keeps growing
             got = self._cache[name] = np.frombuffer(a, dtype=a.typecode) if len(a) else np.zeros(0, a.typecode)
         return got
 
@@ -75,7 +80,7 @@ class Columns:
         return (self.column("flags") & bit) != 0
 
     # ------------------------------------------------------------ names
-    def coded(self, name: str) -> tuple[np.ndarray, list] | None:
+    def coded(self, name: str) -> tuple[np.ndarray, list[Any]] | None:
         """(codes, the value of each code) of a name held as codes; None otherwise."""
         s = self.store
         if name == "kind":
@@ -83,11 +88,11 @@ class Columns:
         if name == "status":
             return self.column("status"), list(STATUSES)
         if name == "line":
-            return self.column("line"), list(s._lines.values)
+            return self.column("line"), s.line_values
         if name == "command":
-            return self.column("command"), [v if v is None else v[0] for v in list(s._commands.values)]
+            return self.column("command"), s.command_ids
         if name == "device":
-            return self.column("device"), list(s._devices.values)
+            return self.column("device"), s.device_values
         if name == "checksum_ok":
             codes = self.flag(CHECKSUM_OK).astype(np.uint8) * 2 + self.flag(CHECKSUM_BAD)
             return codes, [None, False, True]
@@ -127,15 +132,15 @@ class Columns:
         return None
 
 
-def _leaf(leaf: tuple, cols: Columns) -> tuple[np.ndarray, np.ndarray]:
+def _leaf(leaf: Leaf, cols: Columns) -> tuple[np.ndarray, np.ndarray]:
     """(sure, maybe) of one leaf."""
-    _, name_plan, test, op, value, negate = leaf
-    name = name_plan[1]
+    test, op, value, negate = leaf.test, leaf.op, leaf.value, leaf.negate
+    name = leaf.name.name
     n = cols.n
-    plain = len(name_plan) == 2   # a name, not a path into it
+    plain = not leaf.name.keys   # a name, not a path into it
     if plain and (coded := cols.coded(name)) is not None:
         codes, values = coded
-        table = np.array([bool(test(_stand_in(name, v))) for v in values], dtype=bool)
+        table = np.array([bool(test(_stand_in(name, v))) for v in values], dtype=np.bool_)
         return table[codes], np.zeros(n, bool)
     if plain and (numeric := cols.numeric(name)) is not None:
         present, v = numeric
@@ -166,31 +171,30 @@ def _leaf(leaf: tuple, cols: Columns) -> tuple[np.ndarray, np.ndarray]:
     return (rows if usual else np.zeros(n, bool)), ~rows
 
 
-def evaluate(plan, cols: Columns) -> tuple[np.ndarray, np.ndarray]:
+def evaluate(plan: Plan | None, cols: Columns) -> tuple[np.ndarray, np.ndarray]:
     """(sure, maybe) of a plan over ``cols``: the rows it surely selects, and those
     only the closure can decide."""
     n = cols.n
     if plan is None:
         return np.zeros(n, bool), np.ones(n, bool)
-    kind = plan[0]
-    if kind == "const":
-        return np.full(n, plan[1]), np.zeros(n, bool)
-    if kind == "leaf":
+    if isinstance(plan, Const):
+        return np.full(n, plan.value), np.zeros(n, bool)
+    if isinstance(plan, Leaf):
         return _leaf(plan, cols)
-    if kind == "not":
-        sure, maybe = evaluate(plan[1], cols)
+    if isinstance(plan, Not):
+        sure, maybe = evaluate(plan.plan, cols)
         return ~(sure | maybe), maybe
-    parts = [evaluate(p, cols) for p in plan[1]]
-    if kind == "and":
+    parts = [evaluate(p, cols) for p in plan.plans]
+    if isinstance(plan, AllOf):
         sure = np.logical_and.reduce([s for s, _ in parts])
         possible = np.logical_and.reduce([s | m for s, m in parts])
         return sure, possible & ~sure
-    sure = np.logical_or.reduce([s for s, _ in parts])   # "or"
+    sure = np.logical_or.reduce([s for s, _ in parts])   # AnyOf
     maybe = np.logical_or.reduce([m for _, m in parts])
     return sure, maybe & ~sure
 
 
-def matching(pred: Callable, store: EventStore, start: int, stop: int, *,
+def matching(pred: Predicate, store: EventStore, start: int, stop: int, *,
              progress: Callable[[int, int], None] | None = None,
              cancelled: Callable[[], bool] | None = None) -> array:
     """Indices ``i`` in [start, stop) whose event ``pred`` selects, ascending
@@ -200,12 +204,12 @@ def matching(pred: Callable, store: EventStore, start: int, stop: int, *,
     if stop <= start:
         return array("i")
     cols = Columns(store, start, stop)
-    sure, maybe = evaluate(getattr(pred, "plan", None), cols)
+    sure, maybe = evaluate(pred.plan, cols)
     rows = np.flatnonzero(maybe)
     if len(rows):
         total = len(rows)
         event = store.event
-        step = scan.STEP
+        step = sweep.STEP
         for a in range(0, total, step):
             if cancelled is not None and cancelled():
                 raise Cancelled

@@ -1,32 +1,34 @@
-"""The statistics of stored events from the store's columns (``stats_of``), for
-the statistics screen: of every event, or of the rows a filter shows.
+"""The statistics and the device map of stored events, from the store's columns,
+for the statistics screen: of every event, or of the rows a filter shows.
 
 The TUI counted every event into a ``Stats`` as it arrived, a sixth of loading a
-file. The same figures come from the columns when the screen asks, with numpy:
-counts by kind, line and status are ``bincount``s, the per-command and
-per-device tables are counts over (command, device) codes, and the latencies go
-into the same log-spaced buckets (``math.log``, as ``Stats`` computes them, so
-every bucket, and so every median and p95, is the same). The result is a
-``Stats`` (analyzer/analysis/stats.py), so the screen and ``stats --format json``
-word it alike; tests/pure/test_store_stats.py holds it equal to ``Stats`` fed
-the events themselves.
+file. The same figures come from the columns when the screen asks: the store
+hands them over as one batch of ``EventColumns`` (``stored_columns``), which
+``Stats.add_columns`` counts as it counts the batches of ``gimbalscope stats``
+(analyzer/analysis/stats.py: one definition of every figure), so the screen and
+``stats --format json`` say the same. An answer counts for its command's id,
+the command column at its request's row.
 
-Problems are kept sparsely (most events have none) and counted from there; rate
-changes, a handful a capture, are rebuilt as events.
+Problems are kept sparsely (most events have none) and handed over as they are;
+rate changes, a handful a capture, are rebuilt as events.
 """
 
 from __future__ import annotations
 
-import math
-from collections import Counter
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dissectors.event import ACK, COMMAND, NAK, NOISE, P_NOISE, PENDING, RATE, RESULT
+from dissectors.event import ACK, COMMAND, NAK, NIC, RATE, RESULT, ST_NIC
+from dissectors.problems import Problem
 
-from ..analysis.stats import _CHECKSUM_PROBLEMS, _LOG_STEP, Counts, Latency, Stats, problem_categories
+from ..analysis.stats import Coded, EventColumns, Stats, rate_change
 from .store import CHECKSUM_BAD, KINDS, LINKED, RETRANSMISSION, STATUSES, UNTIMED, EventStore
 from .store_filter import Columns
+
+if TYPE_CHECKING:
+    from .model.devices import DeviceInfo
 
 _K = {k: i for i, k in enumerate(KINDS)}
 
@@ -35,173 +37,76 @@ def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> St
     """The statistics of the first ``stop`` stored events, or of those among them
     at ``rows`` (ascending store indices: a filtered view)."""
     out = Stats()
+    out.add_columns(stored_columns(store, stop, rows))
+    return out
+
+
+def stored_columns(store: EventStore, stop: int, rows: np.ndarray | None = None) -> EventColumns:
+    """The first ``stop`` stored events, or those among them at ``rows``, as the
+    statistics read them."""
+    cols = Columns(store, 0, stop)   # each column copied once: the store goes on growing in another thread
     if rows is None:
         rows = np.arange(stop, dtype=np.int64)
     else:
         rows = np.asarray(rows, dtype=np.int64)
         rows = rows[rows < stop]
-    n = len(rows)
-    out.events = n
-    if not n:
-        return out
-
-    cols = Columns(store, 0, stop)   # each column copied once: the store goes on growing in another thread
 
     def col(name: str) -> np.ndarray:
         return cols.column(name)[rows]
 
-    kind, line, flags = col("kind"), col("line"), col("flags")
-    status, command, device = col("status"), col("command"), col("device")
+    kind, flags = col("kind"), col("flags")
     end = cols.column("end").astype(np.int64)
-    size = (end - np.concatenate(([0], end[:-1])))[rows]
-
-    for code, count in zip(*np.unique(kind, return_counts=True)):
-        out.kinds[KINDS[code]] = int(count)
-    lines = list(store._lines.values)
-    for code in np.unique(line):
-        out.bytes[lines[code]] = int(size[line == code].sum())
-
-    timed = np.flatnonzero((flags & UNTIMED) == 0)
-    if len(timed):
-        out.first_t = float(col("t")[timed[0]])
-        out.last_t = float(col("t_end")[timed[-1]])
-
-    # problems: per event, its categories once each
-    noise_code = _K[NOISE]
-    checksum_rows = set()
-    in_rows = set(rows.tolist()) if n < stop else None
-    for i, problems in sorted(list(store.problems.items())):
-        if i >= stop or (in_rows is not None and i not in in_rows):
-            continue
-        cats = problem_categories(problems)
-        out.problems.update(cats)
-        if any(c in _CHECKSUM_PROBLEMS for c in cats):
-            checksum_rows.add(i)
-        if store.kind[i] == noise_code:
-            out.noise_kinds[cats[0] if cats else P_NOISE] += 1
-    out.checksum_errors = len(checksum_rows)
-    noise = kind == noise_code
-    out.noise_bytes = int(size[noise].sum())
-    noise_rows = rows[noise]
-    out.broken_frames = sum(1 for i in noise_rows.tolist() if i in checksum_rows)
-    plain_noise = int(noise.sum()) - sum(out.noise_kinds.values())
-    if plain_noise:
-        out.noise_kinds[P_NOISE] += plain_noise
-
-    for i in rows[kind == _K[RATE]].tolist():
-        ev = store.event(i)
-        out.rate_changes.append({"number": ev.number, "t": ev.t, "request": ev.request, **ev.fields})
-
-    linked = (flags & LINKED) != 0
-    counted = (kind != _K[RATE]) & (kind != noise_code)
-    out.orphans = int(np.count_nonzero(counted & ~linked & (kind != _K[COMMAND])))
-    _tables(out, store, cols, rows, kind, status, command, device, flags, counted & linked)
-    return out
+    size = (end - np.concatenate(([0], end[:-1])))[rows] if stop else np.zeros(0, np.int64)
+    # a command counts for its own id, an answer for its command's (at its request's row)
+    own, request = col("command"), col("request").astype(np.int64)
+    answered = cols.column("command")[np.maximum(request - 1, 0)] if stop else own
+    command = np.where((request > 0) & (kind != _K[COMMAND]), answered, own)
+    rate_rows = rows[kind == _K[RATE]].tolist()
+    return EventColumns(
+        Coded(kind, KINDS), Coded(col("line"), store.line_values), Coded(col("status"), STATUSES),
+        Coded(command, store.command_ids), Coded(col("device"), store.device_values),
+        size, col("t"), col("t_end"), (flags & UNTIMED) == 0, (flags & LINKED) != 0, (flags & CHECKSUM_BAD) != 0,
+        (flags & RETRANSMISSION) != 0, col("latency"), _problems(store, stop, rows),
+        [rate_change(store.event(i)) for i in rate_rows])
 
 
-def _tables(out: Stats, store: EventStore, cols: Columns, rows, kind, status, command, device, flags,
-            linked) -> None:
-    """``by_command`` and ``by_device``: a command counts for its own id and
-    device, an answer for its command's (the request's command column)."""
-    if not linked.any():
-        return
-    # command ids as codes of their own (several table entries can share an id)
-    ids: dict[str | None, int] = {}
-    id_of = np.array([ids.setdefault(v if v is None else v[0], len(ids)) for v in list(store._commands.values)],
-                     dtype=np.int64)
-    names = ["?" if v is None else v for v in ids]
-    devices = ["?" if v is None else v for v in list(store._devices.values)]
-    own = id_of[command]
-    request = cols.column("request")[rows].astype(np.int64)
-    all_commands = cols.column("command")
-    answered = np.where(request > 0, id_of[all_commands[np.maximum(request - 1, 0)]], own)
-    is_command = kind == _K[COMMAND]
-    cmd_key = np.where(is_command, own, answered)
-    checksum_bad = (flags & CHECKSUM_BAD) != 0
-
-    def counts_for(table: dict, label: str) -> Counts:
-        c = table.get(label)
-        if c is None:
-            c = table[label] = Counts()
-        return c
-
-    sel = linked & is_command
-    for keys, table, labels in ((cmd_key, out.by_command, names), (device, out.by_device, devices)):
-        for code in np.unique(keys[linked]).tolist():   # every key an event counts for, even with nothing to add
-            counts_for(table, labels[code])
-        k = keys[sel]
-        for code, count in zip(*np.unique(k, return_counts=True)):
-            counts_for(table, labels[code]).commands += int(count)
-        st = status[sel]
-        for (code, s), count in Counter(zip(k.tolist(), st.tolist())).items():
-            counts_for(table, labels[code]).status[STATUSES[s] or PENDING] += count
-        retx = ((flags[sel] & RETRANSMISSION) != 0)
-        for code, count in Counter(k[retx].tolist()).items():
-            counts_for(table, labels[code]).retransmissions += count
-        answers = linked & ~is_command
-        bad = keys[(sel | answers) & checksum_bad]
-        for code, count in Counter(bad.tolist()).items():
-            counts_for(table, labels[code]).checksum_errors += count
-
-    latency = cols.column("latency")[rows]
-    has = linked & ~is_command & ~np.isnan(latency)
-    for which, kinds in (("ack_latency", (_K[ACK], _K[NAK])), ("result_latency", (_K[RESULT],))):
-        pick = has & np.isin(kind, kinds)
-        if not pick.any():
-            continue
-        xs = latency[pick].tolist()
-        for keys, table, labels in ((cmd_key, out.by_command, names), (device, out.by_device, devices)):
-            groups: dict[int, list[float]] = {}
-            for code, x in zip(keys[pick].tolist(), xs):
-                groups.setdefault(code, []).append(x)
-            for code, values in groups.items():
-                _fill(getattr(counts_for(table, labels[code]), which), values)
+def _problems(store: EventStore, stop: int, rows: np.ndarray) -> list[tuple[int, Sequence[Problem]]]:
+    """(place in ``rows``, the problems) of the rows with problems, in order."""
+    found = sorted((i, p) for i, p in list(store.problems.items()) if i < stop)
+    if not found:
+        return []
+    at = np.searchsorted(rows, [i for i, _ in found])
+    return [(k, p) for k, (i, p) in zip(at.tolist(), found) if k < len(rows) and rows[k] == i]
 
 
-def _fill(lat: Latency, values: list[float]) -> None:
-    """The samples ``values`` into ``lat``, bucketed as ``Latency.add`` buckets them."""
-    lat.n += len(values)
-    lat.min = min(lat.min, min(values))
-    lat.max = max(lat.max, max(values))
-    log, floor, step = math.log, math.floor, _LOG_STEP
-    buckets = lat.buckets
-    for x in values:
-        if x <= 1e-9:
-            lat.zero += 1
-        else:
-            buckets[int(floor(log(x) / step))] += 1
-
-
-def devices_of(store: EventStore, stop: int) -> dict:
+def devices_of(store: EventStore, stop: int) -> dict[str, DeviceInfo]:
     """The device map (address -> model/devices.py's ``DeviceInfo``) of the first
     ``stop`` stored events, from the columns: per device, the commands sent to
     it, the ACKs and NAKs it answered, the lines its paired answers (results,
     ACKs, NAKs, NICs) came on, and the commands it answered with NIC. A device
     comes in the order it first appears."""
-    from dissectors.event import NIC, ST_NIC
-
     from .model.devices import DeviceInfo
 
-    out: dict = {}
+    out: dict[str, DeviceInfo] = {}
     if not stop:
         return out
 
     col = Columns(store, 0, stop).column
     kind, device, flags, line = col("kind"), col("device"), col("flags"), col("line")
-    names = list(store._devices.values)
-    lines = list(store._lines.values)
+    names, lines = store.device_values, store.line_values
     is_command = kind == _K[COMMAND]
     answer = np.isin(kind, [_K[RESULT], _K[ACK], _K[NAK], _K[NIC]]) & ((flags & LINKED) != 0)
     mapped = (is_command | answer) & (device != 0)
 
-    def info(code: int):
+    def info(code: int) -> DeviceInfo:
         addr = names[code]
+        assert addr is not None   # code 0, no device, is not mapped
         got = out.get(addr)
         if got is None:
             got = out[addr] = DeviceInfo(addr)
         return got
 
-    # in the order devices first appear, as the map fed event by event makes them
+    # in the order devices first appear
     order = np.unique(device[mapped], return_index=True)
     for code in order[0][np.argsort(order[1])].tolist():
         info(code)
@@ -212,10 +117,13 @@ def devices_of(store: EventStore, stop: int) -> dict:
         info(code).answered += int(n)
     pairs = np.unique(device[mapped & answer].astype(np.int64) * 256 + line[mapped & answer])
     for p in pairs.tolist():
-        info(p // 256).lines.add(lines[p % 256])
+        line_name = lines[p % 256]
+        assert line_name is not None   # every event is on a line
+        info(p // 256).lines.add(line_name)
     nic = mapped & is_command & (col("status") == STATUSES.index(ST_NIC))
-    commands = list(store._commands.values)
+    commands = store.command_ids
     for code, c in set(zip(device[nic].tolist(), col("command")[nic].tolist())):
-        if c and commands[c][0]:
-            info(code).nic.add(commands[c][0])
+        command = commands[c]
+        if command:
+            info(code).nic.add(command)
     return out

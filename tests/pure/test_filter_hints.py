@@ -51,8 +51,8 @@ def fix_in(message: str) -> str:
     ('status = "nak"',
      "column 8: unexpected character '='; did you mean status == \"nak\"?"),
     ('status == "nack"',
-     "column 11: status is never 'nack' (it is one of: nak, nic, no_ack, no_result, ok, pending); "
-     "did you mean status == \"nak\"?"),
+     ("column 11: status is never 'nack' (it is one of: nak, nic, no_ack, no_result, ok, pending); "
+      "did you mean status == \"nak\"?")),
 ])
 def test_the_error_says_the_fix(expr, message):
     assert str(error_of(expr)) == message

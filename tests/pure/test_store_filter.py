@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 import analyzer
 from analyzer.analysis.filter import compile_filter
+from analyzer.analysis.filter_plan import AllOf, AnyOf, Const, Leaf, Name, Not
 from analyzer.errors import FilterError
 from analyzer.simulation.traffic import generate
 from analyzer.tui.store import EventStore
@@ -64,7 +65,7 @@ def test_hand_picked_filters_select_the_closures_rows(stores, text):
     pred = compile_filter(text)
     for name, store in stores.items():
         assert list(matching(pred, store, 0, len(store))) == by_closure(pred, store), (name, text)
-        # a part of the store, as the catch-up after a filter's scan takes it
+        # a part of the store, as the catch-up after a filter's sweep takes it
         a, b = len(store) // 3, 2 * len(store) // 3
         assert list(matching(pred, store, a, b)) == by_closure(pred, store, a, b), (name, text)
 
@@ -80,6 +81,21 @@ def test_what_the_columns_hold_is_decided_without_the_closure(stores):
     _, maybe = evaluate(compile_filter('kind == "result" and azimuth_deg < -10').plan, cols)
     kinds = [store.event(i).kind for i in range(len(store))]
     assert maybe.any() and all(kinds[i] == "result" for i in maybe.nonzero()[0])
+
+
+def test_a_plan_says_what_the_filter_tests():
+    plan = compile_filter('status == "nak" or not problems or dst[2] == 3 or latency > azimuth_deg').plan
+    assert isinstance(plan, AnyOf) and len(plan.plans) == 4
+    status, no_problems, dst, names = plan.plans
+    assert isinstance(status, Leaf) and (status.name, status.op, status.value, status.negate) == \
+        (Name("status"), "==", "nak", False)
+    assert isinstance(no_problems, Not) and isinstance(no_problems.plan, Leaf)
+    assert (no_problems.plan.name, no_problems.plan.op) == (Name("problems"), "truth")
+    assert isinstance(dst, Leaf) and (dst.name, dst.value) == (Name("dst", (2,)), 3)
+    assert names is None   # two names compared: left to the closure
+    has = compile_filter('"bad checksum" not in problems').plan
+    assert isinstance(has, Leaf) and (has.op, has.value, has.negate) == ("has", "bad checksum", True)
+    assert compile_filter("true and 1").plan == AllOf((Const(True), Const(True)))
 
 
 # ------------------------------------------------------------------ random filters
@@ -151,9 +167,9 @@ def test_a_filtered_views_errors_come_from_the_flags(stores):
     model = CaptureModel(follow=False)
     model.extend(events[:200])
     model.set_filter('device == "1.1.2" or kind == "noise"')
-    model.extend(events[200:])   # learned as they come, after the filter's scan
+    model.extend(events[200:])   # learned as they come, after the filter's sweep
     wanted = [e for e in events if e.device == "1.1.2" or e.kind == "noise"]
     assert model.row_count == len(wanted)
-    assert model.shown_error_count == sum(1 for e in wanted if is_error(e)) > 0
+    assert model.totals.shown_errors == sum(1 for e in wanted if is_error(e)) > 0
     model.set_filter("")
-    assert model.shown_error_count == model.error_count == sum(1 for e in events if is_error(e))
+    assert model.totals.shown_errors == model.totals.errors == sum(1 for e in events if is_error(e))

@@ -59,6 +59,22 @@ def test_a_hostile_line_comes_back_whole(tmp_path):
         check(events)
 
 
+@pytest.mark.parametrize("paths", SAMPLES, ids=lambda p: p[0].split("/")[-1])
+def test_the_store_names_the_value_of_each_code(paths):
+    """What the store's readers (statistics, filters) read: each column of codes
+    with the value each code stands for."""
+    events = list(analyzer.open(*paths))
+    store = check(events)
+    lines, devices, commands = store.line_values, store.device_values, store.command_ids
+    assert lines[0] is devices[0] is commands[0] is None   # code 0: none
+    for i, ev in enumerate(events):
+        assert lines[store.column("line")[i]] == ev.line
+        assert devices[store.column("device")[i]] == ev.device
+        assert commands[store.column("command")[i]] == ev.command
+    with pytest.raises(KeyError):
+        store.column("raw")   # not a column of one value an event
+
+
 def test_answers_are_chained_to_their_command():
     # P? to 1.1.1 (Table 15): ACK then a result; the next command is unanswered
     cmd = Event("A", 0, COMMAND, frame((1, 1, 1), 0, "P?"), 0.0, 0.01, (1, 1, 1), 0, b"P?", True)
