@@ -3,20 +3,95 @@
 Built from the capture when a run starts (``TapRunner``); recordings write it as
 their ``gimbalscope`` metadata record, the doctor names the inputs in its advice,
 the TUI names the ports. Reading a recording takes its settings back from that
-record (``recorded_options``; docs/time.md, "Recordings").
+record (``recorded_settings``, which analyzer/capture/recorded.py applies;
+docs/time.md, "Recordings").
+
+This module sits below the capture (docs/architecture.md, "Layers"): what it
+reads of one is declared here (``DescribedCapture``), and ``Capture`` has it.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import datetime
+import math
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 from .errors import BadMetadata
+from .lines import LineFault
 from .version import __version__
 
 # what each line carries (docs/inputs.md)
 LINE_ROLES = {"A": "controller→device", "B": "device→controller", "AB": "single-line tap (both directions)"}
+
+
+class DescribedTimeouts(Protocol):
+    """The timeouts a capture pairs with (``analyzer.analysis.pairing.Timeouts``)."""
+    @property
+    def ack(self) -> float: ...
+    @property
+    def result(self) -> float: ...
+    @property
+    def result_by_command(self) -> Mapping[str, float]: ...
+
+
+class DescribedOptions(Protocol):
+    """The options a capture decodes with (``analyzer.capture.Options``)."""
+    @property
+    def baud(self) -> int: ...
+    @property
+    def data_bits(self) -> int: ...
+    @property
+    def parity(self) -> str: ...
+    @property
+    def stop_bits(self) -> float: ...
+    @property
+    def timeouts(self) -> DescribedTimeouts: ...
+    @property
+    def swap_lines(self) -> bool: ...
+    @property
+    def follow_rate(self) -> bool: ...
+    @property
+    def frame_gap(self) -> float | None: ...
+    @property
+    def tz(self) -> str | None: ...
+
+
+class DescribedSource(Protocol):
+    """What a capture's source says of itself (``analyzer.sources.Source``)."""
+    @property
+    def description(self) -> str: ...
+    @property
+    def live(self) -> bool: ...
+    @property
+    def start_time(self) -> float | None: ...
+    @property
+    def wire_times(self) -> bool: ...
+    @property
+    def faults(self) -> list[LineFault] | None: ...
+    @property
+    def time_origin(self) -> str: ...
+    @property
+    def input_per_line(self) -> bool: ...
+    @property
+    def metadata(self) -> dict[str, str] | None: ...
+
+
+class DescribedCapture(Protocol):
+    """What ``CaptureInfo.of`` reads of a capture (``analyzer.capture.Capture``)."""
+    @property
+    def options(self) -> DescribedOptions: ...
+    @property
+    def source(self) -> DescribedSource: ...
+    @property
+    def inputs(self) -> tuple[str, ...]: ...
+    @property
+    def lines(self) -> tuple[str, ...]: ...
+    @property
+    def timed(self) -> bool: ...
+    @property
+    def clocks(self) -> int: ...
 
 
 @dataclass(frozen=True)
@@ -55,24 +130,24 @@ class CaptureInfo:
     site: str | None = None            # where it was captured (--site; the dataset's site column)
 
     @classmethod
-    def of(cls, capture, command: str | None = None, site: str | None = None) -> CaptureInfo:
+    def of(cls, capture: DescribedCapture, command: str | None = None, site: str | None = None) -> CaptureInfo:
         o = capture.options
         src = capture.source
-        recorded = getattr(src, "metadata", None) or {}
+        recorded = src.metadata or {}
         t = o.timeouts
         kw = {}
         if recorded.get("capture_id"):
             kw["capture_id"] = recorded["capture_id"]
         site = site or recorded.get("site") or None   # a recording of a recording keeps its site
         return cls(inputs=tuple(capture.inputs), lines=tuple(capture.lines), source=src.description,
-                   live=bool(getattr(src, "live", False)), timed=bool(capture.timed), baud=o.baud,
+                   live=bool(src.live), timed=bool(capture.timed), baud=o.baud,
                    data_bits=o.data_bits, parity=o.parity, stop_bits=o.stop_bits,
                    start_time=src.start_time, command=command, clocks=capture.clocks,
-                   wire_times=src.wire_times, line_errors=getattr(src, "faults", None) is not None,
-                   time_origin=getattr(src, "time_origin", "") or recorded.get("time_origin", ""),
+                   wire_times=src.wire_times, line_errors=src.faults is not None,
+                   time_origin=src.time_origin or recorded.get("time_origin", ""),
                    swap_lines=o.swap_lines, follow_rate=o.follow_rate, ack_timeout=t.ack,
                    result_timeout=t.result, timeouts=tuple(sorted(t.result_by_command.items())),
-                   frame_gap=o.frame_gap, tz=o.tz, input_per_line=getattr(src, "input_per_line", False), site=site,
+                   frame_gap=o.frame_gap, tz=o.tz, input_per_line=src.input_per_line, site=site,
                    **kw)
 
     @property
@@ -137,18 +212,13 @@ def _iso(epoch: float | None) -> str:
 
 
 # ---------------------------------------------------------------- reading back
-# Options a recording's metadata gives back, with the flag that overrides each.
-FLAGS = {"baud": "--baud", "data_bits": "--data-bits", "parity": "--parity", "stop_bits": "--stop-bits",
-         "ack_timeout": "--ack-timeout", "result_timeout": "--result-timeout", "timeouts": "--timeout",
-         "frame_gap": "--frame-gap", "follow_rate": "--no-follow-rate"}
-
-
-def _number(meta: dict[str, str], key: str, kind: type, ok) -> float:
+def _number(meta: dict[str, str], key: str, kind: Callable[[str], float], ok: Callable[[float], bool]) -> float:
     try:
         value = kind(meta[key])
     except (TypeError, ValueError):
         raise BadMetadata(f"{key}={meta[key]!r}") from None
-    if value != value or value in (float("inf"), float("-inf")) or not ok(value):
+    # (an int is never NaN nor infinite, and may be too big for a float)
+    if (isinstance(value, float) and not math.isfinite(value)) or not ok(value):
         raise BadMetadata(f"{key}={meta[key]!r}")
     return value
 
@@ -167,10 +237,11 @@ def _per_command(text: str) -> dict[str, float]:
     return per
 
 
-def recorded_settings(meta: dict[str, str]) -> dict:
-    """The decoding settings ``meta`` holds (only those present), checked:
-    ``BadMetadata`` names the first value that cannot be."""
-    out: dict = {}
+def recorded_settings(meta: dict[str, str]) -> dict[str, Any]:
+    """The decoding settings ``meta`` holds (only those present), checked, by the
+    names ``Options.settings()`` gives them: ``BadMetadata`` names the first value
+    that cannot be."""
+    out: dict[str, Any] = {}
     if "baud" in meta:
         out["baud"] = _number(meta, "baud", int, lambda v: v > 0)
     if "data_bits" in meta:
@@ -193,57 +264,3 @@ def recorded_settings(meta: dict[str, str]) -> dict:
             raise BadMetadata(f"follow_rate={meta['follow_rate']!r}")
         out["follow_rate"] = meta["follow_rate"] == "yes"
     return out
-
-
-def recorded_options(options, source, name: str):
-    """The options to decode a recording with: what its metadata says, except
-    where the user gave an option explicitly (``options.explicit``). Returns
-    (options, messages): one message per explicit option that differs from the
-    recording, or one saying the metadata is missing or garbled (then the options
-    given and the defaults stand). Sources without metadata (logs, dumps, ports)
-    get ``options`` back unchanged."""
-    if hasattr(source, "measured_settings"):   # a logic capture: the rate and format measured
-        measured = {k: v for k, v in source.measured_settings().items() if k not in options.explicit}
-        return dataclasses.replace(options, **measured), []
-    if not hasattr(source, "metadata"):
-        return options, []
-    meta = source.metadata
-    if meta is None:
-        why = getattr(source, "metadata_problem", None) or "it has no gimbalscope metadata record"
-        return options, [f"{name}: {why}: decoding with the options given and the defaults "
-                         f"({_described(options)})"]
-    try:
-        recorded = recorded_settings(meta)
-    except BadMetadata as e:
-        return options, [f"{name}: the gimbalscope metadata is garbled ({e}): decoding with the options "
-                         f"given and the defaults ({_described(options)})"]
-    t = options.timeouts
-    current = options.settings()
-    changes: dict = {}
-    said: list[str] = []
-    for key, value in recorded.items():
-        if key not in options.explicit:
-            changes[key] = value
-        elif current[key] != value:
-            said.append(f"{FLAGS[key]} {_shown(key, current[key])} overrides the {_shown(key, value)} "
-                        f"{name} was recorded with")
-    timeouts = dataclasses.replace(
-        t, ack=changes.pop("ack_timeout", t.ack), result=changes.pop("result_timeout", t.result),
-        result_by_command=changes.pop("timeouts", t.result_by_command))
-    return dataclasses.replace(options, timeouts=timeouts, **changes), said
-
-
-def _shown(key: str, value) -> str:
-    if key == "follow_rate":
-        return "(rate changes followed)" if value else "(rate kept fixed)"
-    if key == "timeouts":
-        return ",".join(f"{c}={s:g}" for c, s in sorted(value.items())) or "(none)"
-    if key == "frame_gap" and value is None:
-        return "(default)"
-    if isinstance(value, float):
-        return f"{value:g}"
-    return str(value)
-
-
-def _described(options) -> str:
-    return f"{options.baud} {options.data_bits}{options.parity}{options.stop_bits:g}"

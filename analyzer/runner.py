@@ -29,13 +29,17 @@ import queue
 import threading
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from dissectors.event import Event
 
 from .capture import Capture
 from .info import CaptureInfo
+from .lines import LineFault
 from .sources import Chunk
+
+if TYPE_CHECKING:
+    from .physical.report import LineReport
 
 # Note levels, most severe first (the doctor's finding severities are the same words)
 ERROR = "error"
@@ -79,6 +83,17 @@ class Listener:
     def on_stop(self) -> None:
         pass
 
+    @property
+    def announcement(self) -> str | None:
+        """What the listener says of itself as it starts that is for the screen
+        only ("serving Foxglove on …": nothing serves once the screen has closed)."""
+        return None
+
+    def close(self) -> None:
+        """Release what the listener holds though no run feeds it (a server that
+        serves from the moment it is made, its run refused or its screen closed):
+        whoever made it says so. Most hold nothing until they run."""
+
 
 def _hears_chunks(listener: Listener) -> bool:
     # a listener that keeps the default on_chunk costs nothing per chunk
@@ -109,7 +124,7 @@ class TapRunner:
 
     @property
     def live(self) -> bool:
-        return bool(getattr(self._capture.source, "live", False))
+        return self._capture.source.live
 
     @property
     def latest(self) -> float | None:
@@ -134,18 +149,18 @@ class TapRunner:
         return f"{self._capture.baud} {o.data_bits}{o.parity}{o.stop_bits:g}"
 
     @property
-    def physical(self) -> dict | None:
+    def physical(self) -> dict[str, LineReport] | None:
         """A logic capture's lines as its software UART measures them (line →
         ``analyzer.physical.report.LineReport``, kept up to date while reading);
         None for captures of bytes."""
-        return getattr(self._capture.source, "physical", None)
+        return self._capture.source.physical
 
     @property
-    def faults(self) -> list | None:
+    def faults(self) -> list[LineFault] | None:
         """The line's own errors as the source tells them (``analyzer.lines.LineFault``,
         naming the lines as wired; a list that grows while reading, each told before
         the chunk holding its byte); None for a source that cannot see them."""
-        return getattr(self._capture.source, "faults", None)
+        return self._capture.source.faults
 
     @property
     def swapped(self) -> bool:
@@ -162,7 +177,7 @@ class TapRunner:
 
     def line_states(self) -> dict[str, str]:
         """A live tap's state per line (open, lost, reconnecting); empty for files."""
-        return dict(getattr(self._capture.source, "state", None) or {})
+        return dict(self._capture.source.state)
 
     # ----------------------------------------------------------- requests
     def post(self, text: str, level: str = WARNING, *, finding: Any = None, origin: str = RUNNER) -> None:
@@ -194,9 +209,7 @@ class TapRunner:
         """End the run: a live source stops reading (what it has read is still
         decoded); a file stops at the next step. Safe from any thread or a signal."""
         self._stopping.set()
-        stop = getattr(self._capture.source, "stop", None)
-        if stop is not None:
-            stop()
+        self._capture.source.stop()
 
     # ---------------------------------------------------------------- run
     _thread: threading.Thread | None = None
@@ -289,9 +302,7 @@ class TapRunner:
         """Close the source, settle the info, and stop every listener; the first
         failure of a listener is raised after all have heard ``on_stop``."""
         cap = self._capture
-        close = getattr(cap.source, "close", None)
-        if close is not None:
-            close()
+        cap.source.close()
         self._say_warnings()
         self._handle_requests()   # notes posted as the run ended
         if self.info.start_time is None and cap.source.start_time is not None:
@@ -301,7 +312,7 @@ class TapRunner:
         for listener in self.listeners:
             try:
                 listener.on_stop()
-            except BaseException as e:   # every listener stops; the first failure is raised
+            except BaseException as e:   # noqa: BLE001 - every listener stops; the first failure is raised after
                 failure = failure or e
         if failure is not None and raise_failure:
             raise failure

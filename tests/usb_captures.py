@@ -115,7 +115,7 @@ class UsbCapture:
 
     # ------------------------------------------------------------ packets
 
-    def _ordered(self) -> list[Event]:
+    def ordered(self) -> list[Event]:
         return sorted(self.events, key=lambda e: e.t)
 
     def usbmon(self, e: Event, size: int, endian: str) -> bytes:
@@ -146,7 +146,7 @@ class UsbCapture:
 
     def packets(self, link_type: int, endian: str = "<") -> list[tuple[int, bytes]]:
         out = []
-        for e in self._ordered():
+        for e in self.ordered():
             ns = START * 10**9 + round(e.t * 1e9)
             if link_type == 249:
                 out.append((ns, self.usbpcap(e)))

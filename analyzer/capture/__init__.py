@@ -3,7 +3,8 @@
 events (analyzer/capture/capture.py).
 
 The package's parts: ``options`` (``Options``, the decoding options, and the line
-settings made of them), ``capture`` (``Capture``), ``merge`` (wire order of two
+settings made of them), ``recorded`` (the options a recording or a logic
+capture brings of itself), ``capture`` (``Capture``), ``merge`` (wire order of two
 timed lines, with skew correction), ``rates`` (following the link's rate),
 ``undecoded`` (bytes a live tap passed over), ``collector`` (the garbage
 collector while decoding) and ``wireclock`` (how far the wire has been seen).
@@ -12,13 +13,14 @@ collector while decoding) and ``wireclock`` (how far the wire has been seen).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from ..analysis.pairing import Timeouts
-from ..info import recorded_options
-from ..sources import detect
+from ..sources import Source, detect
 from ..sources.files import display_name
 from .capture import Capture
 from .options import Options
+from .recorded import recorded_options
 from .undecoded import UNDECODED_EVERY
 
 
@@ -36,7 +38,7 @@ def open_live(ports: list[str], options: Options | None = None,
 
 
 def open(*paths: str, options: Options | None = None, on_warning: Callable[[str], None] | None = None,
-         filter: str | None = None, **kw) -> Capture:
+         filter: str | None = None, **kw: Any) -> Capture:
     """Open a capture: one socat log, one raw single-line dump, two raw dumps
     (line A then line B), or MCAP recordings of one tap (one, or its parts).
     Keyword arguments set ``Options`` fields (``baud=19200``); those given, like
@@ -56,7 +58,7 @@ def open(*paths: str, options: Options | None = None, on_warning: Callable[[str]
         options = Options(timeouts=timeouts or Timeouts(), explicit=given, **kw)
     source = detect(list(paths), options.read_settings)
     name = paths[0] if len(paths) == 1 else f"{paths[0]} (and {len(paths) - 1} more)"
-    capture = _capture_of(source, options, display_name(name), paths, on_warning)
+    capture = _capture_of(source, options, display_name(name), tuple(paths), on_warning)
     capture.keep = keep
     return capture
 
@@ -76,7 +78,8 @@ def open_samples(path: str, samplerate: float, unitsize: int = 1, options: Optio
     return _capture_of(source, options, display_name(given), (given,), None)
 
 
-def _capture_of(source, options: Options, name: str, inputs, on_warning) -> Capture:
+def _capture_of(source: Source, options: Options, name: str, inputs: tuple[str, ...],
+                on_warning: Callable[[str], None] | None) -> Capture:
     """The capture reading ``source``, with the settings it brings of itself (a
     recording's metadata, a logic capture's measure) where ``options`` do not give
     them; what differs from an option given is said once."""

@@ -28,6 +28,7 @@ and the bytes are counted and said (``Capture.undecoded``, analyzer/capture/unde
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING
 
 from dissectors import Deframer
 from dissectors.event import Event, Origin
@@ -48,6 +49,10 @@ from .options import Options
 from .rates import RateFollowing, inserted
 from .undecoded import UndecodedBytes
 from .wireclock import WireClock
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import pyarrow as pa
 
 
 class Capture:
@@ -76,7 +81,7 @@ class Capture:
         # each line's settings: they start at the options' and follow ACKed
         # rate-set commands (docs/time.md, "Rate changes")
         self.line_settings: dict[str, LineSettings] = options.line_settings(tuple(source.lines))
-        self.rates = (RateFollowing(self.line_settings, options.baud, bool(getattr(source, "live", False)),
+        self.rates = (RateFollowing(self.line_settings, options.baud, source.live,
                                     self.warn) if options.follow_rate else None)
         # two lines: copies of line A's frames on line B are dropped (analyzer.analysis.echo)
         # (timed input only: a copy is told from a real frame by overlapping its original)
@@ -105,7 +110,9 @@ class Capture:
     @property
     def baud(self) -> int:
         """The link's rate now."""
-        return self.line_settings[self.source.lines[0]].baud
+        baud = self.line_settings[self.source.lines[0]].baud
+        assert baud is not None   # made of the options' rate (only a deframer alone has none)
+        return baud
 
     @property
     def rate_changes(self) -> list[RateChange]:
@@ -141,7 +148,7 @@ class Capture:
         origin = self._origin
         if origin is None:
             origin = self._origin = Origin("+".join(self.inputs) or self.source.description,
-                                           getattr(self.source, "start_time", None))
+                                           self.source.start_time)
         return origin
 
     def __iter__(self) -> Iterator[Event]:
@@ -172,7 +179,7 @@ class Capture:
         if done is not None and (keep is None or keep(done.command)):
             yield _transaction_dict(done)
 
-    def to_arrow(self):
+    def to_arrow(self) -> pa.Table:
         """The capture's events (those the filter keeps) as a pyarrow Table, the
         columns of the dataset's ``events`` table (docs/dataset.md). Needs the
         fleet extra (pyarrow)."""
@@ -185,7 +192,7 @@ class Capture:
             raise ImportError(hint, name=e.name) from None
         return events_table(self, keep=self.keep)
 
-    def to_pandas(self):
+    def to_pandas(self) -> pd.DataFrame:
         """``to_arrow()`` as a pandas DataFrame (needs the pandas extra)."""
         try:
             import pandas  # noqa: F401

@@ -64,7 +64,6 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
     arrived = merge.arrived
     plain = merge.estimator is None
     rates = cap.rates
-    follower = rates.follower if rates is not None else None
     watch_all = rates is not None and rates.watch_all
     tap, clock, skip = cap.on_chunk, cap.clock, cap.undecoded_bytes.skip
     release_every = merge.release_every
@@ -73,13 +72,13 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
     # latest read (docs/time.md, "Byte order"); the deframers keep each line's order.
     # Times measured on the wire need no such floor: both lines send at once.
     one_clock = cap.clocks < 2 and not cap.source.wire_times
-    last_read = None
+    last_read: float | None = None
     for chunk in cap.source.chunks():
         data = chunk.data
         t = chunk.t
+        if t is None:                 # an idle tick without time (a timed source times every byte)
+            continue
         if not data:                  # an idle tick: time passed
-            if t is None:
-                continue
             merge.idle(deframers, t)
         else:
             if cap.swap_lines:   # read a chunk: the TUI's swap key sets it while a live tap runs
@@ -96,25 +95,22 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
             else:
                 events = d.feed(data, t, last_read if one_clock else None)
                 # (rates.watching() inline: this runs once a chunk)
-                if plain and not (rates is not None and (watch_all or rates.marks > 0 or follower.busy)):
+                if plain and not (rates is not None and (watch_all or rates.marks > 0 or rates.follower.busy)):
                     merge.held += events
                 else:
                     arrived(events)
             end = d.last_end
-            if last_read is None or end > last_read:
-                last_read = end
-            if clock.latest is None or end > clock.latest:
-                clock.latest = end
+            if end is not None:       # (always: the chunk had a time)
+                if last_read is None or end > last_read:
+                    last_read = end
+                if clock.latest is None or end > clock.latest:
+                    clock.latest = end
         since_release += 1
         if not clock.ticked and since_release < release_every:
             continue
         since_release = 0
         yield merge.release(merge.mark(t, deframers))
-    for d in deframers.values():
-        arrived(d.finish())
-    cap.undecoded_bytes.say(final=True)
-    yield merge.release(None)
-    yield clock.at_end()
+    yield from merge.ending(deframers)
 
 
 class Merge:
@@ -133,7 +129,7 @@ class Merge:
         self.estimator = SkewEstimator() if skew else None
         self.reported = 0.0   # the correction last said
         # live ports deliver in arrival order within a few reads; logs can hold big chunks
-        live = bool(getattr(capture.source, "live", False))
+        live = capture.source.live
         self.chunks_ahead = 64 if live else 512
         # a file releases every 128 chunks: a release sorts what is held (the last
         # ~0.1 s of events), and a recording has a chunk an event, so releasing every
@@ -146,15 +142,16 @@ class Merge:
             return
         cap = self.capture
         held = self.held
-        if self.estimator is None:
+        estimator = self.estimator
+        if estimator is None:
             held += events
         else:
-            observe = self.estimator.observe
+            observe = estimator.observe
             for ev in events:
                 # only commands, ACK/NAK bytes and noise (a garbled command) inform the
                 # estimate; it sees the times as read
                 if ev.kind in _SKEW_KINDS and observe(ev):
-                    self._learnt(ev)
+                    self._learnt(ev, estimator)
                 if cap.skew and ev.line == "B":
                     _shift(ev, cap.skew)
                 held.append(ev)
@@ -187,15 +184,16 @@ class Merge:
             cap.clock.now = mark
         return mark
 
-    def _learnt(self, ev: Event) -> None:
+    def _learnt(self, ev: Event, estimator: SkewEstimator) -> None:
         """The skew estimate moved. Line B events held back move with it, but only
         those near the pair that taught it (the estimator pairs within ``near``): a
         live tap has released anything older already, and decoding its recording,
         which holds events longer, must give the same times (live output equals
         decode of the recording)."""
-        cap, estimator = self.capture, self.estimator
+        cap = self.capture
         delta = estimator.skew - cap.skew
         cap.skew = estimator.skew
+        assert ev.t is not None   # the estimator learns from timed events only
         horizon = ev.t - estimator.near
         for other in self.held:
             if other.line == "B" and other.t is not None and other.t >= horizon:
@@ -208,6 +206,16 @@ class Merge:
                          f"delays): its times are moved later by that much")
             else:   # the pairs that showed it have left the estimate's window
                 cap.warn("line B no longer reads ahead of line A: its times are no longer moved")
+
+    def ending(self, deframers: dict[str, Deframer]) -> Iterator[list[Event]]:
+        """Once the chunks have ended: what the deframers and the merge still hold,
+        then the tick that lets pairing run on to the latest time seen."""
+        for d in deframers.values():
+            self.arrived(d.finish())
+        cap = self.capture
+        cap.undecoded_bytes.say(final=True)
+        yield self.release(None)
+        yield cap.clock.at_end()
 
     def release(self, mark: float | None) -> list[Event]:
         """The held events before ``mark`` (all of them for None), in time order."""
@@ -225,6 +233,6 @@ class Merge:
 
 
 def _shift(ev: Event, delta: float) -> None:
-    if ev.t is not None:
-        ev.t += delta
-        ev.t_end += delta
+    t, end = ev.t, ev.t_end
+    if t is not None and end is not None:
+        ev.t, ev.t_end = t + delta, end + delta

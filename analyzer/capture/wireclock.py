@@ -15,7 +15,7 @@ class WireClock:
 
     def __init__(self) -> None:
         self.latest: float | None = None
-        self.now: float | None = None
+        self.now = 0.0        # (read only once ticked)
         self.ticked = False
 
     def seen(self, t: float | None) -> None:

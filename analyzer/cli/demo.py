@@ -10,7 +10,7 @@ import threading
 
 from ..capture import Options, open_live
 from ..simulation import scenario
-from .common import UsageError, add_filter_arg, non_negative_float, non_negative_int
+from .common import Subcommands, UsageError, add_filter_arg, non_negative_float, non_negative_int
 from .live import add_foxglove_arg, add_record_args, add_tui_args, tap, wants_tui
 
 
@@ -19,7 +19,7 @@ def fault_help() -> str:
     return "; ".join(f"{k}: {v}" for k, v in scenario.FAULTS.items()).replace("%", "%%")
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("demo", help="simulated controller and gimbals on virtual lines, tapped live",
                        description="Run a simulated controller and three gimbals over pseudo-terminals and tap "
                                    "both lines; no hardware needed.")

@@ -22,6 +22,7 @@ import os
 import re
 import signal
 import sys
+from types import FrameType
 
 from ..capture import Capture, open_live
 from ..info import CaptureInfo
@@ -32,6 +33,7 @@ from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
 from .common import (
+    Subcommands,
     UsageError,
     add_channels_arg,
     add_filter_arg,
@@ -43,7 +45,7 @@ from .common import (
 )
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("live", help="tap serial lines live",
                        description="Tap one serial port (single-line tap) or two (line A controller→device, "
                                    "line B device→controller). Ports are device names or pyserial URLs "
@@ -134,7 +136,7 @@ def open_servers(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     the tap starts), or nothing; an address that cannot be served is a one-line
     error before anything starts. ``speed``: the server paces the events itself
     (a replay in the TUI)."""
-    address = getattr(args, "foxglove", None)
+    address = args.foxglove
     if address is None:
         return []
     from ..listeners.foxglove import FoxgloveServer, ServeError
@@ -166,14 +168,14 @@ def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     said once (the recording stops, the tap goes on)."""
     if not record:
         return None
-    mb, minutes = getattr(args, "rotate_mb", None), getattr(args, "rotate_minutes", None)
+    mb, minutes = args.rotate_mb, args.rotate_minutes
     try:
         # a recording is never replaced silently (--force), and never written over a
         # port, into a folder or a missing folder; in parts, the first part's name counts
         first = part_path(record, 1) if mb or minutes else record
-        check_output(first, info.inputs if info.live else (), force=getattr(args, "force", False), role="port")
+        check_output(first, info.inputs if info.live else (), force=args.force, role="port")
         return McapWriter(record, info, live=True, rotate_bytes=int(mb * 1e6) if mb else None,
-                          rotate_seconds=minutes * 60 if minutes else None, lean=getattr(args, "lean", False))
+                          rotate_seconds=minutes * 60 if minutes else None, lean=args.lean)
     except BaseException:
         capture.source.close()
         raise
@@ -188,26 +190,26 @@ def wants_tui(args: argparse.Namespace) -> bool:
 
 def tap(capture: Capture, args: argparse.Namespace, record: str | None, command: str = "live") -> int:
     """Run a live capture: the TUI, or printed events (see ``wants_tui``)."""
-    info = CaptureInfo.of(capture, command=command, site=getattr(args, "site", None))
+    info = CaptureInfo.of(capture, command=command, site=args.site)
     if not wants_tui(args):
         return tap_and_print(capture, info, args, record)
     from ..tui.run import KeymapError, load_keymap, run_app
 
     try:
-        keymap = load_keymap(getattr(args, "keymap", None))
+        keymap = load_keymap(args.keymap)
     except KeymapError as e:
         capture.source.close()
         raise UsageError(str(e)) from None
     recorder, servers = open_outputs(capture, info, args, record)
     return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder, record_path=record,
-                   record_lean=getattr(args, "lean", False),
+                   record_lean=args.lean,
                    info=info, keymap=keymap, listeners=servers)
 
 
 def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace, record: str | None) -> int:
     """Run a live capture to the end, printing events and notes, with the wiring
     doctor alongside (SIGINT/SIGTERM stop it cleanly)."""
-    keep = build_filter(getattr(args, "filter", None))
+    keep = build_filter(args.filter)
     sink = open_format(args.format, info, flush_each=True)   # every event as it comes
     recorder, servers = open_outputs(capture, info, args, record)
     # the servers beside the recorder: both hear the doctor's notes after the same events
@@ -215,7 +217,7 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
                  if l is not None]
     runner = TapRunner(capture, listeners, info=info)
 
-    def stop(_signum, _frame):
+    def stop(_signum: int, _frame: FrameType | None) -> None:
         runner.stop()
 
     old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
@@ -279,5 +281,5 @@ def _pipe_aside_terminal_in() -> str | None:
     pipe = os.dup(0)
     os.dup2(tty, 0)
     os.close(tty)
-    sys.stdin = open(0, closefd=False)
+    sys.stdin = open(0, closefd=False)   # noqa: SIM115 - standard input from now on, never closed
     return f"/dev/fd/{pipe}"

@@ -14,15 +14,17 @@ from __future__ import annotations
 
 import weakref
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any, Self
 
 from dissectors.wire import LineSettings
 
 from ..lines import LINE_A, LINE_B, Chunk, LineFault
 
 if TYPE_CHECKING:
+    from ..physical.report import LineReport
     from .files import Input
 
 
@@ -50,6 +52,29 @@ class Source(ABC):
     # Told before the chunk holding the byte (analyzer/capture/faults.py).
     faults: list[LineFault] | None = None
 
+    # What readers of a source (the capture, the runner, CaptureInfo, the commands)
+    # may ask of any source; each default is a file of bytes' answer.
+    # a live line (ports, a piped stream of samples): read until ``stop()``, in small
+    # reads released soon (the merge, rate following), a recorder may join mid-run
+    live: bool = False
+    # each input is one line (two raw dumps, two ports): how CaptureInfo names the lines
+    input_per_line: bool = False
+    # where ``start_time`` came from ("host clock", a file's modification time): recordings keep it
+    time_origin: str = ""
+    # a live tap's state per line ("open", "lost", "reconnecting"), for the screen; empty for files
+    state: Mapping[str, str] = MappingProxyType({})
+    # a logic capture's lines as its software UART measures them (line → LineReport,
+    # kept up to date while reading; a recording's as recorded), for the doctor and
+    # the screen; None for a source of bytes
+    physical: dict[str, LineReport] | None = None
+    # a recording's ``gimbalscope`` metadata record (docs/mcap.md): its decoding
+    # settings (analyzer/capture/recorded.py), its capture id and site (CaptureInfo)
+    metadata: dict[str, str] | None = None
+    # a source that should carry that record (a recording): a missing or garbled one
+    # is said, with why it could not be read (``metadata_problem``) when known
+    carries_metadata: bool = False
+    metadata_problem: str | None = None
+
     def __init__(self) -> None:
         self._warn: Callable[[str], None] = _ignore
         self._early: list[str] = []                 # see warn_later
@@ -61,13 +86,13 @@ class Source(ABC):
     @property
     def warn(self) -> Callable[[str], None]:
         """Told every warning (``report_to`` says where they go)."""
-        return getattr(self, "_warn", _ignore)
+        return self._warn
 
     def report_to(self, handler: Callable[[str], None]) -> None:
         """Give every warning to ``handler`` from now on; those found while the
         source was opened go to it at once."""
         self._warn = handler
-        early, self._early = getattr(self, "_early", []), []
+        early, self._early = self._early, []
         for msg in early:
             handler(msg)
 
@@ -106,16 +131,27 @@ class Source(ABC):
         so each line can be read at its own pace."""
         return (c for c in self.chunks() if c.line == line)
 
+    def measured_settings(self) -> dict[str, Any]:
+        """The serial settings the source measured (a logic capture's rate and
+        format, as ``Options`` fields): the capture decodes with them unless they
+        were given (analyzer/capture/recorded.py). A source of bytes measures none."""
+        return {}
+
+    def stop(self) -> None:
+        """Stop reading a live line: what was read is still given, then the chunks
+        end (a signal, a timer, the runner's ``stop``); a file ends by itself, so
+        nothing to do. Safe from any thread."""
+
     def close(self) -> None:
         """Release what the source holds (files, temporary copies). Subclasses that
         override it call ``super().close()``."""
-        for cleanup in getattr(self, "_cleanups", ()):
+        for cleanup in self._cleanups:
             cleanup()
 
-    def __enter__(self) -> Source:
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 

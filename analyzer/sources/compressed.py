@@ -18,9 +18,12 @@ import bz2
 import io
 import lzma
 import zlib
-from typing import BinaryIO
+from typing import TYPE_CHECKING, Protocol
 
 from ..errors import CaptureError
+
+if TYPE_CHECKING:
+    from _typeshed import WriteableBuffer
 
 IN_BLOCK = 1 << 16       # compressed bytes read at a time
 OUT_BLOCK = 1 << 18      # at most this many decompressed bytes per step
@@ -42,31 +45,60 @@ def sniff(head: bytes) -> str | None:
     return None
 
 
-class _Capped:
-    """zlib, lzma and bz2 decompressors behind one interface: ``step(data)`` gives
-    at most ``OUT_BLOCK`` bytes and keeps the input it could not use yet."""
+class _Decompressor(Protocol):
+    """Every format's decompressor behind one interface: ``step(data)`` gives
+    at most ``OUT_BLOCK`` bytes (zstd: see ``_Zstd``) and keeps the input it could
+    not use yet, until ``needs_input``; ``eof`` at the end of a member, with what
+    followed it in ``unused_data``."""
 
-    def __init__(self, kind: str) -> None:
-        self.kind = kind
-        if kind == "gzip":
-            self._d = zlib.decompressobj(16 + zlib.MAX_WBITS)   # 16+: the gzip wrapper
-        elif kind == "xz":
-            self._d = lzma.LZMADecompressor()
-        else:
-            self._d = bz2.BZ2Decompressor()
-        self._tail = b""   # zlib hands input it did not use back; lzma and bz2 keep it
+    def step(self, data: bytes) -> bytes: ...
+
+    @property
+    def needs_input(self) -> bool: ...
+
+    @property
+    def eof(self) -> bool: ...
+
+    @property
+    def unused_data(self) -> bytes: ...
+
+
+class _Gzip:
+    """zlib's decompressor, which hands the input it did not use back."""
+
+    def __init__(self) -> None:
+        self._d = zlib.decompressobj(16 + zlib.MAX_WBITS)   # 16+: the gzip wrapper
+        self._tail = b""
 
     def step(self, data: bytes) -> bytes:
-        if self.kind == "gzip":
-            out = self._d.decompress(self._tail + data if self._tail else data, OUT_BLOCK)
-            self._tail = self._d.unconsumed_tail
-            return out
+        out = self._d.decompress(self._tail + data if self._tail else data, OUT_BLOCK)
+        self._tail = self._d.unconsumed_tail
+        return out
+
+    @property
+    def needs_input(self) -> bool:
+        return not self._tail
+
+    @property
+    def eof(self) -> bool:
+        return self._d.eof
+
+    @property
+    def unused_data(self) -> bytes:
+        return self._d.unused_data
+
+
+class _Capped:
+    """lzma's and bz2's decompressors, which keep the input they did not use."""
+
+    def __init__(self, d: lzma.LZMADecompressor | bz2.BZ2Decompressor) -> None:
+        self._d = d
+
+    def step(self, data: bytes) -> bytes:
         return self._d.decompress(data, OUT_BLOCK)
 
     @property
     def needs_input(self) -> bool:
-        if self.kind == "gzip":
-            return not self._tail
         return self._d.needs_input
 
     @property
@@ -109,8 +141,12 @@ class _Zstd:
         return self._d.unused_data + self._buf
 
 
-def _decompressor(kind: str):
-    return _Zstd() if kind == "zstd" else _Capped(kind)
+def _decompressor(kind: str) -> _Decompressor:
+    if kind == "zstd":
+        return _Zstd()
+    if kind == "gzip":
+        return _Gzip()
+    return _Capped(lzma.LZMADecompressor() if kind == "xz" else bz2.BZ2Decompressor())
 
 
 def _errors() -> tuple[type[BaseException], ...]:
@@ -131,14 +167,14 @@ class Decompressed(io.RawIOBase):
     (its magic bytes by chance, nothing decodable after them) from a damaged one.
     """
 
-    def __init__(self, raw: BinaryIO, kind: str, name: str) -> None:
+    def __init__(self, raw: io.RawIOBase, kind: str, name: str) -> None:
         super().__init__()
         self.kind = kind
         self.name = name
         self.problem: str | None = None
         self.invalid_at_start = False
         self._raw = raw
-        self._read = getattr(raw, "read1", raw.read)
+        self._read = raw.read
         self._errors = _errors()
         self._d = _decompressor(kind)
         self._consumed = 0          # compressed bytes read from raw
@@ -152,7 +188,8 @@ class Decompressed(io.RawIOBase):
     def readable(self) -> bool:
         return True
 
-    def readinto(self, b) -> int:
+    def readinto(self, buffer: WriteableBuffer) -> int:
+        b = memoryview(buffer)
         while self._at >= len(self._out) and not self._done:
             self._out, self._at = self._next(), 0
         n = min(len(b), len(self._out) - self._at)
@@ -163,7 +200,7 @@ class Decompressed(io.RawIOBase):
     def _fill(self) -> bool:
         """Read more compressed input; False at its end."""
         try:
-            data = self._read(IN_BLOCK)
+            data = self._read(IN_BLOCK) or b""   # (None: nothing yet, from a stream that never waits)
         except OSError as e:
             raise CaptureError(f"{self.name}: cannot read: {e.strerror or e}") from None
         self._consumed += len(data)
@@ -175,10 +212,10 @@ class Decompressed(io.RawIOBase):
         d = self._d
         if d.eof:
             return self._next_member()
-        if not self._pending and d.needs_input and not self._last_full:
-            if not self._fill():   # the input ends inside a member
-                self._stop(f"compressed data ends early at byte {self._consumed}; decoded what came before")
-                return b""
+        if not self._pending and d.needs_input and not self._last_full and not self._fill():
+            # more input was needed, and it ends inside a member
+            self._stop(f"compressed data ends early at byte {self._consumed}; decoded what came before")
+            return b""
         data, self._pending = self._pending, b""
         try:
             out = d.step(data)

@@ -17,13 +17,16 @@ import shutil
 import stat
 import sys
 import tempfile
-from collections.abc import Iterator
-from typing import BinaryIO
+from collections.abc import Callable, Iterator
+from typing import TYPE_CHECKING, BinaryIO
 
 from ..errors import CaptureError
 from ..outfile import reason, show
 from .compressed import Decompressed, sniff
 from .meter import READS
+
+if TYPE_CHECKING:
+    from _typeshed import WriteableBuffer
 
 STDIN = "-"
 HEAD = 1 << 16      # bytes read for detection
@@ -46,7 +49,7 @@ def open_input(path: str) -> BinaryIO:
     try:
         if os.path.isdir(path):
             raise CaptureError(f"{name}: is a directory, not a capture file")
-        f = open(path, "rb")
+        f = open(path, "rb")   # noqa: SIM115 - the caller's to close (``Input``, ``with open_input(…)``)
         READS.track(f)       # every capture file is opened here: counted for progress
         return f
     except FileNotFoundError:
@@ -94,14 +97,16 @@ class Replay(io.RawIOBase):
         super().__init__()
         self._head = memoryview(head)
         self._at = 0
-        self._read = getattr(rest, "read1", rest.read)   # what is there, not a full block
+        # what is there, not a full block
+        self._read: Callable[[int], bytes] = rest.read1 if isinstance(rest, io.BufferedIOBase) else rest.read
         self.name = name
         self.past_head = False   # something beyond the head was asked for
 
     def readable(self) -> bool:
         return True
 
-    def readinto(self, b) -> int:
+    def readinto(self, buffer: WriteableBuffer) -> int:
+        b = memoryview(buffer)
         if self._at < len(self._head):
             n = min(len(b), len(self._head) - self._at)
             b[:n] = self._head[self._at:self._at + n]
@@ -152,12 +157,12 @@ class Input:
         self._rest: BinaryIO = self._file
         self.head = raw_head
         if self.compression is not None:
-            self._start_decompressing(raw_head)
+            self._start_decompressing(raw_head, self.compression)
         self.complete = len(self.head) < self._head_size   # the head is the whole input
 
-    def _start_decompressing(self, raw_head: bytes) -> None:
+    def _start_decompressing(self, raw_head: bytes, kind: str) -> None:
         replay = Replay(raw_head, self._file, self.name)
-        dec = Decompressed(replay, self.compression, self.name)
+        dec = Decompressed(replay, kind, self.name)
         stream = io.BufferedReader(dec, BLOCK)
         head = _read_fully(stream, self._head_size, self.name)
         if dec.invalid_at_start and not replay.past_head:

@@ -8,6 +8,7 @@ import os
 import stat
 import threading
 import weakref
+from typing import BinaryIO
 
 
 def _NO_HANDLE() -> None:
@@ -37,7 +38,7 @@ class ReadMeter:
         with self._lock:
             self._files.clear()
 
-    def track(self, f) -> None:
+    def track(self, f: BinaryIO) -> None:
         """Count ``f``, a binary file just opened for reading."""
         try:
             fd = f.fileno()

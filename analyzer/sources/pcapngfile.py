@@ -150,7 +150,7 @@ class PcapngSource(Source):
                 iface, hi, lo, caplen = struct.unpack_from(endian + "IIII", body, 0)
                 info = interfaces[iface] if iface < len(interfaces) else None
                 got = pdu.wire_of(body[20:20 + caplen]) if info is not None and info.link_type == pdu.LINKTYPE else None
-                if got is None:
+                if info is None or got is None:
                     foreign += 1
                     continue
                 line, data = got

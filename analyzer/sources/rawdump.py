@@ -17,7 +17,7 @@ from __future__ import annotations
 import codecs
 import os
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk
@@ -30,7 +30,7 @@ class RawDumpSource(Source):
     timed = False
     input_per_line = True   # one file or port per line (CaptureInfo.line_names)
 
-    def __init__(self, inputs: list[str | Input], settings: ReadSettings | None = None) -> None:
+    def __init__(self, inputs: Sequence[str | Input], settings: ReadSettings | None = None) -> None:
         super().__init__()
         if len(inputs) not in (1, 2):
             raise ValueError("a raw capture is one file (single-line tap) or two (line A, line B)")

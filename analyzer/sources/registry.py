@@ -14,6 +14,8 @@ any number: MCAP recordings, whose parts are read as one capture (docs/time.md,
 
 from __future__ import annotations
 
+from typing import Self
+
 from ..errors import CaptureError
 from . import pcapngfile, rawdump, signatures, socatlog, usb
 from .base import OPTION_OF, Reader, ReadSettings, Source
@@ -25,7 +27,7 @@ class AnyCount(tuple):
     count from one is in it, and it lists none (it has no fixed count, so
     ``most_inputs`` does not see it)."""
 
-    def __new__(cls) -> AnyCount:
+    def __new__(cls) -> Self:
         return super().__new__(cls)
 
     def __contains__(self, count: object) -> bool:
@@ -58,7 +60,7 @@ def _vet_mcap(inp: Input) -> None:
 
 
 MCAP = Reader(
-    # the start of mcapscan.MAGIC: a file that goes on differently is told apart by mcapfile
+    # the start of mcapwalk.MAGIC: a file that goes on differently is told apart by mcapfile
     "MCAP recording", _open_mcap, magic=b"\x89MCAP",
     takes=ANY_COUNT, vet=_vet_mcap, given_as=", or the parts of one in any order",
     # named a recording but not one: a damaged file, not a raw dump to decode as noise

@@ -149,7 +149,7 @@ class ChannelFile:
 def _tick(seconds: float, scale: float) -> int | None:
     """A time from the file as a tick; None if it is none (NaN, infinite, absurd)."""
     t = seconds * scale
-    return int(round(t)) if math.isfinite(t) and abs(t) < TICK_LIMIT else None
+    return round(t) if math.isfinite(t) and abs(t) < TICK_LIMIT else None
 
 
 class SaleaeBinary(Waveform):

@@ -98,7 +98,7 @@ class SaleaeDigitalCsv(Waveform):
                 yield self._block(times, values, levels)
             if (bad is not None or ended) and last > -np.inf:
                 # no row says when the capture ended: the levels hold a while (vcd.LEVELS_HOLD)
-                hold_end = int(round((last + LEVELS_HOLD) * TICKS_A_SECOND))
+                hold_end = round((last + LEVELS_HOLD) * TICKS_A_SECOND)
                 yield Block(hold_end, {c: Edges(NO_EDGES, max(levels[c], 0) if levels[c] >= 0 else 1)
                                        for c in range(width)})
             if bad is not None or ended:

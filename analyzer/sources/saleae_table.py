@@ -22,6 +22,7 @@ import csv
 import io
 import re
 from collections.abc import Iterator
+from typing import Any
 
 from dissectors import problems
 
@@ -39,6 +40,7 @@ MAX_SECONDS = 1e9
 _ESCAPES = {"\\0": 0, "\\a": 7, "\\b": 8, "\\t": 9, "\\n": 10, "\\v": 11, "\\f": 12, "\\r": 13,
             "\\\\": 92, "\\'": 39, '\\"': 34, "\\e": 27}
 _HEX_ESCAPE = re.compile(r"^\\x([0-9a-fA-F]{2})$")
+_RADIX = {"0x": 16, "0b": 2}   # a number's prefix, and its radix
 FAULTS = (("framing", problems.LINE_FRAMING), ("parity", problems.LINE_PARITY), ("break", problems.LINE_BREAK),
           ("overrun", problems.LINE_OVERRUN))
 
@@ -46,19 +48,17 @@ FAULTS = (("framing", problems.LINE_FRAMING), ("parity", problems.LINE_PARITY), 
 def byte_of(text: str) -> int:
     """The byte a ``data`` cell shows (ValueError if it shows none)."""
     t = text.strip() if len(text.strip()) > 0 else text
-    low = t.lower()
-    if low.startswith("0x") and len(t) > 2:
-        value = int(t[2:], 16)
-    elif low.startswith("0b") and len(t) > 2:
-        value = int(t[2:], 2)
+    radix = _RADIX.get(t[:2].lower())
+    if radix is not None and len(t) > 2:
+        value = int(t[2:], radix)
     elif t.isdigit() and len(t) > 1:
         value = int(t)
     elif len(t) == 3 and t[0] == t[2] == "'":
         value = ord(t[1])
     elif t in _ESCAPES:
         value = _ESCAPES[t]
-    elif _HEX_ESCAPE.match(t):
-        value = int(t[2:], 16)
+    elif (hex_escape := _HEX_ESCAPE.match(t)) is not None:
+        value = int(hex_escape.group(1), 16)
     elif len(t) == 1:
         value = ord(t)           # a character (a lone digit too: Logic's ASCII radix)
     else:
@@ -87,7 +87,7 @@ class AsyncSerialTable(Source):
         self.input = inp
         self.name = inp.name
         self.on_close(inp.close)
-        self.faults = []
+        self.faults: list[LineFault] = []
         self.description = inp.describe("Saleae Async Serial table")
         self.start_time = settings.start_time
         self._text = io.TextIOWrapper(inp.stream(), encoding="utf-8-sig", errors="replace", newline="")
@@ -127,7 +127,7 @@ class AsyncSerialTable(Source):
         """analyzer name → line."""
         listing = ", ".join(self._names) or "none"
         if given:
-            for line, name in given.items():
+            for name in given.values():
                 if name not in self._names:
                     raise CaptureError(f"{self.name}: no analyzer {name!r} in the table; the analyzers are {listing}")
             if set(given) == {LINE_B}:
@@ -144,7 +144,7 @@ class AsyncSerialTable(Source):
             return {self._names[0]: LINE_AB}
         return {self._names[0]: LINE_A, self._names[1]: LINE_B}
 
-    def measured_settings(self) -> dict:
+    def measured_settings(self) -> dict[str, Any]:
         """The rate the rows' durations give (a character of 8N1 lasting about
         ten bits), for the byte time; nothing when it is no standard rate."""
         durations = sorted(float(r[self._col["duration"]]) for _, r in self._ahead
@@ -165,7 +165,9 @@ class AsyncSerialTable(Source):
 
     def chunks(self) -> Iterator[Chunk]:
         col = self._col
-        run_line, run_start, run_bytes, run_faults = None, 0.0, bytearray(), []
+        run_line: str | None = None
+        run_start, run_bytes = 0.0, bytearray()
+        run_faults: list[tuple[int, problems.Problem]] = []   # (offset in the run, fault)
         last_start, last_len = 0.0, 0.0
         sent: dict[str, int] = {}
         try:
@@ -205,7 +207,8 @@ class AsyncSerialTable(Source):
         if self.input.problem:
             self.warn(self.input.problem)
 
-    def _flush(self, line: str, start: float, data: bytearray, faults: list, sent: dict[str, int]) -> Iterator[Chunk]:
+    def _flush(self, line: str, start: float, data: bytearray, faults: list[tuple[int, problems.Problem]],
+               sent: dict[str, int]) -> Iterator[Chunk]:
         at = sent.get(line, 0)
         for k, fault in faults:
             self.faults.append(LineFault(line, at + k, fault))
@@ -219,7 +222,3 @@ def _is_number(text: str) -> bool:
         return True
     except ValueError:
         return False
-
-
-def open_table(inputs: list[Input], settings: ReadSettings) -> Source:
-    return AsyncSerialTable(inputs[0], settings)

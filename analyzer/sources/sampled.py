@@ -21,6 +21,7 @@ import heapq
 from bisect import bisect_left
 from collections.abc import Callable, Iterator
 from operator import attrgetter
+from typing import Any
 
 from dissectors.wire import LineSettings
 
@@ -55,7 +56,7 @@ class SampledSource(Source):
         self.name = waveform.name
         self.description = description
         self.on_close(waveform.close)
-        self.faults = []
+        self.faults: list[LineFault] = []
         inst = settings.instrument
         self._blocks = waveform.blocks()
         self._ahead: list[Block] = []
@@ -237,6 +238,7 @@ class SampledSource(Source):
         # typed far too low, 104 samples a bit measure 0.0096 bit/s, named 1 bit/s
         if uart.started:
             samples, baud = uart.bit, uart.report.nominal
+            assert baud is not None   # a UART names the rate it starts at
         elif uart.too_fast and self._ended:   # a line not started may still start past its junk
             samples, baud = w.samplerate / uart.too_fast, named_rate(uart.too_fast)
         else:
@@ -263,9 +265,9 @@ class SampledSource(Source):
         for uart in self._uarts.values():
             uart.hint_rate(t * self.waveform.samplerate, settings.baud)
 
-    def measured_settings(self) -> dict:
+    def measured_settings(self) -> dict[str, Any]:
         """The serial settings the capture decodes with, as measured (the first
-        line's): the options take them unless given (analyzer/info.py)."""
+        line's): the options take them unless given (analyzer/capture/recorded.py)."""
         for report in self.physical.values():
             if report.nominal:
                 return {"baud": int(report.nominal), "data_bits": report.data_bits, "parity": report.parity,
@@ -314,6 +316,7 @@ class SampledSource(Source):
         sent = self._sent
         for tick, line, c in heapq.merge(*ready):
             uart = self._uarts[line]
+            assert uart.bit is not None   # its characters came: it knows its bit
             char_ticks = (uart.fmt.bits + 1) * uart.bit
             if run_line is not None and (line != run_line or tick - last > 1.5 * char_ticks):
                 yield Chunk(run_line, bytes(run_bytes), run_start / rate)

@@ -35,6 +35,7 @@ import queue
 import threading
 import time
 from collections.abc import Callable, Iterator
+from functools import partial
 
 import serial
 
@@ -99,17 +100,16 @@ class _ByteQueue(queue.Queue):
         return item
 
 
-def open_port(url: str, baud: int, data_bits: int, parity: str, stop_bits: float) -> serial.SerialBase:
+def open_port(url: str, baud: int, data_bits: int, parity: str, stop_bits: float) -> serial.Serial:
     """Open a port for reading, or raise CaptureError with one line saying why."""
     is_url = "://" in url
     if not is_url and not os.path.exists(url):
         raise CaptureError(f"{url}: no such serial port")
     try:
-        kw = dict(baudrate=baud, bytesize=data_bits, parity=PARITIES[parity.upper()], stopbits=stop_bits,
-                  timeout=READ_WAIT)
-        if not is_url:
-            kw["exclusive"] = True   # refuse a port another program holds
-        return serial.serial_for_url(url, **kw)
+        return serial.serial_for_url(url, baudrate=baud, bytesize=data_bits, parity=PARITIES[parity.upper()],
+                                     stopbits=stop_bits, timeout=READ_WAIT,
+                                     # a device: refuse a port another program holds (None: pyserial's default)
+                                     exclusive=None if is_url else True)
     except serial.SerialException as e:
         text = str(e)
         if "lock" in text.lower() or "busy" in text.lower() or "Errno 16" in text:
@@ -135,19 +135,19 @@ class SerialTap(Source):
         self.ports = list(ports)
         self.lines = (LINE_AB,) if len(ports) == 1 else (LINE_A, LINE_B)
         self.clocks = len(ports)
-        self._open: dict[str, serial.SerialBase] = {}    # each line's port now
+        self._open: dict[str, serial.Serial] = {}        # each line's port now
         self._watched: list[LineSettings] = []           # the settings whose changes its ports follow
         self.read_with({line: LineSettings(baud, data_bits, parity, stop_bits) for line in self.lines})
         self.description = " + ".join(self.ports)
         self.clock = clock
-        self.state = {line: "open" for line in self.lines}   # open, lost, reconnecting
+        self.state: dict[str, str] = {line: "open" for line in self.lines}   # open, lost, reconnecting
         self._queue: queue.Queue = _ByteQueue(QUEUE_BYTES)
         self._leftover: list[tuple] = []   # a reader's last read when stop found the queue full
         self._stop = threading.Event()
         self._serials = [open_port(p, *self._port_settings(line))   # fail early, one line
                          for line, p in zip(self.lines, self.ports)]
         self._open.update(zip(self.lines, self._serials))
-        self.start_time = clock()
+        self.start_time: float = clock()
         self._threads = [threading.Thread(target=self._reader, args=(line, port, ser), daemon=True,
                                           name=f"tap-{line}")
                          for line, port, ser in zip(self.lines, self.ports, self._serials)]
@@ -161,18 +161,20 @@ class SerialTap(Source):
             own = self.settings_of(line)
             if not any(own is seen for seen in self._watched):
                 self._watched.append(own)
-                own.watch(lambda changed, line=line: self._rate_changed(line, changed.baud))
+                own.watch(partial(self._rate_changed, line))
 
     def _port_settings(self, line: str) -> tuple[int, int, str, float]:
         """What ``open_port`` takes, from the line's settings now."""
         s = self.settings_of(line)
+        assert s.baud is not None   # a line's settings have a rate (only a deframer alone has none)
         return s.baud, s.data_bits, s.parity, s.stop_bits
 
-    def _rate_changed(self, line: str, baud: int) -> None:
-        """The line's port listens at ``baud`` from now on (the link's rate changed).
-        A port that refuses the rate is said, once, and keeps its old one."""
+    def _rate_changed(self, line: str, settings: LineSettings) -> None:
+        """The line's port listens at the rate of its ``settings`` from now on (the
+        link's rate changed). A port that refuses it is said, once, and keeps its old one."""
         ser = self._open.get(line)
-        if ser is None:
+        baud = settings.baud
+        if ser is None or baud is None:
             return
         try:
             ser.baudrate = baud
@@ -203,7 +205,7 @@ class SerialTap(Source):
                     self._leftover.append(item)
                     return
 
-    def _reader(self, line: str, port: str, ser: serial.SerialBase | None) -> None:
+    def _reader(self, line: str, port: str, ser: serial.Serial | None) -> None:
         put = self._put
         while not self._stop.is_set():
             if ser is None:
@@ -215,12 +217,12 @@ class SerialTap(Source):
                 if data and ser.in_waiting:
                     data += ser.read(ser.in_waiting)
             except (serial.SerialException, OSError, TypeError) as e:
-                put(("lost", line, self.clock(), f"{port}: lost ({e}); keeping what was captured, "
-                                                 f"reopening when it returns"))
+                put(("lost", line, self.clock(), (f"{port}: lost ({e}); keeping what was captured, "
+                                                  f"reopening when it returns")))
                 self.state[line] = "lost"
                 try:
                     ser.close()
-                except Exception:
+                except Exception:   # noqa: BLE001, S110 - a lost port may fail to close in any way: it is gone
                     pass
                 ser = None
                 continue
@@ -229,10 +231,10 @@ class SerialTap(Source):
         if ser is not None:
             try:
                 ser.close()
-            except Exception:
+            except Exception:   # noqa: BLE001, S110 - closing at the end: nothing left to tell
                 pass
 
-    def _reopen(self, line: str, port: str) -> serial.SerialBase | None:
+    def _reopen(self, line: str, port: str) -> serial.Serial | None:
         self.state[line] = "reconnecting"
         if self._stop.wait(REOPEN_EVERY):
             return None

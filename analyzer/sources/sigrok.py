@@ -87,10 +87,10 @@ class SigrokSession(PackedSamples):
                                "is not a rate (e.g. 1 MHz)") from None
         if rate <= 0:
             raise CaptureError(f"{inp.name}: the sigrok metadata gives no sample rate")
-        unitsize = device.get("unitsize", "1") or "1"
-        if unitsize not in ("1", "2", "4"):
-            raise CaptureError(f"{inp.name}: unitsize {unitsize[:40]!r} (1, 2 or 4 bytes a sample are read)")
-        unitsize = int(unitsize)
+        given = device.get("unitsize", "1") or "1"
+        if given not in ("1", "2", "4"):
+            raise CaptureError(f"{inp.name}: unitsize {given[:40]!r} (1, 2 or 4 bytes a sample are read)")
+        unitsize = int(given)
         probes = sorted((int(k[5:]), v) for k, v in device.items() if re.fullmatch(r"probe\d+", k))
         if not probes:
             raise CaptureError(f"{inp.name}: the session has no logic channels")
@@ -163,7 +163,7 @@ class _Members:
             self.size = os.path.getsize(path)
             self.zip: zipfile.ZipFile | None = zipfile.ZipFile(path)
             self.names = self.zip.namelist()
-            self.local: dict[str, tuple[int, int, int]] = {}
+            self.local: dict[str, tuple[int, int, int, int]] = {}
         except zipfile.BadZipFile:
             self.zip = None
             self.local, self.cut = _walk_local_headers(path)

@@ -58,6 +58,7 @@ import re
 import time
 from collections.abc import Callable, Iterator
 from datetime import UTC, datetime, timedelta, tzinfo
+from typing import BinaryIO
 
 from dissectors.wire import LineSettings
 
@@ -184,13 +185,13 @@ class _Readings:
         self.nanoseconds = nanoseconds
         # both readings per date and time: which one a header takes depends on the
         # stamps before it, and a second holds many headers
-        self._cache: dict[bytes, tuple[int, int]] = {}
+        self.cache: dict[bytes, tuple[int, int]] = {}
 
     @property
     def zone_name(self) -> str:
         if self.zone is None:
             return "this machine's zone"
-        return getattr(self.zone, "key", None) or str(self.zone)
+        return str(self.zone)   # a ZoneInfo (``time_zone``): its key
 
     def of(self, m: re.Match) -> tuple[int, int, float]:
         """(first-pass epoch, repeated-hour epoch, fraction) of header ``m``. The
@@ -198,12 +199,12 @@ class _Readings:
         stay exact, and equal outside a repeated hour. ValueError or OverflowError
         for a date or time that cannot be."""
         key = m.group(2)
-        passes = self._cache.get(key)
+        passes = self.cache.get(key)
         if passes is None:
             passes = self._passes(key)
-            if len(self._cache) > 4096:
-                self._cache.clear()
-            self._cache[key] = passes
+            if len(self.cache) > 4096:
+                self.cache.clear()
+            self.cache[key] = passes
         return passes[0], passes[1], self.fraction(m.group(3))
 
     def fraction(self, digits: bytes) -> float:
@@ -222,8 +223,9 @@ class _Readings:
         # a time skipped at a spring-forward reads earlier with fold=1: keep one reading
         return first, max(first, repeated)
 
-    def _epoch(self, date_hour_minute: tuple[int, ...], second: int, fold: int) -> int:
-        return int(datetime(*date_hour_minute, second, tzinfo=self.zone, fold=fold).timestamp())
+    def _epoch(self, date_hour_minute: tuple[int, int, int, int, int], second: int, fold: int) -> int:
+        year, month, day, hour, minute = date_hour_minute
+        return int(datetime(year, month, day, hour, minute, second, tzinfo=self.zone, fold=fold).timestamp())
 
     def _wall(self, epoch: float) -> datetime:
         """The epoch as the zone's clock shows it (aware, with the offset of the moment)."""
@@ -280,7 +282,7 @@ class _Timeline:
         with the common case in one call, as this runs once per chunk (ValueError
         or OverflowError for a date or time that cannot be)."""
         readings = self.readings
-        passes = readings._cache.get(m.group(2))
+        passes = readings.cache.get(m.group(2))
         latest = self.latest
         if passes is None or passes[0] != passes[1] or latest is None or self.shift is not _NO_SHIFT:
             return self.place(readings.of(m), m, line_no)
@@ -316,7 +318,7 @@ class _Timeline:
             self.latest = (sec, frac)
             return self.latest
         if ahead < -STEP_TOLERANCE:
-            return self._step_back((sec, frac), -ahead, m, line_no)
+            return self._step_back((sec, frac), -ahead, latest, m, line_no)
         return sec, frac
 
     def _reading_of_repeated_time(self, readings: tuple[int, int, float], line_no: int) -> int:
@@ -324,18 +326,15 @@ class _Timeline:
         after a fall-back the repeated one (said once); a stamp of the first pass
         written a little late (jitter) stays in the first pass."""
         first, repeated, frac = readings
-        if self.latest is None:
+        latest = self.latest
+        if latest is None:
             return first   # nothing before it tells: the first pass
-        first_ahead = self._ahead((first + self.shift[0], frac + self.shift[1]))
+        first_ahead = _ahead((first + self.shift[0], frac + self.shift[1]), latest)
         if abs(first_ahead + (repeated - first)) >= abs(first_ahead):
             return first
         if not self.repeating:
             self._say_fall_back(first, repeated, line_no)
         return repeated
-
-    def _ahead(self, stamp: tuple[int, float]) -> float:
-        """How far ``stamp`` is after the latest one (negative: before it)."""
-        return (stamp[0] - self.latest[0]) + (stamp[1] - self.latest[1])
 
     def _say_fall_back(self, first: int, repeated: int, line_no: int) -> None:
         at = self.readings.fall_back_at(first, repeated)
@@ -343,16 +342,21 @@ class _Timeline:
             self.fall_backs_said.add(at)
             self.tally.add("fall-back", line_no, self.readings.fall_back_text(at, first, repeated))
 
-    def _step_back(self, stamp: tuple[int, float], back: float, m: re.Match,
+    def _step_back(self, stamp: tuple[int, float], back: float, latest: tuple[int, float], m: re.Match,
                    line_no: int) -> tuple[int, float]:
         """The clock was set back by ``back`` s at ``stamp``: it and later stamps
-        move forward so the time line follows on from the latest stamp."""
-        self.shift = (self.shift[0] + self.latest[0] - stamp[0], self.shift[1] + self.latest[1] - stamp[1])
+        move forward so the time line follows on from the ``latest`` stamp."""
+        self.shift = (self.shift[0] + latest[0] - stamp[0], self.shift[1] + latest[1] - stamp[1])
         when = m.group(2).decode("ascii")
         hint = f" (a log from another zone than {self.readings.zone_name}?)" if back >= ZONE_HINT_STEP else ""
         self.tally.add("step", line_no, f"the clock steps back {_span(back)} at {when}{hint}: "
                                         f"read as following on from the time before")
-        return self.latest
+        return latest
+
+
+def _ahead(stamp: tuple[int, float], latest: tuple[int, float]) -> float:
+    """How far ``stamp`` is after ``latest`` (negative: before it)."""
+    return (stamp[0] - latest[0]) + (stamp[1] - latest[1])
 
 
 # the chunk being read, from its header: line, (whole seconds, fraction) of its
@@ -416,7 +420,7 @@ class SocatLogSource(Source):
         if self.input.problem:
             self.warn(self.input.problem)
 
-    def _parse(self, f, tally: _Tally) -> Iterator[Chunk]:
+    def _parse(self, f: BinaryIO, tally: _Tally) -> Iterator[Chunk]:
         """The chunks of the log ``f``; problems go to ``tally`` (see module doc).
         The loop runs once a line of the log and reads hex lines, the most
         common, itself; a header and any other line go to the methods below."""

@@ -26,7 +26,7 @@ first, removed when the source is closed.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 from dissectors import problems
 from dissectors.wire import LineSettings
@@ -69,7 +69,7 @@ class USBSerialSource(Source):
     def __init__(self, inp: Input, settings: ReadSettings) -> None:
         super().__init__()
         self.name = inp.name
-        self.faults = []
+        self.faults: list[LineFault] = []
         self.line_settings = {line: LineSettings.timed_by(settings.byte_time) for line in self.lines}
         path, temporary = inp.as_regular_file()
         inp.close()
@@ -89,7 +89,7 @@ class USBSerialSource(Source):
         self._origin_ns = found.first_ns or 0
         self.start_time = self._origin_ns / 1e9
 
-    def _urbs(self, warn, counted: bool = False) -> Iterator[usb.Urb]:
+    def _urbs(self, warn: Callable[[str], None], counted: bool = False) -> Iterator[usb.Urb]:
         """The capture's URB events; ``counted``: the read the progress meter
         follows (the survey before it is not)."""
         try:
@@ -106,6 +106,7 @@ class USBSerialSource(Source):
         dev = choice.device
         bus, address = dev.bus, dev.address
         decoder = _decoder(choice)
+        cp210x = decoder if isinstance(decoder, Cp210xIn) else None   # (its event insertion is asked for)
         origin = self._origin_ns
         sent: dict[int, tuple[int, bytes]] = {}    # OUT data waiting for its completion, by URB id
         asked: dict[int, usb.Setup] = {}           # CP210x requests waiting for theirs
@@ -140,8 +141,8 @@ class USBSerialSource(Source):
                         data = data[:u.length]   # taken only in part
                     chunk, a_free = self._out_chunk(ns, data, a_free)
                     yield chunk
-            elif u.transfer == usb.CONTROL and choice.adapter == CP210X:
-                self._cp210x_request(u, asked, decoder)
+            elif u.transfer == usb.CONTROL and cp210x is not None:
+                self._cp210x_request(u, asked, cp210x)
         for ns, data in sorted(sent.values(), key=lambda s: s[0]):   # the capture ended before they completed
             chunk, a_free = self._out_chunk(ns, data, a_free)
             yield chunk
@@ -152,7 +153,7 @@ class USBSerialSource(Source):
         return Chunk(LINE_A, data, round(t, 9)), t + len(data) * byte_time
 
     @staticmethod
-    def _cp210x_request(u: usb.Urb, asked: dict[int, usb.Setup], decoder) -> None:
+    def _cp210x_request(u: usb.Urb, asked: dict[int, usb.Setup], decoder: Cp210xIn) -> None:
         """Event insertion turned on or off, once the request succeeded."""
         if u.setup is not None:
             setup = usb.setup_of(u.setup)
@@ -160,16 +161,16 @@ class USBSerialSource(Source):
                                                                                 CP210X_IFC_ENABLE):
                 asked[u.urb_id] = setup
             return
-        setup = asked.pop(u.urb_id, None) if u.completion else None
-        if setup is None or u.status != 0:
+        done = asked.pop(u.urb_id, None) if u.completion else None
+        if done is None or u.status != 0:
             return
-        if setup.request == CP210X_EMBED_EVENTS:
-            decoder.events(setup.value & 0xFF or None)
-        elif setup.value == 0:   # the UART turned off: event insertion ends with it
+        if done.request == CP210X_EMBED_EVENTS:
+            decoder.events(done.value & 0xFF or None)
+        elif done.value == 0:   # the UART turned off: event insertion ends with it
             decoder.events(None)
 
 
-def _decoder(choice: Choice):
+def _decoder(choice: Choice) -> FtdiIn | Cp210xIn | Raw:
     if choice.adapter == FTDI:
         return FtdiIn(choice.max_packet)
     if choice.adapter == CP210X:

@@ -10,7 +10,7 @@ known from all of its traffic, not from its first packets.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from ..errors import CaptureError
@@ -32,7 +32,7 @@ _SERIAL_CLASSES = (0xFF, 0x02, 0x0A)   # vendor specific, CDC, CDC data: an inte
 @dataclass
 class Pipe:
     """One bulk endpoint's traffic."""
-    bytes: int = 0
+    moved: int = 0                    # bytes, every transfer
     transfers: int = 0
     status_only: int = 0              # IN transfers of two bytes (FTDI's idle polls)
     ftdi_like: bool = True            # every IN transfer starts as an FTDI packet does
@@ -41,7 +41,7 @@ class Pipe:
     first_transfer: bytes = b""       # the first IN transfer's head: its modem status tells the packet size
 
     def took(self, data: bytes, incoming: bool) -> None:
-        self.bytes += len(data)
+        self.moved += len(data)
         self.transfers += 1
         if not incoming:
             return
@@ -87,7 +87,7 @@ class Device:
 
     def in_pipe(self) -> Pipe | None:
         """The IN endpoint that carried the most."""
-        return max(self.ins.values(), key=lambda p: (p.bytes - 2 * p.status_only, p.transfers), default=None)
+        return max(self.ins.values(), key=lambda p: (p.moved - 2 * p.status_only, p.transfers), default=None)
 
     def max_packet(self, number: int) -> int:
         """An FTDI IN endpoint's packet size: its endpoint descriptor's, else what
@@ -105,10 +105,10 @@ class Device:
         if adapter == FTDI:
             number = next(n for n, p in self.ins.items() if p is pipe)
             return pipe.payload_64 if self.max_packet(number) == 64 else pipe.payload_512
-        return pipe.bytes
+        return pipe.moved
 
     def bytes_out(self) -> int:
-        return max((p.bytes for p in self.outs.values()), default=0)
+        return max((p.moved for p in self.outs.values()), default=0)
 
     def maybe_serial(self) -> bool:
         """Could its bulk endpoints be a serial port? Not when its configuration
@@ -240,9 +240,9 @@ def _how(dev: Device, name: str, given: str | None) -> Choice:
                      "(--adapter ftdi|cp210x|ch34x says otherwise)")
     elif given is None and how != "enumeration":
         notes.append(f"{where}: {_guess_text(dev, adapter, how)}; --adapter ftdi|cp210x|ch34x says otherwise")
-    in_ep = _busiest(dev.ins, lambda p: p.bytes - 2 * p.status_only)
+    in_ep = _busiest(dev.ins, lambda p: p.moved - 2 * p.status_only)
     out_ep = _out_of_same_port(dev, in_ep)
-    others = sorted({0x80 | n for n, p in dev.ins.items() if n != in_ep and p.bytes > 2 * p.status_only}
+    others = sorted({0x80 | n for n, p in dev.ins.items() if n != in_ep and p.moved > 2 * p.status_only}
                     | {n for n in dev.outs if n != out_ep})
     if others:
         notes.append(f"{where}: bulk data on more endpoints than one port's: reading IN "
@@ -264,7 +264,7 @@ def _guess_text(dev: Device, adapter: str | None, how: str) -> str:
             "they are (a CH340, or a CP210x without event insertion)")
 
 
-def _busiest(pipes: dict[int, Pipe], weight) -> int | None:
+def _busiest(pipes: dict[int, Pipe], weight: Callable[[Pipe], int]) -> int | None:
     return max(pipes, key=lambda n: (weight(pipes[n]), -n), default=None)
 
 
@@ -278,7 +278,7 @@ def _out_of_same_port(dev: Device, in_ep: int | None) -> int | None:
                     if ep.interface == interface and ep.transfer == usb.BULK and not ep.address & 0x80]
             if mine:
                 return mine[0]
-    return _busiest(dev.outs, lambda p: p.bytes)
+    return _busiest(dev.outs, lambda p: p.moved)
 
 
 def _ep(address: int | None) -> str:

@@ -29,7 +29,7 @@ from ..words import counted
 from .base import ReadSettings, Source
 from .files import Input
 from .sigrok import parse_samplerate
-from .vcd_body import BodyScanner
+from .vcd_body import BodyParser
 
 BLOCK_BYTES = 4 << 20        # body read this much at a time
 # A list of transitions need not say when the capture ended: after the last one
@@ -127,6 +127,7 @@ class ValueChangeDump(Waveform):
         if header.unit is None:
             header.unit = 1e-9
             self.notes.append(f"{inp.name}: no $timescale: times read as nanoseconds")
+        self.unit: float = header.unit          # seconds a tick
         if header.wide:
             shown = ", ".join(header.wide[:5]) + (", …" if len(header.wide) > 5 else "")
             self.notes.append(f"{inp.name}: {counted(len(header.wide), 'variable')} wider than 1 bit left out "
@@ -164,7 +165,7 @@ class ValueChangeDump(Waveform):
             data += more
 
     def blocks(self) -> Iterator[Block]:
-        scanner = BodyScanner(self.header.ids, len(self.channels))
+        parser = BodyParser(self.header.ids, len(self.channels))
         line = self.body_line
         data, ended = self.rest, False
         searched = 0                            # data[:searched] has no #time to cut at
@@ -191,35 +192,35 @@ class ValueChangeDump(Waveform):
                 else:
                     body, data = data[:cut], data[cut:]
                 searched = 0
-            levels = {ch: scanner.level[ch] for ch in range(len(self.channels))}
-            times = scanner.scan(body)
-            if scanner.bad is not None:
-                at, why = scanner.bad
+            levels = {ch: parser.level[ch] for ch in range(len(self.channels))}
+            times = parser.parse(body)
+            if parser.bad is not None:
+                at, why = parser.bad
                 where = line + body.count(b"\n", 0, at)
                 self.problem = f"{self.name}: line {where}: {why}: read up to there"
             m = _TIME.match(data)
-            if m and scanner.bad is None and not ended:
+            if m and parser.bad is None and not ended:
                 end = int(m.group(1))
-            elif scanner.ends_bare and scanner.bad is None:
-                end = scanner.time + 1          # a last #time with no change: the capture's end
+            elif parser.ends_bare and parser.bad is None:
+                end = parser.time + 1          # a last #time with no change: the capture's end
             else:
-                end = scanner.time + 1 + int(LEVELS_HOLD / self.header.unit)
+                end = parser.time + 1 + int(LEVELS_HOLD / self.unit)
             if ended and self.input.problem and self.problem is None:
                 self.problem = self.input.problem
-            yield self._block(times, levels, scanner, end)
-            if scanner.bad is not None:
+            yield self._block(times, levels, parser, end)
+            if parser.bad is not None:
                 return
             line += body.count(b"\n")
 
-    def _block(self, times: list[np.ndarray], levels: dict[int, int], scanner: BodyScanner, end: int) -> Block:
+    def _block(self, times: list[np.ndarray], levels: dict[int, int], parser: BodyParser, end: int) -> Block:
         edges = {}
         for ch, t in enumerate(times):
-            level = levels[ch] if levels[ch] >= 0 else scanner.first_level.get(ch, 1)
+            level = levels[ch] if levels[ch] >= 0 else parser.first_level.get(ch, 1)
             if self.scale != 1.0:
                 t = np.rint(t * self.scale).astype(np.int64)
             edges[ch] = Edges(t, level)
         if self.scale != 1.0:
-            end = int(round(end * self.scale))
+            end = round(end * self.scale)
         return Block(end, edges)
 
     def close(self) -> None:

@@ -43,7 +43,7 @@ def pack_id(ident: bytes) -> int:
     return int.from_bytes(ident, "little")
 
 
-class BodyScanner:
+class BodyParser:
     """Turns blocks of the body into each channel's edge times (in the file's
     time unit). ``ids``: identifier code → channel index, 1-bit variables only."""
 
@@ -61,7 +61,7 @@ class BodyScanner:
         self.ends_bare = False               # the last token read was a #time (no change after it)
         self.bad: tuple[int, str] | None = None   # (byte offset in the block, why) of what stopped the reading
 
-    def scan(self, buf: bytes) -> list[np.ndarray]:
+    def parse(self, buf: bytes) -> list[np.ndarray]:
         """Each channel's edge times in ``buf`` (whole tokens). After a token that
         cannot be read, ``bad`` says where and the edges stop before it."""
         b = np.frombuffer(buf, dtype=np.uint8)

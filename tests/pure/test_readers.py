@@ -15,6 +15,8 @@ from typing import Iterator
 import pytest
 from mcap.writer import Writer
 
+import analyzer
+from analyzer.runner import TapRunner
 from analyzer.sources import (LINE_AB, CaptureError, Chunk, Input, RawDumpSource, Reader, ReadSettings,
                               SocatLogSource, Source, detect, formats, registry)
 from analyzer.sources.mcapfile import McapSource
@@ -233,6 +235,24 @@ def test_a_registered_reader_that_takes_one_input_refuses_two(tmp_path, toy_regi
     with pytest.raises(CaptureError) as e:
         detect([BUS, str(p)], BT)
     assert str(e.value) == f"{p}: a toy capture is one input; give it on its own"
+
+
+def test_a_new_format_that_declares_nothing_more_is_read_as_a_file_of_bytes(tmp_path, toy_registered):
+    # what the capture, the runner and CaptureInfo may ask of any source is declared
+    # on Source, each with a file's answer: the toy declares none of it
+    p = tmp_path / "bus.toy"
+    p.write_bytes(TOY_MAGIC + CMD + ACK)
+    capture = analyzer.open(str(p))
+    src = capture.source
+    assert not src.live and not src.input_per_line and not src.carries_metadata
+    assert (src.physical, src.metadata, src.metadata_problem, src.faults) == (None, None, None, None)
+    assert dict(src.state) == {} and src.measured_settings() == {} and src.time_origin == ""
+    src.stop()   # a file ends by itself
+    runner = TapRunner(capture)
+    assert runner.run() == 2
+    assert not runner.live and runner.line_states() == {} and runner.physical is None and runner.faults is None
+    assert not runner.info.live and runner.info.time_origin == "" and not runner.info.line_errors
+    assert capture.warnings == []   # no metadata record is missed: it is no recording
 
 
 def test_the_registry_is_restored_after_the_toy():

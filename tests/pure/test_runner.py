@@ -51,6 +51,13 @@ class Journal(Listener):
         self.log.append((self.name, "stop"))
 
 
+def test_a_listener_holds_nothing_to_close_and_says_nothing_for_the_screen_alone():
+    # (a Foxglove server overrides both: it serves from the moment it is made)
+    listener = Listener()
+    listener.close()
+    assert listener.announcement is None
+
+
 def test_every_listener_hears_start_chunks_events_and_stop_in_order(tmp_path):
     log: list = []
     capture = analyzer.open(*two_dumps(tmp_path))

@@ -135,7 +135,7 @@ def test_short_packets_are_no_urbs():
 def test_usbpcap_setup_stage_carries_the_setup_packet():
     c = UsbCapture(bus=2)
     c.vendor(0.0, 5, 0x41, 0x15, 0xEC)
-    sub, done = [c.usbpcap(e) for e in c._ordered()]
+    sub, done = [c.usbpcap(e) for e in c.ordered()]
     u = usb.urb_of(249, 0, "<", sub)
     assert (u.transfer, u.completion, u.device, u.bus) == (CTRL, False, 5, 2)
     assert usb.setup_of(u.setup) == usb.Setup(0x41, 0x15, 0xEC, 0, 0)
