@@ -2,7 +2,7 @@
 ``/serial/B/raw``, or ``/serial/AB/raw``) are read back and re-dissected, so a
 newer dissector re-decodes an old recording.
 
-Nothing in the file is trusted (``mcapscan`` bounds every length). What cannot be
+Nothing in the file is trusted (``mcapwalk`` bounds every length). What cannot be
 read is said once, with its byte offset, and the rest is read:
 
 - a file from a killed tap has no summary: it is read up to where it ends;
@@ -41,9 +41,10 @@ the source saw them (``line_errors: yes``), the line's own errors on the raw
 chunks (``faults``, each told before the chunk holding its byte, at its offset
 on its line as this recording reads it).
 
-Large files are read in a second process: decompressing and parsing the raw
-messages cost as much as dissecting them, and a second core does it meanwhile
-(re-dissection went from 42% to over 50% of raw-dump decode speed).
+Large files are read in a second process (analyzer/worker_process.py): decompressing
+and parsing the raw messages cost as much as dissecting them, and a second core
+does it meanwhile (re-dissection went from 42% to over 50% of raw-dump decode
+speed). Where no process can be had, the file is read here.
 """
 
 from __future__ import annotations
@@ -52,18 +53,16 @@ import json
 import os
 import pickle
 import struct
-import subprocess
-import sys
 from binascii import a2b_base64
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from functools import partial
 from itertools import chain
+from typing import Any, BinaryIO
 
-try:
-    from orjson import loads as json_loads
-except ImportError:  # pragma: no cover
-    json_loads = json.loads
+from mcap.records import Channel, Metadata, Schema
+from orjson import loads as json_loads
 
+from .. import worker_process
 from ..errors import CaptureError
 from ..formats.mcap_lines import LINES_RECORD, faults_of, reports_of
 from ..formats.mcap_schemas import READS_TOPIC  # lean recordings: the reads of every line, batched
@@ -71,7 +70,7 @@ from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
 from ..outfile import show
 from .base import ReadSettings, Source
 from .files import Input, open_input
-from .mcapscan import (
+from .mcapwalk import (
     MAGIC,
     MESSAGE_HEAD,
     OP_CHANNEL,
@@ -131,6 +130,8 @@ class McapSource(Source):
     """``path`` is read; ``name`` (default: the path) is what messages call it, e.g.
     the user's name for a recording copied to a temporary file."""
 
+    carries_metadata = True
+
     def __init__(self, path: str, name: str | None = None) -> None:
         super().__init__()
         self.path = path
@@ -158,49 +159,21 @@ class McapSource(Source):
     # ------------------------------------------------------------------ reading
     def _batches(self, topics: list[str], pairs: bool = False, need_t: bool | None = None,
                  note: Note | None = None, only: str | None = None,
-                 errors: list[LineFault] | None = None) -> Iterator[list]:
+                 errors: list[LineFault] | None = None) -> Generator[list]:
         """The raw chunks of ``topics`` in file order, a list per MCAP chunk: ``Chunk``s,
         or with ``pairs`` (log time in ns, ``Chunk``). ``need_t``: the recording has
         time (True), has none (False), or not known yet (None); a message that
         disagrees is not a raw chunk of this recording. Problems go to ``note``.
         ``only``: the chunks of that line only (of a lean recording's reads).
         ``errors``: where the chunks' line errors go (``faults``), before their list."""
-        note = note or self._say
         p = _Pass(topics, pairs, need_t, only, errors)
-        with open_input(self.path) as f:
-            size = os.fstat(f.fileno()).st_size
-            if f.read(len(MAGIC)) != MAGIC:
-                raise CaptureError(f"{self.label}: not an MCAP file (it does not start with the MCAP magic "
-                                   "bytes of version 0)")
-            # channels registered without any message are only in the summary
-            for op, body in summary_records(f, size, (OP_SCHEMA, OP_CHANNEL)):
-                _read_records(_record(op, body), p, [])
-            walk = Walk(f, size)
-            for offset, op, body in walk.records(_BODIES):
-                out = _read_record(offset, op, body, p, note)
-                if out:
-                    yield out
-            salvaged = []
-            if walk.tail is not None:   # a chunk cut short by the end of the file: its first part
-                _read_records(_cut_chunk_records(walk.tail[1], p.encodings), p, salvaged)
-                if salvaged:
-                    yield salvaged
-            if walk.stop:
-                note(_LOST if walk.lost else _CUT, f"ends early ({walk.stop})" + (
-                    f"; {len(salvaged)} raw chunks read from the part of it that is there" if salvaged else ""))
-        self._raw_channels = {line for line, _decode in p.wanted.values() if line != _BATCHED} | p.batched_lines
-        for line, (count, first) in p.foreign.items():
-            if line == _BATCHED:
-                topic, why = READS_TOPIC, _diagnose_reads(first, need_t)
-            else:
-                topic, why = f"/serial/{line}/raw", _diagnose(first, need_t)
-            note(_FOREIGN, f"{count} messages on {topic} were not gimbalscope raw chunks (the first: {why})"
-                 if count > 1 else f"1 message on {topic} was not a gimbalscope raw chunk ({why})")
+        yield from _raw_batches(self.path, self.label, p, note or self._say)
+        self._raw_channels = p.raw_channels()
 
     def _say(self, kind: str, text: str) -> None:
         """A problem as a warning, once (two-line untimed recordings are read a
         line at a time, each pass finding the same damage)."""
-        msg = f"{self.label}: {text}{_ENDINGS[kind]}"
+        msg = _problem(self.label, kind, text)
         if msg not in self._said:
             self._said.add(msg)
             self.warn(msg)
@@ -227,7 +200,7 @@ class McapSource(Source):
             return ((LINE_AB,) if self._raw_channels == {LINE_AB} else (LINE_A, LINE_B)), False, None
         log_time, t = first
         self.first_log_ns = log_time
-        self.origin_ns = log_time - (int(round(t * 1e9)) if t is not None else 0)   # as the recorder adds it
+        self.origin_ns = log_time - (round(t * 1e9) if t is not None else 0)   # as the recorder adds it
         start = log_time / 1e9 - (t or 0)
         lines = (LINE_AB,) if LINE_AB in seen else (LINE_A, LINE_B)
         return lines, t is not None, (start if EPOCH[0] <= start <= EPOCH[1] else None)
@@ -302,44 +275,46 @@ class McapSource(Source):
 
     def chunks(self) -> Iterator[Chunk]:
         if os.path.getsize(self.path) < READER_PROCESS_MIN:
-            return chain.from_iterable(self._batches(self._topics(), need_t=self.timed, errors=self.faults))
+            return self._chunks_here()
         return self._chunks_from_reader_process()
 
+    def _chunks_here(self) -> Iterator[Chunk]:
+        return chain.from_iterable(self._batches(self._topics(), need_t=self.timed, errors=self.faults))
+
     def _chunks_from_reader_process(self) -> Iterator[Chunk]:
-        # A fresh interpreter (not multiprocessing's fork: with the TUI's or a tap's
-        # threads running, a forked child can inherit a lock one of them holds; and
-        # its spawn re-imports the caller's main module).
-        proc = subprocess.Popen([sys.executable, "-m", __name__, self.path, self.label, ",".join(self.lines),
-                                 "timed" if self.timed else "untimed",
-                                 "line_errors" if self.faults is not None else "-"], stdin=subprocess.DEVNULL,
-                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        worker = worker_process.start(_read_in_process, (self.path, self.label, self._topics(), self.timed,
+                                                         self.faults is not None))
+        if worker is None:   # no process to be had: read here
+            yield from self._chunks_here()
+            return
         try:
             while True:
                 try:
-                    item = pickle.load(proc.stdout)
+                    item = worker.messages.recv()
                 except (EOFError, pickle.UnpicklingError):
                     raise CaptureError(f"{self.label}: the MCAP reader process ended unexpectedly") from None
-                if item is None:
+                if isinstance(item, list):
+                    yield from map(_as_chunk, item)
+                elif isinstance(item, tuple):
+                    self._hear_reader(*item)
+                else:   # None: the file is read
                     return
-                if isinstance(item, tuple):       # ("warn" | "error" | "progress" | "faults", what)
-                    if item[0] == "faults":          # line errors, before the chunks holding their bytes
-                        self.faults.extend(item[1])
-                        continue
-                    if item[0] == "progress":
-                        READS.report(self.path, item[1])   # the progress bar's (analyzer/listeners/progress.py)
-                        continue
-                    if item[0] == "error":
-                        raise CaptureError(item[1])
-                    if item[1] not in self._said:
-                        self._said.add(item[1])
-                        self.warn(item[1])
-                    continue
-                yield from map(_as_chunk, item)
         finally:
-            if proc.poll() is None:
-                proc.kill()   # the consumer stopped early (| head, quit)
-            proc.stdout.close()
-            proc.wait()
+            worker.messages.close()   # first: a reader still sending (| head, quit) is ended by it
+            worker.end()
+
+    def _hear_reader(self, kind: str, what: Any) -> None:
+        """What the reader process says beside the chunks (``_read_in_process``)."""
+        if kind == "faults":     # line errors, before the chunks holding their bytes
+            assert self.faults is not None   # sent only when asked for
+            self.faults.extend(what)
+        elif kind == "progress":
+            READS.report(self.path, what)   # the progress bar's (analyzer/listeners/progress.py)
+        elif kind == "error":
+            raise CaptureError(what)
+        elif what not in self._said:   # a warning
+            self._said.add(what)
+            self.warn(what)
 
     def line_chunks(self, line: str) -> Iterator[Chunk]:
         return chain.from_iterable(self._batches([f"/serial/{line}/raw", READS_TOPIC], need_t=self.timed,
@@ -390,7 +365,7 @@ _MESSAGE_LOG_TIME = 6               # in a Message record's body, after its chan
 Found = tuple[dict[str, str] | None, str | None]   # (metadata, why it cannot be read)
 
 
-def read_metadata(f, size: int, name: str = METADATA_NAME, last: bool = False) -> Found:
+def read_metadata(f: BinaryIO, size: int, name: str = METADATA_NAME, last: bool = False) -> Found:
     """The metadata record ``name`` (the ``gimbalscope`` one by default) of the MCAP
     file ``f`` (``size`` bytes): through the summary's metadata index when it has
     one, else by walking the data section; the first that reads, or with ``last``
@@ -431,7 +406,7 @@ def _is_named(found: str | None, name: str, written_again: bool = False) -> bool
         and found[len(name) + 1:].isdigit()
 
 
-def _indexed_metadata(f, size: int, name: str, written_again: bool = False) -> list[int] | None:
+def _indexed_metadata(f: BinaryIO, size: int, name: str, written_again: bool = False) -> list[int] | None:
     """The offsets the summary's metadata index gives for records named ``name``
     (``written_again``: and its later writes), in file order, or None when there
     is no index to go by (no summary, none in it, or damaged)."""
@@ -451,7 +426,7 @@ def _indexed_metadata(f, size: int, name: str, written_again: bool = False) -> l
     return sorted(offsets)
 
 
-def _metadata_at(f, size: int, offset: int, name: str, written_again: bool = False) -> Found:
+def _metadata_at(f: BinaryIO, size: int, offset: int, name: str, written_again: bool = False) -> Found:
     """The record the metadata index points to at ``offset``."""
     where = f"the metadata index points to byte {offset}"
     if not len(MAGIC) <= offset <= size - RECORD_HEAD:
@@ -493,13 +468,14 @@ def _metadata_of(body: bytes, offset: int, name: str = METADATA_NAME) -> Found:
         record = parse(OP_METADATA, body)
     except Damaged as e:
         return None, f"{where} is damaged ({e})"
+    assert isinstance(record, Metadata)   # as parsed for OP_METADATA
     meta = record.metadata
     if not isinstance(meta, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in meta.items()):
         return None, f"{where} holds values that are not strings"
     return dict(meta), None
 
 
-def last_log_time(f, size: int) -> int | None:
+def last_log_time(f: BinaryIO, size: int) -> int | None:
     """The log time (ns) of the last message of the MCAP file ``f``: the summary's
     statistics when it has them, else the latest of its chunks' headers and of
     the messages outside chunks, found by seeking from record to record."""
@@ -516,7 +492,7 @@ def last_log_time(f, size: int) -> int | None:
     return latest
 
 
-def _record_heads(f, size: int) -> Iterator[tuple[int, int]]:
+def _record_heads(f: BinaryIO, size: int) -> Iterator[tuple[int, int]]:
     """(opcode, body offset) of each Chunk and Message record of the data section
     long enough to hold its times, read by their headers only; up to the first
     record that runs past the end."""
@@ -563,6 +539,48 @@ class _Pass:
         self.base64: set[int] = set()         # schema ids whose 'data' is base64 (else hex)
         self.encodings: dict[int, str] = {}   # every channel id → its message encoding
         self.foreign: dict[str, list] = {}    # line → [messages that are not ours, the first one]
+
+    def raw_channels(self) -> set[str]:
+        """The lines with a raw channel (known after a whole read)."""
+        return {line for line, _decode in self.wanted.values() if line != _BATCHED} | self.batched_lines
+
+
+def _problem(label: str, kind: str, text: str) -> str:
+    """A problem found while reading ``label``, as the warning says it."""
+    return f"{label}: {text}{_ENDINGS[kind]}"
+
+
+def _raw_batches(path: str, label: str, p: _Pass, note: Note) -> Iterator[list]:
+    """``McapSource._batches`` of the file ``path`` (``label`` in messages), with
+    what the read knows so far in ``p``."""
+    with open_input(path) as f:
+        size = os.fstat(f.fileno()).st_size
+        if f.read(len(MAGIC)) != MAGIC:
+            raise CaptureError(f"{label}: not an MCAP file (it does not start with the MCAP magic "
+                               "bytes of version 0)")
+        # channels registered without any message are only in the summary
+        for op, body in summary_records(f, size, (OP_SCHEMA, OP_CHANNEL)):
+            _read_records(_record(op, body), p, [])
+        walk = Walk(f, size)
+        for offset, op, body in walk.records(_BODIES):
+            out = _read_record(offset, op, body, p, note)
+            if out:
+                yield out
+        salvaged: list = []
+        if walk.tail is not None:   # a chunk cut short by the end of the file: its first part
+            _read_records(_cut_chunk_records(walk.tail[1], p.encodings), p, salvaged)
+            if salvaged:
+                yield salvaged
+        if walk.stop:
+            note(_LOST if walk.lost else _CUT, f"ends early ({walk.stop})" + (
+                f"; {len(salvaged)} raw chunks read from the part of it that is there" if salvaged else ""))
+    for line, (count, first) in p.foreign.items():
+        if line == _BATCHED:
+            topic, why = READS_TOPIC, _diagnose_reads(first, p.need_t)
+        else:
+            topic, why = f"/serial/{line}/raw", _diagnose(first, p.need_t)
+        note(_FOREIGN, f"{count} messages on {topic} were not gimbalscope raw chunks (the first: {why})"
+             if count > 1 else f"1 message on {topic} was not a gimbalscope raw chunk ({why})")
 
 
 def _read_record(offset: int, op: int, body: bytes, p: _Pass, note: Note) -> list:
@@ -621,11 +639,7 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
                 if raw is not None:
                     line, decode = raw
                     if line == _BATCHED:
-                        payload = records[body + 22:nxt]
-                        try:
-                            _read_batch(payload, _LOG_TIME.unpack_from(records, body + 6)[0], p, out)
-                        except _NOT_OURS:
-                            _count_foreign(p.foreign, line, payload)
+                        _read_reads_message(records, body, nxt, p, out)
                         pos = nxt
                         continue
                     try:
@@ -646,22 +660,28 @@ def _read_records(records: bytes, p: _Pass, out: list) -> tuple[int, str] | None
                             append((_LOG_TIME.unpack_from(records, body + 6)[0], Chunk(line, data, t)))
                         else:
                             append(Chunk(line, data, t))
-            elif op == OP_CHANNEL or op == OP_SCHEMA:
-                try:
-                    record = parse(op, records[body:nxt])
-                except Damaged as e:
-                    return pos, str(e)
-                if op == OP_CHANNEL:
-                    _channel(p, record)
-                elif _data_is_base64(record):
-                    p.base64.add(record.id)
+            elif (op == OP_CHANNEL or op == OP_SCHEMA) and (damage := _define(p, op, records[body:nxt])):
+                return pos, damage
             pos = nxt
     except struct.error:
         return pos, "a record header cut short"
     return None
 
 
-def _channel(p: _Pass, channel) -> None:
+def _define(p: _Pass, op: int, body: bytes) -> str | None:
+    """Learn a Channel or Schema record's definition; what is damaged in it, if it is."""
+    try:
+        record = parse(op, body)
+    except Damaged as e:
+        return str(e)
+    if isinstance(record, Channel):
+        _channel(p, record)
+    elif isinstance(record, Schema) and _data_is_base64(record):
+        p.base64.add(record.id)
+    return None
+
+
+def _channel(p: _Pass, channel: Channel) -> None:
     p.encodings[channel.id] = channel.message_encoding
     line = p.lines.get(channel.topic)
     if line is None:
@@ -674,13 +694,25 @@ def _channel(p: _Pass, channel) -> None:
         p.wanted[channel.id] = (line, _from_base64 if channel.schema_id in p.base64 else bytes.fromhex)
 
 
-def _line_errors(p: _Pass, line: str, size: int, entries) -> None:
+def _line_errors(p: _Pass, line: str, size: int, entries: Any) -> None:
     """Count a raw chunk of ``size`` bytes on ``line``, and tell its line errors
     (its ``line_errors``, if any) at their offsets on the line."""
     base = p.sent.get(line, 0)
     p.sent[line] = base + size
     if entries:
+        assert p.errors is not None   # counted only for a recording that keeps them
         p.errors.extend(faults_of(line, base, size, entries))
+
+
+def _read_reads_message(records: bytes, body: int, end: int, p: _Pass, out: list) -> None:
+    """A lean recording's reads message (its record's body from ``body`` to
+    ``end`` in ``records``): its chunks appended to ``out``, or it is counted as
+    not ours."""
+    payload = records[body + MESSAGE_HEAD:end]
+    try:
+        _read_batch(payload, _LOG_TIME.unpack_from(records, body + 6)[0], p, out)
+    except _NOT_OURS:
+        _count_foreign(p.foreign, _BATCHED, payload)
 
 
 def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
@@ -695,9 +727,10 @@ def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
         raise ValueError
     need_t, only, pairs = p.need_t, p.only, p.pairs
     lo, hi = -MAX_T, MAX_T
-    chunks = []
+    chunks: list = []
     append = chunks.append
-    counted = [] if p.errors is not None else None   # (line, size, line errors) of each read kept
+    # (line, size, line errors) of each read kept
+    counted: list[tuple[str, int, Any]] | None = [] if p.errors is not None else None
     t0 = reads[0].get("t")
     for read in reads:
         line = read["line"]
@@ -715,7 +748,7 @@ def _read_batch(payload: bytes, log_time: int, p: _Pass, out: list) -> None:
         if counted is not None:
             counted.append((line, len(data), read.get("line_errors")))
         if pairs:
-            at = log_time if t is None or t0 is None else log_time + int(round(t * 1e9)) - int(round(t0 * 1e9))
+            at = log_time if t is None or t0 is None else log_time + round(t * 1e9) - round(t0 * 1e9)
             append((at, Chunk(line, data, t)))
         else:
             append(Chunk(line, data, t))
@@ -728,7 +761,7 @@ def _from_base64(text: str) -> bytes:
     return a2b_base64(text, strict_mode=True)
 
 
-def _data_is_base64(schema) -> bool:
+def _data_is_base64(schema: Schema) -> bool:
     """Does a raw chunk schema give its bytes in base64 (``"contentEncoding":
     "base64"``, recordings since the Foxglove schemas) rather than hex (before)?"""
     if b"contentEncoding" not in schema.data:
@@ -823,50 +856,40 @@ def _diagnose_reads(payload: bytes, need_t: bool | None) -> str:
     return "not gimbalscope reads"
 
 
-def _read_in_child(path: str, label: str, lines: str, timed: str, out, line_errors: str = "-") -> None:
-    """The reader process: raw chunks as pickled lists of (line, data, t) tuples,
-    after each list the file's bytes read so far as ("progress", n), warnings as
-    ("warn", text), a failure as ("error", text), then None. With ``line_errors``
-    ("line_errors"), the chunks' line errors as ("faults", [LineFault…]) before
-    the list holding their chunks."""
-    def send(item) -> None:
-        pickle.dump(item, out, protocol=pickle.HIGHEST_PROTOCOL)
-
+def _read_in_process(path: str, label: str, topics: list[str], timed: bool, faults: bool,
+                     sender: worker_process.Sender) -> None:
+    """The reader process (analyzer/worker_process.py): raw chunks as lists of
+    (line, data, t) tuples, after each list the file's bytes read so far as
+    ("progress", n), warnings as ("warn", text), a failure as ("error", text),
+    then None. With ``faults``, the chunks' line errors as ("faults",
+    [LineFault…]) before the list holding their chunks."""
+    errors: list[LineFault] | None = [] if faults else None
     told = 0
 
-    def send_chunks(batch: list) -> None:
+    def send_chunks(batch: list[tuple]) -> None:
         nonlocal told
-        if src.faults is not None and told < len(src.faults):
-            send(("faults", src.faults[told:]))
-            told = len(src.faults)
-        send(batch)
+        if errors is not None and told < len(errors):
+            sender.send(("faults", errors[told:]))
+            told = len(errors)
+        sender.send(batch)
+
+    def note(kind: str, text: str) -> None:
+        sender.send(("warn", _problem(label, kind, text)))   # said once by the source
 
     try:
-        src = McapSource.__new__(McapSource)   # the survey already ran in the parent
-        Source.__init__(src)
-        src.path, src.label, src._said = path, label, set()
-        src.lines, src.timed = tuple(lines.split(",")), timed == "timed"
-        src.faults = [] if line_errors == "line_errors" else None
-        src.report_to(lambda msg: send(("warn", msg)))
-        batch = []
-        for chunks in src._batches(src._topics(), need_t=src.timed, errors=src.faults):
+        batch: list[tuple] = []
+        for chunks in _raw_batches(path, label, _Pass(topics, False, timed, errors=errors), note):
             batch.extend(map(tuple, chunks))
             if len(batch) >= _BATCH:
                 send_chunks(batch)
-                send(("progress", READS.done()))
+                sender.send(("progress", READS.done()))
                 batch = []
         send_chunks(batch)
-        send(("progress", os.path.getsize(path)))   # read to its end (the summary needs no reading)
-        send(None)
-        out.flush()
+        sender.send(("progress", os.path.getsize(path)))   # read to its end (the summary needs no reading)
+        sender.send(None)
     except CaptureError as e:
-        send(("error", str(e)))
-    except (BrokenPipeError, KeyboardInterrupt):
-        pass   # the parent went away
-    except Exception as e:   # noqa: BLE001 - said in one line by the parent
-        send(("error", f"{label}: cannot read: {type(e).__name__}: {e}"))
-
-
-if __name__ == "__main__":   # python -m analyzer.sources.mcapfile FILE NAME LINES timed|untimed line_errors|-
-    _read_in_child(*sys.argv[1:5], sys.stdout.buffer, *sys.argv[5:6])
-    sys.stdout.buffer.flush()
+        sender.send(("error", str(e)))
+    except BrokenPipeError:
+        pass   # the source went away
+    except Exception as e:   # noqa: BLE001 - said in one line by the source
+        sender.send(("error", f"{label}: cannot read: {type(e).__name__}: {e}"))

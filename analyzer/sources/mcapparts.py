@@ -50,6 +50,8 @@ class McapPartsSource(Source):
     """``parts`` (opened, in any order) as one capture; refused with a
     ``CaptureError`` when they cannot be (module doc)."""
 
+    carries_metadata = True
+
     def __init__(self, parts: list[McapSource]) -> None:
         super().__init__()
         check_one_tap(parts)
@@ -92,13 +94,15 @@ class McapPartsSource(Source):
         one line is read) before the chunk holding their byte, at their offset
         on the line across the parts: a part counts its bytes from its own first."""
         sent: dict[str, int] = {}
+        told = self.faults
+        assert told is not None   # read this way only when a part keeps line errors
         for part, shift in zip(self.parts, self._shifts):
             base = dict(sent)
             faults, taken = part.faults, 0
             for chunk in _shifted(chunks_of(part), shift):
                 if faults is not None and taken < len(faults):
-                    self.faults.extend(f._replace(offset=f.offset + base.get(f.line, 0)) for f in faults[taken:]
-                                       if line is None or f.line == line)
+                    told.extend(f._replace(offset=f.offset + base.get(f.line, 0)) for f in faults[taken:]
+                                if line is None or f.line == line)
                     taken = len(faults)
                 sent[chunk.line] = sent.get(chunk.line, 0) + len(chunk.data)
                 yield chunk
@@ -154,7 +158,7 @@ def in_time_order(parts: list[McapSource]) -> list[McapSource]:
     return [part for _given, part in sorted(enumerate(parts), key=key)]
 
 
-def _known(value) -> tuple:
+def _known(value: float | None) -> tuple[int, float]:
     """A sort key that puts what is not known after everything known."""
     return (0, value) if value is not None else (1, 0)
 
@@ -263,9 +267,9 @@ def check_no_overlap(ordered: list[McapSource]) -> None:
                                f"({_when(end)}): recordings whose times overlap cannot be parts of one capture")
         if part is ordered[-1]:
             break   # the last one's end is never compared: spare reading it
-        end = part.last_log_ns()
-        if end is not None and (latest is None or end > latest[0]):
-            latest = (end, part)
+        ends = part.last_log_ns()
+        if ends is not None and (latest is None or ends > latest[0]):
+            latest = (ends, part)
 
 
 def _when(ns: int) -> str:

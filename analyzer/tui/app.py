@@ -1,6 +1,6 @@
 """The gimbalscope TUI: termshark's three linked panes (event list, detail tree,
-hex) plus a timeline of both lines, over a ``CaptureModel`` fed by a capture
-thread (``Feed``) through batched messages.
+hex) plus a timeline of both lines, over a ``CaptureModel`` fed through batched
+messages by a capture thread or a decoding process (a ``ScreenFeed``).
 
 The app holds the keys, the capture's feed and the replay's pace; the main
 screen (screens/capture.py) holds the panes and bars. The keys are the app's,
@@ -13,18 +13,24 @@ gimbalscope.tcss.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Iterable
 from functools import partial
+from typing import TYPE_CHECKING, ClassVar
 
 from textual import on
 from textual.app import App
-from textual.binding import Binding
+from textual.binding import Binding, BindingType
 from textual.message import Message
 from textual.timer import Timer
 
-from .feed import Feed, FeedBatch
+from .feed import FeedBatch, ScreenFeed
 from .model import CaptureModel
 from .screens.capture import CaptureScreen
 from .widgets import EventList, RecordControl
+
+if TYPE_CHECKING:
+    from textual.app import SystemCommand
+    from textual.screen import Screen
 
 PACE = 0.1   # seconds between a playing replay's steps
 
@@ -40,7 +46,7 @@ class GimbalscopeApp(App):
     CSS_PATH = "gimbalscope.tcss"
 
     # q quits with App.action_quit; run_app then stops the capture and finalises any recording
-    BINDINGS = [
+    BINDINGS: ClassVar[list[BindingType]] = [
         Binding("q,ctrl+c", "quit", "Quit", id="app.quit"),
         Binding("slash", "open('filter')", "Filter", id="app.filter"),
         Binding("e", "jump('error', 1)", "Next error", id="app.next_error"),
@@ -71,19 +77,23 @@ class GimbalscopeApp(App):
         Binding("full_stop", "replay('seek', 1)", "+1 s", show=False, id="app.seek_forward_1"),
         Binding("comma", "replay('seek', -1)", "-1 s", show=False, id="app.seek_back_1"),
         Binding("question_mark", "show('help')", "Help", id="app.help"),
-        Binding("escape", "cancel_scan", "Stop filter/search", show=False, id="app.cancel_scan"),
+        # (the id keeps its first name: keymap files and the help screen say it)
+        Binding("escape", "cancel_sweep", "Stop filter/search", show=False, id="app.cancel_scan"),
     ]
 
     # Actions that only make sense in one mode are hidden from the footer (and
     # refused) in the others: check_action returning False hides, None would dim.
-    _MODE_ACTIONS = {"record": {"live"}, "swap_lines": {"live"}, "replay": {"replay"}}
+    _MODE_ACTIONS: ClassVar[dict[str, set[str]]] = {"record": {"live"}, "swap_lines": {"live"}, "replay": {"replay"}}
 
-    def __init__(self, model: CaptureModel, feed_factory, *, mode: str, source: str, settings: str = "",
-                 record_path: str | None = None, keymap: dict[str, str] | None = None) -> None:
+    def __init__(self, model: CaptureModel, feed_factory: Callable[[Callable[[FeedBatch], None]], ScreenFeed], *,
+                 mode: str, source: str, settings: str = "", record_path: str | None = None,
+                 keymap: dict[str, str] | None = None) -> None:
+        """``feed_factory(deliver)``: the capture's feed, made once the screen has
+        mounted, which hands its batches to ``deliver``."""
         super().__init__()
         self.model = model
         self._feed_factory = feed_factory
-        self.feed: Feed | None = None
+        self.feed: ScreenFeed | None = None
         self.mode = mode                 # live, replay, view
         self.keymap = keymap or {}       # binding id -> keys (--keymap), as the help screen shows them
         self.last: FeedBatch | None = None
@@ -91,12 +101,14 @@ class GimbalscopeApp(App):
         self.main = CaptureScreen(model, mode=mode, source=source, settings=settings, record_path=record_path)
         self.status_bar = self.main.status_bar
 
-    def get_system_commands(self, screen):
+    def get_system_commands(self, screen: Screen) -> Iterable[SystemCommand]:
         """The command palette (ctrl+p): every bound action of this mode, by name."""
         from textual.app import SystemCommand
 
         yield from super().get_system_commands(screen)
         for b in self.BINDINGS:
+            if not isinstance(b, Binding):   # all of them are: keymaps rebind them by id
+                continue
             name = b.action.partition("(")[0]
             if not self.check_action(name, ()) or name == "quit":
                 continue
@@ -107,9 +119,9 @@ class GimbalscopeApp(App):
         return modes is None or self.mode in modes
 
     @property
-    def _scan_text(self) -> str:
-        """A filter or search running in the background: its progress ("" when none)."""
-        return self.main.scan.text
+    def sweep_text(self) -> str:
+        """A filter or search sweeping in the background: its progress ("" when none)."""
+        return self.main.sweep.text
 
     @property
     def messages(self):
@@ -153,7 +165,7 @@ class GimbalscopeApp(App):
         if b.doctor_error is not None:
             m.doctor_error = b.doctor_error
         self.last = b
-        self.status_bar.batch(b)
+        self.status_bar.from_feed(b)
         if b.done and not m.done:
             m.done = True
             self.status_bar.capture_ended()
@@ -235,12 +247,15 @@ class GimbalscopeApp(App):
             self.push_screen(PlotScreen(self.model))
         elif name == "findings":
             from .screens.findings import FindingsScreen
-            # Enter on an evidence line closes it with that event's number
-            self.push_screen(FindingsScreen(self.model),
-                             lambda number: number is not None and self.main.go(number, "such event shown yet"))
+            self.push_screen(FindingsScreen(self.model), self._to_evidence)
         elif name == "help":
             from .screens.help import HelpScreen
             self.push_screen(HelpScreen(self))
+
+    def _to_evidence(self, number: int | None) -> None:
+        """Enter on a finding's evidence line closes the findings screen with that event's number."""
+        if number is not None:
+            self.main.go(number, "such event shown yet")
 
     def action_swap_lines(self) -> None:
         """The tap's ports were the other way round: read A as B from now on (the
@@ -276,6 +291,6 @@ class GimbalscopeApp(App):
         self.main.refresh_status()
         self._pace_while_playing()
 
-    def action_cancel_scan(self) -> None:
+    def action_cancel_sweep(self) -> None:
         """Esc: stop a filter or search that is still running."""
-        self.main.cancel_scan()
+        self.main.cancel_sweep()

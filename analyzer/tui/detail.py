@@ -8,8 +8,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+from dissectors.commands import Command
 from dissectors.dissect import field_spans
 from dissectors.event import ACK, COMMAND, NAK, NIC, RESULT, Event, format_address
+from dissectors.fields import Field
 
 from ..output import fmt_seconds
 from ..words import counted
@@ -37,7 +39,7 @@ def detail(ev: Event, answers_of: Callable[[int], list[int]], event: Callable[[i
     if ev.dst is not None:
         head.children.append(DetailNode(f"address {format_address(ev.dst)} (group.port.device)", span=(1, 4)))
         head.children.append(DetailNode(f"source group {ev.src}", span=(4, 5)))
-        head.children.append(DetailNode(f"length {len(ev.payload)}", span=(5, 6)))
+        head.children.append(DetailNode(f"length {len(ev.payload or b'')}", span=(5, 6)))
         ok = "ok" if ev.checksum_ok else "BAD"
         head.children.append(DetailNode(f"checksum 0x{ev.raw[-1]:02x} {ok}", span=(len(ev.raw) - 1, len(ev.raw))))
     device = _device_line(ev)
@@ -92,14 +94,15 @@ def _device_line(ev: Event) -> DetailNode | None:
     return DetailNode(f"device {device} (the command's, #{ev.request})", jump=ev.request)
 
 
-def _fields_of(entry) -> list:
-    out = list(entry.layout.fields) if getattr(entry, "layout", None) is not None else []
-    for layout in entry.result or ():
+def _fields_of(entry: Command) -> list[Field]:
+    out = list(entry.layout.fields)
+    for layout in entry.result:
         out += list(layout.fields)
     return out
 
 
-def hex_lines(raw: bytes, highlight: tuple[int, int] | None = None, width: int = 16) -> list[tuple[str, str, list[tuple[int, int]]]]:
+def hex_lines(raw: bytes, highlight: tuple[int, int] | None = None,
+              width: int = 16) -> list[tuple[str, str, str, list[tuple[int, int]]]]:
     """Hex and ASCII of ``raw``, ``width`` bytes a line: (offset, hex, ascii) and,
     per line, the character ranges of the hex text to highlight."""
     out = []

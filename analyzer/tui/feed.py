@@ -8,6 +8,8 @@ progress bar reads), for the status bar's load progress; an input with no size
 (``StreamFeed``).
 
 No Textual here: ``deliver`` is any callable (the app posts a message with it).
+What the screen asks of a feed is ``ScreenFeed``; a file viewed is fed by a
+decoding process instead (decode_process.py ``ProcessFeed``), with the same batches.
 
 A recording that fails (a full disk) is said once, on screen and after the
 screen closes, and dropped; the capture goes on (analyzer/writers/mcap.py).
@@ -19,18 +21,20 @@ import os
 import threading
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from dissectors.event import Event
 
+from ..lines import Chunk
 from ..listeners import DoctorListener
 from ..outfile import show
 from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
 from ..sources.meter import READS, ReadMeter
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import RecordingError
-from .doctor_apart import DoctorApart, HearsTheDoctorApart
+from .doctor_process import DoctorProcess, DoctorWord
 from .model.chunks import ModelChunk
 from .model.sampled import SampledInput, split_description
 
@@ -70,25 +74,81 @@ class FeedBatch:
     settings: str = ""               # the link's serial settings now (the rate follows rate changes)
     read: int = 0                    # a file: bytes of its input read so far (a pipe: of its traffic); live: 0
     total: int | None = None         # a file: its input's size; None when it has none (a pipe) or live
-    chunk: ModelChunk | None = None  # a file decoded apart: its events as columns (``events`` is empty)
+    chunk: ModelChunk | None = None  # a file decoded in a process: its events as columns (``events`` is empty)
     doctor_error: str | None = None  # the wiring doctor's process failed: why
     sampled: SampledInput | None = None   # a logic capture: its input, and each line's channel and measure
 
+    def hear(self, word: DoctorWord | None) -> None:
+        """Carry the word of the doctor's process (doctor_process.py), if it has
+        come: its findings, or why it failed (a warning on screen)."""
+        if word is None:
+            return
+        if word.error is not None:
+            self.warnings = [*self.warnings, f"the wiring doctor stopped: {word.error}"]
+            self.doctor_error = word.error
+        else:
+            self.findings = word.findings
 
-class Feed(HearsTheDoctorApart, Listener):
+
+class ScreenFeed(Protocol):
+    """What the screen asks of a feed, whoever drives it: a capture thread
+    (``Feed``) or a decoding process (``ProcessFeed``). It hands its batches to
+    the ``deliver`` it was made with, from a thread of its own, from ``start()``
+    to a last batch (``done``); then perhaps one more, with the word of a doctor
+    in a process of its own."""
+
+    notes: list[str]   # what to say when the screen has closed (recordings written, a capture that stopped)
+    lines: Mapping[str, LineStatus]   # the capture's lines, by name
+
+    @property
+    def recording(self) -> str | None:
+        """The file being recorded to now (a live tap's)."""
+        ...
+
+    def start(self) -> None:
+        """Start the capture (in a thread of its own)."""
+        ...
+
+    def stop(self) -> None:
+        """End the capture and any process of it (the screen is closing)."""
+        ...
+
+    def join(self, timeout: float | None = None) -> None:
+        """Wait for the capture's thread to end."""
+        ...
+
+    def is_alive(self) -> bool:
+        """Is the capture's thread running?"""
+        ...
+
+    def start_recording(self, path: str) -> None:
+        """Record from now on (a live tap)."""
+        ...
+
+    def stop_recording(self) -> None:
+        """Stop recording, if it records."""
+        ...
+
+    def swap_lines(self) -> None:
+        """Read line A as B and B as A from now on (a live tap)."""
+        ...
+
+
+class Feed(ScreenFeed, Listener):
     """Collects what the runner hears and hands it to ``deliver`` in batches.
     ``start()`` runs the runner in a thread of its own; the screen's thread calls
     only ``start_recording``, ``stop_recording``, ``swap_lines`` and ``stop``
-    (requests to the runner)."""
+    (requests to the runner). ``doctor``: the doctor in the runner, read at every
+    step; or ``doctor_process``, a file's doctor in a process of its own."""
 
-    doctor_apart: DoctorApart | None = None   # a file's doctor in a process of its own (run.py)
-
-    def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener, *,
+    def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener | None, *,
                  interval: float | None = None, recorder: McapWriter | None = None,
-                 meter: ReadMeter = READS, record_lean: bool = False) -> None:
+                 meter: ReadMeter = READS, record_lean: bool = False,
+                 doctor_process: DoctorProcess | None = None) -> None:
         self.runner = runner
         self.deliver = deliver
         self.doctor = doctor
+        self.doctor_process = doctor_process
         self.interval = (LIVE_INTERVAL if runner.live else FILE_INTERVAL) if interval is None else interval
         names = runner.info.line_names
         self.lines = {line: LineStatus(line, names[line]) for line in runner.lines}
@@ -99,22 +159,21 @@ class Feed(HearsTheDoctorApart, Listener):
         self._state: tuple | None = None     # what the last batch reported beside its events (see _send)
         self._warnings: list[str] = []
         self._findings: list | None = None
-        self._doctor_error: str | None = None
         self._named: tuple[str, str] | None = None   # a logic capture's input, named (``_sampled``)
         self.recorder = recorder             # --record: made (and checked) before the screen opens
         self.record_lean = record_lean       # the record key writes lean recordings (live --lean)
         self.meter = meter                   # how far the input files have been read: asked once a batch
         self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
         self._thread = threading.Thread(target=self.run, daemon=True, name="gimbalscope-feed")
-        self._end_lock = threading.Lock()   # the last batch, and findings that come after it
-        self._ended = False
 
     # ------------------------------------------------------------- thread
     def start(self) -> None:
         self._thread.start()
 
     def stop(self) -> None:
-        """End the run (a file stops at the next step)."""
+        """End the run (a file stops at the next step), and the doctor's process."""
+        if self.doctor_process is not None:
+            self.doctor_process.stop()
         self.runner.stop()
 
     def join(self, timeout: float | None = None) -> None:
@@ -128,16 +187,13 @@ class Feed(HearsTheDoctorApart, Listener):
         error = None
         try:
             self.runner.run()
-        except Exception as e:   # a source failing mid-capture: say it on screen, keep what came
+        except Exception as e:   # noqa: BLE001 - a source failing mid-capture: said on screen, what came kept
             error = f"{type(e).__name__}: {e}"
             self.notes.append(f"capture stopped: {error}")
-        with self._end_lock:
+        if self.doctor_process is None:
             self._send(done=True, error=error)
-            self._ended = True
-
-    def _send_last(self) -> None:
-        """One more last batch: the doctor's word after the capture ended (``findings_arrived``)."""
-        self._send(done=True)
+        else:   # the doctor's word after the capture ended: one more last batch
+            self.doctor_process.last_batch(lambda: self._send(done=True, error=error), lambda: self._send(done=True))
 
     # ------------------------------------------------------------ controls
     @property
@@ -180,7 +236,7 @@ class Feed(HearsTheDoctorApart, Listener):
     def on_events(self, events: list[Event]) -> None:
         if events:
             self._pending.extend(events)
-        if self.doctor.checked:
+        if self.doctor is not None and self.doctor.checked:
             self._findings = self.doctor.findings
         now = time.monotonic()
         pending = self._pending
@@ -197,7 +253,8 @@ class Feed(HearsTheDoctorApart, Listener):
             self._last = now
 
     def on_stop(self) -> None:
-        self._findings = self.doctor.findings   # the last word
+        if self.doctor is not None:
+            self._findings = self.doctor.findings   # the last word
 
     # ------------------------------------------------------------- batches
     def _status(self) -> list[LineStatus]:
@@ -212,9 +269,9 @@ class Feed(HearsTheDoctorApart, Listener):
         return [LineStatus(s.line, s.port, s.state, s.bytes, s.rate) for s in self.lines.values()]
 
     def _send(self, done: bool = False, error: str | None = None, *, changed_only: bool = False) -> bool:
-        """Deliver a batch; with ``changed_only``, only if it holds events, warnings
-        or findings, or the state it reports differs from the last one delivered.
-        Returns whether it delivered."""
+        """Deliver a batch; with ``changed_only``, only if it holds events, warnings,
+        findings or the doctor's word, or the state it reports differs from the
+        last one delivered. Returns whether it delivered."""
         path = self.recording
         size = os.path.getsize(path) if path and os.path.exists(path) else 0
         unsettled = [] if done else self.runner.unsettled()
@@ -222,16 +279,18 @@ class Feed(HearsTheDoctorApart, Listener):
         sampled = self._sampled()
         state = ([id(e) for e in unsettled], [(s.state, s.rate) for s in status], skew, path, size, settings, read,
                  sampled)
-        if changed_only and not (self._pending or self._warnings or self._findings is not None) \
+        word = self.doctor_process.take() if self.doctor_process is not None else None
+        if changed_only and word is None and not (self._pending or self._warnings or self._findings is not None) \
                 and state == self._state:
             return False
         self._state = state
         events, self._pending = self._pending, []
         warnings, self._warnings = self._warnings, []
         findings, self._findings = self._findings, None
-        doctor_error, self._doctor_error = self._doctor_error, None
-        self.deliver(FeedBatch(events, unsettled, status, skew, path, size, warnings, findings, done, error,
-                               settings, *read, doctor_error=doctor_error, sampled=sampled))
+        batch = FeedBatch(events, unsettled, status, skew, path, size, warnings, findings, done, error,
+                          settings, *read, sampled=sampled)
+        batch.hear(word)
+        self.deliver(batch)
         return True
 
     def _sampled(self) -> SampledInput | None:
@@ -256,7 +315,7 @@ class StreamFeed(Feed):
     data without its text), chunk by chunk. Only for such inputs: a file read flat
     out gives up to a million chunks a second."""
 
-    def on_chunk(self, chunk, offset: int) -> None:
+    def on_chunk(self, chunk: Chunk, offset: int) -> None:
         st = self.lines.get(chunk.line)
         if st is not None:
             st.bytes += len(chunk.data)
@@ -274,7 +333,7 @@ class LiveFeed(Feed):
     def _read(self) -> tuple[int, int | None]:
         return 0, None
 
-    def on_chunk(self, chunk, offset: int) -> None:
+    def on_chunk(self, chunk: Chunk, offset: int) -> None:
         st = self.lines.get(chunk.line)
         if st is not None:
             n = len(chunk.data)

@@ -1,15 +1,18 @@
 """Open the TUI on a capture: the glue between the CLI and the app. The capture
-runs in a ``Feed`` thread; quitting stops it and finalises any recording."""
+is fed to the screen by a capture thread or a decoding process (feed_choice.py);
+quitting stops it and finalises any recording."""
 
 from __future__ import annotations
 
+import argparse
 import difflib
 import importlib
 import pkgutil
 import signal
 import sys
 import tomllib
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 from textual.binding import Binding
 from textual.dom import DOMNode
@@ -17,19 +20,18 @@ from textual.dom import DOMNode
 from ..capture import Capture
 from ..errors import KeymapError, UsageError
 from ..info import CaptureInfo
-from ..listeners import DoctorListener
-from ..runner import Listener, TapRunner
+from ..runner import Listener
 from ..writers.mcap import McapWriter
 from .app import GimbalscopeApp
-from .decode_apart import DecodeApart
-from .doctor_apart import ApartFindings, DoctorApart, apart_possible
-from .feed import Feed, feed_class
+from .feed import FeedBatch, ScreenFeed
+from .feed_choice import Loading, choose_feed
 from .model import CaptureModel
 
-# The capture thread decodes flat out while a file loads; with the interpreter's
-# default 5 ms switch interval the screen's thread waits that long for every turn
-# and the first screen took over a second. Switch more often (live reader threads
-# also stamp reads more promptly: see cli/live.py).
+# A capture thread decodes flat out while a file loads (one that is not decoded
+# in a process of its own: feed_choice.py); with the interpreter's default 5 ms
+# switch interval the screen's thread waits that long for every turn and the
+# first screen took over a second. Switch more often (live reader threads also
+# stamp reads more promptly: see cli/live.py).
 SWITCH = 0.0002
 
 
@@ -54,11 +56,12 @@ def load_keymap(path: str | None) -> dict[str, str]:
             else:
                 flat[f"{prefix}{k}"] = v
     walk("", data)
-    bad = [k for k, v in flat.items() if not isinstance(v, str)]
+    keymap = {k: v for k, v in flat.items() if isinstance(v, str)}
+    bad = [k for k in flat if k not in keymap]
     if bad:
         raise KeymapError(f"{path}: keymap values must be key strings: {', '.join(bad)}")
-    check_ids(path, flat)
-    return flat
+    check_ids(path, keymap)
+    return keymap
 
 
 def binding_ids() -> set[str]:
@@ -77,7 +80,7 @@ def binding_ids() -> set[str]:
     return ids
 
 
-def check_ids(path: str, keymap: dict[str, object]) -> None:
+def check_ids(path: str, keymap: dict[str, str]) -> None:
     """Textual ignores an id it does not know; a typo would silently change nothing."""
     valid = binding_ids()
     unknown = [k for k in keymap if k not in valid]
@@ -96,9 +99,9 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
              info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
              filter_text: str | None = None, listeners: Sequence[Listener] = ()) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
-    follow off). The capture runs in the feed's thread when the app mounts, with
-    ``recorder`` (``--record``), ``listeners`` (the ``--foxglove`` server), the
-    doctor and the feed as the runner's listeners; ``info`` is the one
+    follow off). The capture starts when the app mounts, fed as feed_choice.py
+    chooses, with ``recorder`` (``--record``), ``listeners`` (the ``--foxglove``
+    server), the doctor and the feed as the runner's listeners; ``info`` is the one
     ``recorder`` and ``listeners`` were made with. ``record_lean``: the record
     key writes lean recordings (``live --lean``, docs/mcap.md)."""
     model = CaptureModel(follow=mode != "view")
@@ -108,29 +111,10 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         model.replay.start(speed)
     info = info or CaptureInfo.of(capture, command=mode)
 
-    def make_feed(deliver) -> Feed | DecodeApart:
-        # a file viewed: decoded in a process of its own (decode_apart.py), and the
-        # doctor reads it again in another (doctor_apart.py), both off the screen's
-        # thread; a live tap, a replay or a pipe: a capture thread, the doctor in its runner
-        apart = None
-        if mode == "view" and apart_possible(capture.inputs):
-            apart = DoctorApart(capture.inputs, capture.options, command=info.command)
-            if recorder is None and not listeners:
-                feed = DecodeApart(capture.inputs, capture.options, deliver, command=info.command, doctor=apart)
-                if feed.spawn():
-                    return feed
-            if not apart.start():   # no process to be had: the doctor stays in the runner
-                apart = None
-        doctor = ApartFindings() if apart else DoctorListener(tui=True)
-        # ``listeners`` beside the recorder: both hear the doctor's notes after the same events
-        runner = TapRunner(capture, [l for l in (recorder, *listeners, None if apart else doctor) if l is not None],
-                           info=info)
-        feed = feed_class(runner)(runner, deliver, doctor, recorder=recorder, record_lean=record_lean)
-        runner.add_listener(feed)   # last: it reads the doctor's findings of each step
-        feed.doctor_apart = apart
-        if apart:
-            apart.deliver_to(feed.findings_arrived)
-        return feed
+    loading = Loading(capture, info, mode, recorder, listeners, record_lean)
+
+    def make_feed(deliver: Callable[[FeedBatch], None]) -> ScreenFeed:
+        return choose_feed(loading, deliver)
 
     source = " + ".join(ports) if ports else info.source
     return GimbalscopeApp(model, make_feed, mode=mode, source=source, settings=info.serial_settings,
@@ -138,24 +122,20 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
 
 
 def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[str]:
-    """Stop the capture thread and finalise its recording; what it has to say.
-    ``listeners`` (make_app's) are closed first: one may hold the capture thread
-    (a replay paced for Foxglove)."""
+    """Stop the capture (its thread, its processes) and finalise its recording;
+    what it has to say. ``listeners`` (make_app's) are closed first: one may hold
+    the capture thread (a replay paced for Foxglove)."""
     feed = app.feed
     for listener in listeners:
-        close = getattr(listener, "close", None)
-        if close is not None:
-            close()
+        listener.close()
     if feed is None:
         return []
-    if feed.doctor_apart is not None:
-        feed.doctor_apart.stop()
     feed.stop()
     feed.join(timeout=5.0)
     return feed.notes
 
 
-def run_app(capture: Capture, **kw) -> int:
+def run_app(capture: Capture, **kw: Any) -> int:
     """The TUI until it quits; then what the capture had to say (recordings written)."""
     app = make_app(capture, **kw)
     old = signal.signal(signal.SIGTERM, lambda *_: app.call_later(app.exit))
@@ -168,13 +148,13 @@ def run_app(capture: Capture, **kw) -> int:
         signal.signal(signal.SIGTERM, old)
         notes = stop_feed(app, kw.get("listeners", ()))
     # "serving Foxglove on …" is for the screen: once it has closed, nothing serves
-    screen_only = {getattr(l, "announcement", None) for l in kw.get("listeners", ())}
+    screen_only = {l.announcement for l in kw.get("listeners", ())}
     for note in (n for n in notes if n not in screen_only):
         print(f"gimbalscope: {note}", file=sys.stderr)
     return 0
 
 
-def keymap_from(args) -> dict[str, str]:
+def keymap_from(args: argparse.Namespace) -> dict[str, str]:
     """--keymap, read and checked; a bad one is a UsageError (one line, exit 2)."""
     try:
         return load_keymap(getattr(args, "keymap", None))
@@ -182,7 +162,7 @@ def keymap_from(args) -> dict[str, str]:
         raise UsageError(str(e)) from None
 
 
-def open_tui(capture: Capture, args, *, mode: str, speed: float = 1.0,
+def open_tui(capture: Capture, args: argparse.Namespace, *, mode: str, speed: float = 1.0,
              keymap: dict[str, str] | None = None, info: CaptureInfo | None = None,
              listeners: Sequence[Listener] = ()) -> int:
     """``replay`` and ``view``: the TUI on a capture file (--keymap, --filter honoured;

@@ -10,6 +10,7 @@ events in a time window, it returns text rows and the styles of their cells.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RESULT, Event
@@ -46,7 +47,7 @@ def lane_of(ev: Event) -> int:
 
 
 def layout(events: list[Event], start: float, scale: float, width: int, selected: int | None,
-           style_of) -> list[Lane]:
+           style_of: Callable[[Event], str | None]) -> list[Lane]:
     """Rows: axis, lane A, links, lane B, and a legend of silences. ``start`` is the
     time at column 0, ``scale`` seconds per column; ``style_of(ev)`` names a style."""
     axis, upper, links, lower = (Lane.blank(width) for _ in range(4))

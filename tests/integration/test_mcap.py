@@ -165,14 +165,16 @@ def test_reader_process_gives_the_same_events_and_warnings(tmp_path, monkeypatch
         assert [e.to_dict() for e in cap] == inline[p]
         assert any("ends early" in w for w in warnings) == (p == cut)
     # a consumer that stops early stops the reader process too
+    from analyzer import worker_process
+
     started = []
-    real_popen = mcapfile.subprocess.Popen
-    monkeypatch.setattr(mcapfile.subprocess, "Popen", lambda *a, **kw: started.append(real_popen(*a, **kw))
+    real_start = worker_process.start
+    monkeypatch.setattr(worker_process, "start", lambda *a, **kw: started.append(real_start(*a, **kw))
                         or started[-1])
     it = iter(analyzer.open(str(full)))
     next(it)
     it.close()
-    assert len(started) == 1 and started[0].poll() is not None
+    assert len(started) == 1 and not started[0].is_alive()
 
 
 @pytest.mark.parametrize("lines", [1, 2])
@@ -344,14 +346,16 @@ def test_a_chunk_that_zstd_would_make_larger_is_stored_as_it_is(tmp_path):
     from mcap.reader import make_reader
 
     path = tmp_path / "quiet.mcap"
+    now = [0.0]                                 # the tap's clock: a flush a second
     rec = McapRecorder(str(path), metadata={"tool": "gimbalscope test", "baud": "9600"},
-                       start_time=1_795_000_000.0, flush_interval=0.0)
+                       start_time=1_795_000_000.0, flush_interval=1.0, clock=lambda: now[0])
+    now[0] = 1.0
     rec.raw(Chunk("B", b"\x06", 0.5), 0)        # the first chunk: with the schemas and channels
     noise = random.Random(16).randbytes(16)
+    now[0] = 2.0
     rec.raw(Chunk("B", noise, 0.6), 1)          # alone in its chunk
-    rec._flush_interval = None
     cmd = frame((1, 1, 1), 0, "P?")
-    for k in range(200):                        # 200 polls in one chunk
+    for k in range(200):                        # 200 polls in one chunk, within the second
         rec.raw(Chunk("A", cmd, 1.0 + k * 0.01), k * len(cmd))
     rec.close()
     with open(path, "rb") as f:

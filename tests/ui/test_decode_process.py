@@ -1,4 +1,4 @@
-"""A file viewed is decoded in a process of its own (analyzer/tui/decode_apart.py)
+"""A file viewed is decoded in a process of its own (analyzer/tui/decode_process.py)
 that hands the screen columns. The screen shows what the file holds (the rows
 ``decode`` gives, the doctor's findings); the wiring doctor starts beside the
 decoding where there are cores enough and after the load where there are not;
@@ -14,9 +14,10 @@ import pytest
 
 import analyzer
 from analyzer.simulation.traffic import generate
-from analyzer.tui import decode_apart
-from analyzer.tui.decode_apart import DecodeApart
-from analyzer.tui.doctor_apart import DoctorApart
+from analyzer.tui import decode_process
+from analyzer.tui.app import FeedMessage
+from analyzer.tui.decode_process import ProcessFeed
+from analyzer.tui.doctor_process import DoctorProcess
 from analyzer.tui.run import make_app, stop_feed
 from tests.conftest import CTL, DEV, run_cli
 from tests.ui.test_pilot import settle
@@ -41,22 +42,34 @@ def big_capture(tmp_path) -> str:
     return str(tmp_path / "ctl.bin"), str(tmp_path / "dev.bin")
 
 
-def order_of_starts(monkeypatch) -> list[str]:
-    """What happened, in order: the screen handed a last batch ("done"), the
-    doctor's process started ("doctor")."""
+def on_batches(app, then) -> None:
+    """``then(batch)`` for each batch the feed hands the app, in the feed's
+    thread, once it has posted it (``FeedMessage``)."""
+    post = app.post_message
+
+    def posted(message):
+        queued = post(message)
+        if isinstance(message, FeedMessage):
+            then(message.batch)
+        return queued
+    app.post_message = posted
+
+
+def order_of_starts(monkeypatch, app) -> list[str]:
+    """What happened, in order: the screen was handed a last batch ("done"),
+    the doctor's process started ("doctor")."""
     log: list[str] = []
-    start, pass_on = DoctorApart.start, DecodeApart._pass_on
+    start = DoctorProcess.start
 
     def started(self):
         log.append("doctor")
         return start(self)
 
-    def passed(self, batch):
+    def handed(batch):
         if batch.done and "done" not in log:
             log.append("done")
-        return pass_on(self, batch)
-    monkeypatch.setattr(DoctorApart, "start", started)
-    monkeypatch.setattr(DecodeApart, "_pass_on", passed)
+    monkeypatch.setattr(DoctorProcess, "start", started)
+    on_batches(app, handed)
     return log
 
 
@@ -66,7 +79,7 @@ def test_the_rows_are_the_files_events():
                  lambda a: (type(a.feed), [json.loads(json.dumps(a.model.event(n).to_dict()))
                                             for n in range(1, a.model.shown + 1)]))
     kind, got = rows
-    assert kind is DecodeApart
+    assert kind is ProcessFeed
     want = [json.loads(line) for line in run_cli("decode", CTL, DEV, "--format", "jsonl").stdout.splitlines()]
     assert len(got) == len(want) == 1012
     assert got == want
@@ -75,9 +88,9 @@ def test_the_rows_are_the_files_events():
 @pytest.mark.parametrize("cores_needed, order", [(10 ** 6, ["done", "doctor"]), (1, ["doctor", "done"])],
                          ids=["few cores: after the load", "cores enough: beside the decoding"])
 def test_the_doctor_starts_after_the_load_on_few_cores_beside_it_on_enough(monkeypatch, cores_needed, order):
-    monkeypatch.setattr(decode_apart, "DOCTOR_BESIDE_CORES", cores_needed)
-    log = order_of_starts(monkeypatch)
+    monkeypatch.setattr(decode_process, "DOCTOR_BESIDE_CORES", cores_needed)
     app = make_app(analyzer.open(CTL, DEV), mode="view")
+    log = order_of_starts(monkeypatch, app)
     found = drive(app, lambda a: a.model.done and a.model.findings,
                   lambda a: sorted((f.code, f.subject) for f in a.model.findings))
     assert ("noisy_link", "B") in found
@@ -90,16 +103,11 @@ def test_a_decoding_process_that_dies_leaves_the_rows_that_came(tmp_path):
     app = make_app(analyzer.open(*paths), mode="view")
     killed = []
 
-    def deliver_then_kill(deliver):
-        def first(batch):
-            deliver(batch)
-            if not killed and batch.chunk is not None and len(batch.chunk.stored.columns["kind"]):
-                app.feed.process.kill()   # as the kernel's OOM killer would
-                killed.append(len(batch.chunk.stored.columns["kind"]))
-        return first
-
-    factory = app._feed_factory
-    app._feed_factory = lambda deliver: factory(deliver_then_kill(deliver))
+    def kill_after_the_first_rows(batch):
+        if not killed and batch.chunk is not None and len(batch.chunk.stored.columns["kind"]):
+            app.feed.process.kill()   # as the kernel's OOM killer would
+            killed.append(len(batch.chunk.stored.columns["kind"]))
+    on_batches(app, kill_after_the_first_rows)
     shown, messages = drive(app, lambda a: a.model.done, lambda a: (a.model.shown, list(a.messages)))
     assert killed and killed[0] <= shown < total
     assert "capture stopped: the decoding process ended without a word" in messages
@@ -115,15 +123,16 @@ def test_quitting_while_loading_ends_the_decoding_process(tmp_path):
 
 
 def receiving(sent) -> list:
-    """What the screen's side delivers of the messages ``sent(conn)`` writes to its
-    pipe (as the decoding process would), with no process behind it."""
-    import multiprocessing
+    """What the screen's side delivers of the messages ``sent(sender)`` sends on
+    its channel (as the decoding process would), with no process behind it."""
+    from analyzer.worker_process import channel
 
     got = []
-    feed = DecodeApart((CTL, DEV), None, got.append)
-    feed._conn, theirs = multiprocessing.Pipe(duplex=False)
+    feed = ProcessFeed((CTL, DEV), None, got.append)
+    feed.messages, sender = channel()
     feed.start()
-    sent(theirs)
+    sent(sender)
+    sender.close()
     feed.join(timeout=30)
     assert not feed.is_alive()
     return got, feed
@@ -144,20 +153,20 @@ def test_a_chunk_that_does_not_follow_ends_the_load_with_the_reason():
     from analyzer.tui.feed import FeedBatch
 
     first, _lost, third = chunks_of(3)
-    got, feed = receiving(lambda conn: [conn.send(FeedBatch([], [], [], chunk=c)) for c in (first, third)])
+    got, feed = receiving(lambda sender: [sender.send(FeedBatch([], [], [], chunk=c)) for c in (first, third)])
     assert [b.chunk is not None for b in got] == [True, False] and got[-1].done
     assert got[-1].error == "the decoding process lost events 11 to 20"
     assert feed.notes == ["capture stopped: the decoding process lost events 11 to 20"]
 
 
 def test_a_message_that_cannot_be_read_ends_the_load_with_the_reason():
-    got, feed = receiving(lambda conn: conn.send_bytes(b"not a pickle"))
+    got, _feed = receiving(lambda sender: sender.send_bytes(b"not a pickle"))
     assert len(got) == 1 and got[0].done
     assert got[0].error.startswith("a batch from the decoding process could not be read: UnpicklingError")
 
 
 def test_after_a_chunk_that_could_not_be_sent_only_the_last_word_goes():
-    from analyzer.tui.decode_apart import _Sender
+    from analyzer.tui.decode_process import BatchSender
     from analyzer.tui.feed import FeedBatch
 
     class Conn:
@@ -172,7 +181,7 @@ def test_after_a_chunk_that_could_not_be_sent_only_the_last_word_goes():
 
     events = list(analyzer.open(CTL, DEV))
     conn = Conn()
-    sender = _Sender(conn)
+    sender = BatchSender(conn)
     try:
         sender(FeedBatch(events[:10], [], []))
     except MemoryError:

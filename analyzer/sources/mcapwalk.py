@@ -15,24 +15,18 @@ from __future__ import annotations
 import json
 import struct
 import zlib
-from collections.abc import Iterator
+from collections.abc import Container, Iterator
 from io import BytesIO
 from typing import BinaryIO
 
+# lz4 and zstandard: dependencies of mcap's reader and writer
+import lz4.frame as lz4frame
+import zstandard
 from mcap.data_stream import ReadDataStream
 from mcap.exceptions import EndOfFile
-from mcap.records import Attachment, Channel, Header, Message, Metadata, Schema
+from mcap.records import Attachment, Channel, Header, McapRecord, Message, Metadata, Schema
 
 from ..words import counted
-
-try:
-    import zstandard
-except ImportError:  # pragma: no cover - a dependency of mcap's writer
-    zstandard = None
-try:
-    import lz4.frame as lz4frame
-except ImportError:  # pragma: no cover
-    lz4frame = None
 
 MAGIC = b"\x89MCAP0\r\n"
 RECORD = struct.Struct("<BQ")             # opcode u8, body length u64
@@ -84,7 +78,7 @@ _PARSERS = {OP_HEADER: Header.read, OP_SCHEMA: Schema.read, OP_CHANNEL: Channel.
             OP_METADATA: Metadata.read, OP_ATTACHMENT: Attachment.read}
 
 
-def parse(op: int, body: bytes):
+def parse(op: int, body: bytes) -> McapRecord:
     """The mcap record in ``body`` (Header, Schema, Channel, Message, Metadata,
     Attachment); every field must fit in the body and every string be UTF-8."""
     stream = _Exact(BytesIO(body))
@@ -116,7 +110,7 @@ class Walk:
         self.tail: tuple[int, bytes] | None = None   # (offset, what there is) of a Chunk record cut short
         self.lost = False                # the cut went through a record of a wanted kind
 
-    def records(self, wanted) -> Iterator[tuple[int, int, bytes]]:
+    def records(self, wanted: Container[int]) -> Iterator[tuple[int, int, bytes]]:
         f, size = self.f, self.size
         pos = len(MAGIC)
         f.seek(pos)
@@ -156,7 +150,7 @@ class Walk:
             pos = start + length
 
 
-def summary_records(f: BinaryIO, size: int, wanted) -> list[tuple[int, bytes]]:
+def summary_records(f: BinaryIO, size: int, wanted: Container[int]) -> list[tuple[int, bytes]]:
     """``(opcode, body)`` of the summary section's records with opcodes in
     ``wanted`` (Schema and Channel records: a channel registered without any
     message is only there). Best effort: a missing or damaged summary gives what
@@ -202,7 +196,7 @@ def read_chunk(body: bytes) -> tuple[bytes, bool]:
     """The records a Chunk record holds, decompressed, and whether they match the
     chunk's CRC (``True`` when it has none). Raises ``Damaged`` when they cannot
     be had."""
-    size, crc, compression, data = _chunk_parts(body, cut=False)
+    size, crc, compression, data = chunk_parts(body, cut=False)
     records = _decompress(compression, data, size)
     if len(records) != size:
         raise Damaged(f"it decompresses to {counted(len(records), 'byte')}, not the {size} it declares")
@@ -214,12 +208,12 @@ def read_cut_chunk(body: bytes) -> bytes:
     file: what its compressed bytes that are there decompress to (zstd and LZ4
     work in blocks, and every whole block decompresses). There is no CRC to check
     it against; ``intact_prefix`` keeps its records that read as written."""
-    size, _crc, compression, data = _chunk_parts(body, cut=True)
+    size, _crc, compression, data = chunk_parts(body, cut=True)
     limit = min(size, len(data) * _EXPANSION[compression] + _SLACK)
     if compression == "":
         return data[:limit]
     try:
-        if compression == "zstd" and zstandard is not None:
+        if compression == "zstd":
             reader = zstandard.ZstdDecompressor().stream_reader(BytesIO(data))
             parts, got = [], 0
             try:
@@ -232,14 +226,14 @@ def read_cut_chunk(body: bytes) -> bytes:
             except zstandard.ZstdError:
                 pass   # the cut block, or damage: what came before it stands
             return b"".join(parts)
-        if compression == "lz4" and lz4frame is not None:
+        if compression == "lz4":
             return lz4frame.LZ4FrameDecompressor().decompress(data, max_length=limit)
     except RuntimeError:   # lz4's errors
         pass
     return b""
 
 
-def _chunk_parts(body: bytes, cut: bool) -> tuple[int, int, str, bytes]:
+def chunk_parts(body: bytes, cut: bool) -> tuple[int, int, str, bytes]:
     """A Chunk record's uncompressed size, CRC, compression and compressed data,
     each length checked; with ``cut``, the data is what the body holds of it."""
     if len(body) < _CHUNK_HEAD.size:
@@ -270,8 +264,6 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
     if compression == "":
         return data
     if compression == "zstd":
-        if zstandard is None:   # pragma: no cover
-            raise Damaged("zstd compression (the zstandard module is not installed)")
         try:
             # a frame that states its size is decompressed to that size, whatever
             # the limit: check it against the chunk's before allocating it
@@ -281,8 +273,6 @@ def _decompress(compression: str, data: bytes, size: int) -> bytes:
             return zstandard.ZstdDecompressor().decompress(data, max_output_size=size)
         except zstandard.ZstdError as e:
             raise Damaged(f"zstd: {e}") from None
-    if lz4frame is None:   # pragma: no cover
-        raise Damaged("lz4 compression (the lz4 module is not installed)")
     try:
         return lz4frame.LZ4FrameDecompressor().decompress(data, max_length=size + 1)
     except RuntimeError as e:   # lz4's errors
@@ -310,9 +300,9 @@ def intact_prefix(records: bytes, encodings: dict[int, str]) -> tuple[int, int, 
                 record = parse(op, body)
             except Damaged as e:
                 return pos, messages, f"{e} at byte {pos} of the chunk"
-            if op == OP_CHANNEL:
+            if isinstance(record, Channel):
                 encodings[record.id] = record.message_encoding
-            elif op == OP_MESSAGE:
+            elif isinstance(record, Message):
                 encoding = encodings.get(record.channel_id)
                 if encoding is None:
                     return pos, messages, f"a message on unknown channel {record.channel_id} at byte {pos} of the chunk"

@@ -1,5 +1,5 @@
 """A file viewed in the TUI: its wiring doctor runs in a process of its own
-(analyzer/tui/doctor_apart.py), off the load's path, and its findings reach the
+(analyzer/tui/doctor_process.py), off the load's path, and its findings reach the
 screen when it is done: the findings ``gimbalscope doctor`` gives the same file.
 A pipe, which cannot be read twice, keeps the doctor in the capture thread."""
 
@@ -10,8 +10,8 @@ import json
 import os
 
 import analyzer
-from analyzer.tui.decode_apart import DecodeApart
-from analyzer.tui.doctor_apart import ApartFindings, apart_possible
+from analyzer.tui.decode_process import ProcessFeed
+from analyzer.tui.doctor_process import DoctorProcess, readable_by_another_process
 from analyzer.tui.run import make_app, stop_feed
 from tests.conftest import CTL, DEV, SOCAT_LOG, run_cli
 from tests.ui.test_pilot import settle
@@ -37,20 +37,21 @@ def viewed(*paths) -> tuple[list[tuple[str, str]], object]:
         stop_feed(app)
 
 
-def test_a_files_findings_come_from_the_doctor_apart():
+def test_a_files_findings_come_from_the_doctor_process():
     for paths in ((SOCAT_LOG,), (CTL, DEV)):
         found, feed = viewed(*paths)
         assert found == doctor_says(*paths)
         assert ("noisy_link", "B") in found
-        # the file was decoded in a process of its own, without the doctor
-        assert isinstance(feed, DecodeApart)
-        assert isinstance(feed.doctor, ApartFindings)
-        assert not feed.doctor_apart.process.is_alive()
+        # the file was decoded in a process of its own, the doctor in another, which has ended
+        assert isinstance(feed, ProcessFeed)
+        assert isinstance(feed.doctor_process, DoctorProcess)
+        assert not feed.doctor_process.process.is_alive()
 
 
 def test_what_cannot_be_read_twice_keeps_the_doctor_in_the_capture_thread(tmp_path):
     fifo = tmp_path / "pipe"
     os.mkfifo(fifo)
-    assert apart_possible((SOCAT_LOG,)) and apart_possible((CTL, DEV))
-    assert not apart_possible((str(fifo),)) and not apart_possible(("-",)) and not apart_possible(())
-    assert not apart_possible((str(tmp_path / "gone.log"),))
+    readable = readable_by_another_process
+    assert readable((SOCAT_LOG,)) and readable((CTL, DEV))
+    assert not readable((str(fifo),)) and not readable(("-",)) and not readable(())
+    assert not readable((str(tmp_path / "gone.log"),))

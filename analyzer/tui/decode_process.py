@@ -1,0 +1,230 @@
+"""A file viewed is decoded in a process of its own, which hands the screen its
+events as store columns.
+
+Loading a file means decoding, pairing and storing its events. In one process
+the capture thread (decode, pair) and the screen's thread (store the events,
+one by one, as columns) take turns on one interpreter lock, so their times add
+up. Here the decoding process also stores the events (``ChunkMaker``: the
+same columns the screen's store keeps) and sends what it stored every quarter
+of a second; the screen's thread copies arrays (``CaptureModel.add_chunk``).
+The two run side by side, and the screen stays free for keys while a file
+loads.
+
+The decoding process runs the capture with a ``Feed`` as any capture thread
+does (its batches, line states, warnings, read progress); only the events of
+its batches become a chunk on the way. What pairing still holds is not sent:
+while a file loads nothing waits on the wire, and its end settles everything.
+
+Only for a file viewed whose inputs can be opened again
+(``readable_by_another_process``); live taps, replays and pipes keep their
+capture thread (feed.py). The wiring doctor runs in a process of its own beside
+this one (doctor_process.py). Both processes are started by
+analyzer/worker_process.py.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import threading
+import time
+from collections.abc import Callable
+from functools import partial
+
+from .. import worker_process
+from ..capture import Options
+from .doctor_process import DoctorProcess
+from .feed import FILE_INTERVAL, FeedBatch, ScreenFeed
+from .model.chunks import ChunkMaker
+
+# cores enough for the wiring doctor's process beside the decoding one and the
+# screen: with fewer, the doctor waits until the file has loaded (on two cores,
+# running beside the load, it cost the load a quarter of its speed)
+DOCTOR_BESIDE_CORES = 4
+
+
+def _cores() -> int:
+    """The cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
+class BatchSender:
+    """The decoding process's ``deliver``: the feed's batches, their events made
+    into chunks and sent at most every ``FILE_INTERVAL`` (the first at once)."""
+
+    def __init__(self, sender: worker_process.Sender) -> None:
+        self.sender = sender
+        self.maker = ChunkMaker()
+        self.warnings: list[str] = []
+        self.findings: list | None = None
+        self.last = 0.0
+        self.sent = False
+        self.failed = False   # a chunk could not be sent: the ones after it would not follow it
+
+    def __call__(self, batch: FeedBatch) -> None:
+        if self.failed:   # the run ends on that failure: only its last word goes, without events
+            if batch.done:
+                self.sender.send(dataclasses.replace(batch, events=[], unsettled=[], chunk=None))
+            return
+        self.maker.add(batch.events)
+        self.warnings += batch.warnings
+        if batch.findings is not None:
+            self.findings = batch.findings
+        now = time.monotonic()
+        if not (batch.done or now - self.last >= FILE_INTERVAL or (len(self.maker) and not self.sent)):
+            return
+        self.sent = self.sent or bool(len(self.maker))
+        self.last = now
+        warnings, self.warnings = self.warnings, []
+        findings, self.findings = self.findings, None
+        try:
+            self.sender.send(dataclasses.replace(batch, events=[], unsettled=[], warnings=warnings,
+                                                 findings=findings, chunk=self.maker.take()))
+        except BaseException:
+            self.failed = True
+            raise
+
+
+def _decode(inputs: tuple[str, ...], options: Options, command: str | None, sender: worker_process.Sender) -> None:
+    """The decoding process: the capture's batches, to the last one; a capture
+    that fails says so in it."""
+    try:
+        from ..capture import open as open_capture
+        from ..info import CaptureInfo
+        from ..runner import TapRunner
+        from .feed import Feed
+
+        capture = open_capture(*inputs, options=options)
+        runner = TapRunner(capture, [], info=CaptureInfo.of(capture, command=command))
+        feed = Feed(runner, BatchSender(sender), None)   # the doctor is in a process of its own
+        runner.add_listener(feed)
+        feed.run()
+    except Exception as e:   # noqa: BLE001 - whatever it is, the screen hears of it, in one line
+        sender.send(FeedBatch([], [], [], done=True, error=f"{type(e).__name__}: {e}"))
+
+
+class ProcessFeed(ScreenFeed):
+    """The screen's side of the decoding process: its batches, received by a
+    thread of its own and handed to ``deliver``, with the doctor's word (its
+    ``DoctorProcess``) in the next one. A file viewed is not recorded, and has
+    no lines to swap."""
+
+    def __init__(self, inputs: tuple[str, ...], options: Options, deliver: Callable[[FeedBatch], None], *,
+                 command: str | None = "view", doctor: DoctorProcess | None = None) -> None:
+        """``doctor``: the wiring doctor's process, started beside the decoding
+        where there are cores enough, else once the file has loaded."""
+        self.inputs, self.options, self.command = inputs, options, command
+        self.deliver = deliver
+        self.doctor_process = doctor
+        self._doctor_started = False
+        self.notes: list[str] = []
+        self.lines = {}
+        self.process: worker_process.Worker | None = None
+        self.messages: worker_process.Receiver | None = None   # the batches, from ``spawn``
+        self._thread = threading.Thread(target=self._receive, daemon=True, name="gimbalscope-decode-wait")
+        self._stopping_by_screen = False
+
+    def spawn(self) -> bool:
+        """Start the decoding process; False if no process can be had."""
+        worker = worker_process.start(_decode, (self.inputs, self.options, self.command))
+        if worker is None:
+            return False
+        self.process, self.messages = worker, worker.messages
+        if _cores() >= DOCTOR_BESIDE_CORES:
+            self._start_doctor()
+        return True
+
+    def _start_doctor(self) -> None:
+        doctor, self._doctor_started = self.doctor_process, True
+        if doctor is not None and not doctor.start():
+            doctor.tell(None, "no process could be started for it")
+
+    # ------------------------------------------------------------- the screen's
+    @property
+    def recording(self) -> str | None:
+        return None
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        """End the decoding and the doctor (the screen is closing): nothing of them needs finishing."""
+        self._stopping_by_screen = True   # the decoding's silence is then no news
+        if self.doctor_process is not None:
+            self.doctor_process.stop()
+        self._end()
+
+    def _end(self) -> None:
+        if self.process is not None:
+            self.process.end()
+
+    def join(self, timeout: float | None = None) -> None:
+        if self._thread.is_alive():
+            self._thread.join(timeout)
+
+    def is_alive(self) -> bool:
+        return self._thread.is_alive()
+
+    def start_recording(self, path: str) -> None:
+        raise RuntimeError("a file viewed is not recorded")
+
+    def stop_recording(self) -> None:
+        pass
+
+    def swap_lines(self) -> None:
+        pass
+
+    # --------------------------------------------------------------- thread
+    def _receive(self) -> None:
+        messages = self.messages
+        assert messages is not None, "spawn() before start()"
+        expected = 0   # the next event a chunk must start at
+        while True:
+            batch, expected = self._next(messages, expected)
+            if batch.error and not self._stopping_by_screen:
+                self.notes.append(f"capture stopped: {batch.error}")
+            self.lines = {s.line: s for s in batch.lines}
+            if batch.done:
+                break
+            self._pass_on(batch)
+        messages.close()
+        # the doctor's word after the load ended: one more last batch
+        again = partial(self._pass_on, dataclasses.replace(batch, chunk=None, warnings=[], error=None))
+        if self.doctor_process is None:
+            self._pass_on(batch)
+        else:
+            self.doctor_process.last_batch(partial(self._pass_on, batch), again)
+        if not self._doctor_started:   # the file has loaded: the doctor's turn
+            self._start_doctor()
+
+    def _next(self, messages: worker_process.Receiver, expected: int) -> tuple[FeedBatch, int]:
+        """The next batch of the decoding process and the event the chunk after it
+        must start at; a last batch saying why when what came cannot be used."""
+        error = None
+        try:
+            batch = messages.recv()
+        except (EOFError, OSError):   # killed, or out of memory: keep what came
+            error = "the decoding process ended without a word"
+        except Exception as e:   # noqa: BLE001 - a message that cannot be read: the rest cannot be trusted
+            error = f"a batch from the decoding process could not be read: {type(e).__name__}: {e}"
+        else:
+            if not isinstance(batch, FeedBatch):
+                error = f"the decoding process sent a {type(batch).__name__}, not a batch"
+            elif batch.chunk is not None and batch.chunk.stored.start != expected:
+                error = f"the decoding process lost events {expected + 1} to {batch.chunk.stored.start}"
+            else:
+                if batch.chunk is not None:
+                    expected = batch.chunk.stored.start + len(batch.chunk.stored.columns["kind"])
+                return batch, expected
+        self._end()   # it may be waiting to send more
+        return FeedBatch([], [], list(self.lines.values()), done=True,
+                         error=None if self._stopping_by_screen else error), expected
+
+    def _pass_on(self, batch: FeedBatch) -> None:
+        """Deliver ``batch`` with the doctor's word, if it has come."""
+        if self.doctor_process is not None:
+            batch.hear(self.doctor_process.take())
+        self.deliver(batch)

@@ -1,0 +1,79 @@
+"""Work in a process of its own (analyzer/worker_process.py): its messages arrive
+in order; what it prints reaches no terminal; SIGTERM ends it through its
+``finally`` clauses; a child killed mid-way is an EOFError, not a garbled message."""
+
+from __future__ import annotations
+
+import os
+import time
+
+import pytest
+
+from analyzer import worker_process
+
+
+def count_to(n: int, sender: worker_process.Sender) -> None:
+    print("printed by the work")
+    os.write(2, b"written to standard error\n")
+    for k in range(n):
+        sender.send(("item", k, b"x" * k))
+    sender.send(None)
+
+
+def wait_forever(sender: worker_process.Sender) -> None:
+    try:
+        sender.send("started")
+        time.sleep(600)
+    finally:
+        sender.send("finally")
+
+
+def messages_of(worker: worker_process.Worker) -> list:
+    got = []
+    while (message := worker.messages.recv()) is not None:
+        got.append(message)
+    return got
+
+
+def test_messages_arrive_in_order_and_nothing_reaches_the_terminal(capfd):
+    worker = worker_process.start(count_to, (2000,))
+    assert worker is not None
+    assert messages_of(worker) == [("item", k, b"x" * k) for k in range(2000)]
+    worker.end()
+    worker.messages.close()
+    assert not worker.is_alive()
+    out, err = capfd.readouterr()
+    assert out == "" and err == ""
+
+
+def test_sigterm_ends_the_work_through_its_finally_clauses():
+    worker = worker_process.start(wait_forever, ())
+    assert worker is not None and worker.messages.recv() == "started"
+    worker.end()
+    assert worker.messages.recv() == "finally"
+    with pytest.raises(EOFError):
+        worker.messages.recv()
+    worker.messages.close()
+
+
+def test_a_killed_child_is_an_eof():
+    worker = worker_process.start(wait_forever, ())
+    assert worker is not None and worker.messages.recv() == "started"
+    worker.kill()
+    with pytest.raises(EOFError):
+        worker.messages.recv()
+    worker.end()
+    worker.messages.close()
+
+
+def test_a_channel_without_a_process():
+    messages, sender = worker_process.channel()
+    sender.send({"a": 1})
+    sender.send_bytes(b"not a pickle")
+    sender.close()
+    assert messages.recv() == {"a": 1}
+    with pytest.raises(Exception, match="invalid load key"):
+        messages.recv()
+    with pytest.raises(EOFError):
+        messages.recv()
+    messages.close()
