@@ -1,5 +1,5 @@
 """A file viewed is decoded in a process of its own, which hands the screen its
-events as store columns (analyzer/tui/model/chunks.py, decode_apart.py). What
+events as store columns (analyzer/tui/model/chunks.py, decode_process.py). What
 the screen's model holds after taking those chunks, pickled as they cross the
 pipe, must be what it holds after storing the same events itself: every
 column, every rebuilt event, the plots, the checksum count, the statistics,
@@ -52,11 +52,11 @@ def same_model(got: CaptureModel, want: CaptureModel, events: list[Event]) -> No
     assert a.raw == b.raw and a.problems == b.problems and a.fields == b.fields
     for i, ev in enumerate(events):
         same(a.event(i), ev)
-    assert got.checksum_errors == want.checksum_errors
+    assert got.totals.checksum_errors == want.totals.checksum_errors
     assert {d: {n: (list(s.t), list(s.v)) for n, s in named.items()} for d, named in got.series.items()} == \
         {d: {n: (list(s.t), list(s.v)) for n, s in named.items()} for d, named in want.series.items()}
-    assert got.devices == want.devices
-    assert got.stats.to_dict() == want.stats.to_dict()
+    assert got.totals.devices == want.totals.devices
+    assert got.totals.stats.to_dict() == want.totals.stats.to_dict()
     assert got.filter.view == want.filter.view and got.filter.errors == want.filter.errors
     assert got.row_count == want.row_count
 

@@ -39,9 +39,9 @@ def test_pairing_index_and_detail_links(loaded):
     assert any(label.startswith("ACK in #2 after") for label in labels)
     assert any(label.startswith("result in #3 after") for label in labels)
     result = model.detail(model.event(3))
-    pairing = [n for n in result if n.label == "pairing"][0]
+    pairing = next(n for n in result if n.label == "pairing")
     assert pairing.children[0].jump == 1 and pairing.children[0].label.startswith("answers #1")
-    fields = [n for n in result if n.label.startswith("P?")][0]
+    fields = next(n for n in result if n.label.startswith("P?"))
     # Table 15: az 0x03E8 = 1000 hundredths = 10.00 deg, el 0xFE0C = -500 = -5.00 deg,
     # at payload bytes 0-3 and 4-7, i.e. frame bytes 6-9 and 10-13
     assert [(c.label.split("  ")[0], c.span) for c in fields.children] == [
@@ -116,12 +116,12 @@ def test_time_modes(loaded):
 
 def test_statistics_and_device_map(loaded):
     model, _ = loaded
-    d = model.stats.to_dict()
+    d = model.totals.stats.to_dict()
     assert d["commands"] == 6 and d["status"]["nak"] == 1 and d["status"]["nic"] == 1
     assert d["checksum_errors"] == 1 and d["retransmissions"] == 2
-    assert model.devices["1.1.1"].nic == {"FA"}
-    assert model.devices["1.1.3"].commands == 2 and model.devices["1.1.3"].answered == 1
-    assert model.devices["1.1.2"].lines == {"B"}
+    assert model.totals.devices["1.1.1"].nic == {"FA"}
+    assert model.totals.devices["1.1.3"].commands == 2 and model.totals.devices["1.1.3"].answered == 1
+    assert model.totals.devices["1.1.2"].lines == {"B"}
     # plots: the go-to commanded 20.00/15.00 deg to 1.1.2 (twice); 1.1.1 reported 10/-5
     assert model.series["1.1.2"]["commanded azimuth"][0][1] == 20.0
     assert model.series["1.1.2"]["commanded elevation"][0][1] == 15.0
@@ -168,17 +168,17 @@ def test_replay_playback_shows_events_up_to_the_position(loaded):
     assert model.row_count == 1
     model.replay.advance(100.0 + (t[2] - t[0]) + 1e-6)   # one wall second = one capture second
     assert model.row_count == 3
-    assert model.stats.to_dict()["commands"] == 1          # statistics follow the position
+    assert model.totals.stats.to_dict()["commands"] == 1          # statistics follow the position
     model.replay.playback.playing = False
     model.replay.advance(200.0)
     assert model.row_count == 3
     model.replay.seek(10.0)                      # past the end: clamps to the last event
-    assert model.row_count == 13 and model.stats.to_dict()["status"]["nak"] == 1
+    assert model.row_count == 13 and model.totals.stats.to_dict()["status"]["nak"] == 1
     model.replay.seek(-(t[-1] - t[3]))           # back: to event 4 (the NAK'd go-to)
     assert model.row_count == 4 and model.nav.answers == {1: [2, 3]}
     # #4 shows its final status (nak) before its NAK is played: a replay shows
     # events as decoded from the whole file
-    assert model.stats.to_dict()["commands"] == 2 and model.nav.next_error(0) == 4 and model.nav.next_error(4) is None
+    assert model.totals.stats.to_dict()["commands"] == 2 and model.nav.next_error(0) == 4 and model.nav.next_error(4) is None
     model.replay.playback.speed = 0              # max: everything
     model.replay.advance(201.0)
     assert model.row_count == 13 and model.nav.next_error(4) == 5

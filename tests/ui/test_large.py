@@ -1,5 +1,5 @@
 """The TUI on captures too large to handle row by row on the screen's thread:
-End while a file loads, a filter scanned in the background with its progress on
+End while a file loads, a filter swept in the background with its progress on
 the status line and stopped by Esc, and the number column's width. Driven by
 keys with Textual's Pilot."""
 
@@ -12,7 +12,7 @@ import pytest
 
 import analyzer
 from analyzer.simulation.traffic import generate
-from analyzer.tui import scan
+from analyzer.tui import sweep
 from analyzer.tui.run import make_app, stop_feed
 from analyzer.tui.screens import capture as capture_screen
 from analyzer.tui.widgets import EventList
@@ -54,12 +54,12 @@ def test_end_while_loading_follows_to_the_last_event(big_capture):
 
 
 def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkeypatch):
-    # every filter goes to the background, one event a step; the scan is held at
+    # every filter goes to the background, one event a step; the sweep is held at
     # the first event from 500 on it rebuilds until Esc has been pressed, so the
     # test does not race it. The filter is one the store's columns cannot decide
     # (the payload's text), so the closure runs on rebuilt events
     monkeypatch.setattr(capture_screen, "BACKGROUND_ROWS", 1)
-    monkeypatch.setattr(scan, "STEP", 1)
+    monkeypatch.setattr(sweep, "STEP", 1)
     escaped = threading.Event()
     reached = threading.Event()
 
@@ -74,13 +74,13 @@ def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkey
             return real(i)
         store.event = event
         await pilot.press("slash", *'payload != "zz"', "enter")
-        await settle(pilot, app, lambda a: reached.is_set() and "filtering" in a._scan_text)
+        await settle(pilot, app, lambda a: reached.is_set() and "filtering" in a.sweep_text)
         status = str(app.status_bar.render())
         assert "filtering" in status and "Esc stops" in status
         await pilot.press("escape")
         escaped.set()
         await pilot.pause(0.2)
-        assert app.model.filter_text == "" and app._scan_text == ""
+        assert app.model.filter_text == "" and app.sweep_text == ""
         assert app.model.row_count == app.model.shown      # the view is as it was
         # the same filter left to run: it applies, and only noise rows remain
         store.event = real
@@ -94,9 +94,9 @@ def test_a_background_filter_shows_progress_and_esc_stops_it(big_capture, monkey
 def test_the_number_column_widens_for_large_numbers(big_capture):
     async def drive(app, pilot):
         lst = app.query_one(EventList)
-        assert lst._widths()[0] == 6                  # "No." and up to 999,999
-        app.model.shown = 12_345_678                  # as if a day had loaded: 8 digits
-        assert lst._widths()[0] == 8
+        assert lst.column_widths()[0] == 6            # "No." and up to 999,999
+        app.model.shown = 12_345_678                 # as if a day had loaded: 8 digits
+        assert lst.column_widths()[0] == 8
         app.model.shown = len(app.model.store)
     in_view(big_capture, drive)
 

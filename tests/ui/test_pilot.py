@@ -27,7 +27,7 @@ def run(coro):
 
 # A guard against a hang, not a timing check: on a loaded machine the feed and the
 # doctor can take many times longer than on a quiet one, and the test must not fail then.
-HANG_GUARD = float(os.environ.get("HANG_GUARD", 120))
+HANG_GUARD = float(os.environ.get("HANG_GUARD", "120"))
 
 
 async def settle(pilot, app, until, seconds=HANG_GUARD, what=lambda app: ""):

@@ -158,7 +158,7 @@ def write_vcd(path) -> str:
 
 @pytest.mark.parametrize("width", [120, 80])
 def test_a_logic_file_viewed_names_its_input_once_and_each_lines_measure(tmp_path, monkeypatch, width):
-    """``view rig.vcd``: decoded in a process of its own (decode_apart.py), whose
+    """``view rig.vcd``: decoded in a process of its own (decode_process.py), whose
     batches carry the lines' measures too."""
     monkeypatch.chdir(tmp_path)
     write_vcd(tmp_path / "rig.vcd")

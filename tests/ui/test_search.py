@@ -10,7 +10,7 @@ import asyncio
 import analyzer
 from analyzer.tui.run import make_app, stop_feed
 from tests.conftest import CTL, DEV
-from tests.ui.test_pilot import settle
+from tests.ui.test_pilot import notices, settle
 
 
 def test_search_by_text_and_by_filter_expression():
@@ -25,6 +25,7 @@ def test_search_by_text_and_by_filter_expression():
         async with app.run_test(size=(110, 30)) as pilot:
             await settle(pilot, app, lambda a: a.model.done)
             screen = app.main
+            said = notices(app)
             seen = [screen.current]
             await pilot.press("ctrl+f", *'=kind == "nak"', "enter")
             await pilot.pause()
@@ -38,7 +39,6 @@ def test_search_by_text_and_by_filter_expression():
             await pilot.press("ctrl+f", "ctrl+u", *"=kind ==", "enter")   # does not compile
             await pilot.pause()
             still_open = screen.search_bar.has_class("shown")
-            said = [n.message for n in app._notifications]
             await pilot.press("ctrl+u", *"preset 37", "enter")
             await pilot.pause()
             seen.append(screen.current)

@@ -6,9 +6,11 @@ parts it is made of, each a class of its own module:
 - ``Navigation`` (navigation.py): next error, pair, same device, marks, search
 - ``RowText`` (row_text.py): a row's cells and the time mode
 - ``Replay`` and ``Playback`` (replay.py): a replay's pace and position
-- ``PositionPlots`` (plots.py), fed the events; the statistics (``Stats``,
-  analyzer/analysis/stats.py) and the device map (``DeviceInfo``, devices.py),
-  worked out from the store's columns when asked (analyzer/tui/store_stats.py)
+- ``Totals`` (totals.py): the error and checksum-error counts, and the
+  statistics (``Stats``, analyzer/analysis/stats.py) and the device map
+  (``DeviceInfo``, devices.py), worked out from the store's columns when asked
+  (analyzer/tui/store_stats.py)
+- ``PositionPlots`` (plots.py), fed the events
 - ``SampledInput`` (sampled.py): a logic capture's input and each line's
   channel and measured rate and format, as the feed's batches carry them
 
@@ -16,8 +18,8 @@ The widgets only read them; tests/pure checks them without a screen.
 """
 
 from ..detail import DetailNode, hex_lines
-from ..scan import Cancelled
 from ..store import is_error
+from ..sweep import Cancelled
 from .capture import CaptureModel
 from .devices import DeviceInfo
 from .replay import Playback

@@ -1,6 +1,7 @@
 """``CaptureModel``: the rows of a capture as the TUI shows them, made of the
 parts of this package (filter, follow and marks, navigation, row text,
-replay, statistics, device map, plots). The widgets only read it.
+replay, totals: the counts, statistics and device map; plots). The widgets
+only read it.
 
 The events themselves are in an ``EventStore`` (columns, ``store.py``); rows
 are rebuilt events, made when a row is drawn. Events arrive in batches from
@@ -10,8 +11,8 @@ on the wire and its status fills in when its answers come. Event numbers are
 consecutive from 1, so event N is stored at index N - 1.
 
 A replay stores the whole file as it loads; ``shown`` is how many of those
-events the playback has reached. Statistics, plots and the device map describe
-what has been shown.
+events the playback has reached. The totals and the plots describe what has
+been shown.
 """
 
 from __future__ import annotations
@@ -20,18 +21,19 @@ from bisect import bisect_left, bisect_right
 
 from dissectors.event import Event
 
-from ...analysis.stats import Stats, checksum_problem
+from ...analysis.findings import Finding
 from ..detail import DetailNode
 from ..detail import detail as detail_tree
 from ..store import EventStore, EventsView
+from ..sweep import IsCancelled, ReportProgress
 from .chunks import ModelChunk
-from .devices import DeviceInfo
-from .filter import FilterView
+from .filter import FilterView, PreparedFilter
 from .follow import Follow, Marks
 from .navigation import Navigation
 from .plots import PositionPlots, Series
 from .replay import Replay
 from .row_text import RowText
+from .totals import Totals
 
 _CACHE_MAX = 512   # rebuilt events kept: the rows on screen and their neighbours
 
@@ -42,7 +44,7 @@ class CaptureModel:
         self.shown = 0                            # settled events shown (a replay: played)
         self.unsettled: list[Event] = []
         self.slow = slow               # seconds: answers slower than this are coloured
-        self.findings: list = []                  # the wiring doctor's, from the capture thread
+        self.findings: list[Finding] = []         # the wiring doctor's, from the capture thread
         self.findings_known = False               # the doctor has had its say (``findings`` may be empty)
         self.doctor_error: str | None = None      # the doctor's process failed: why
         self.done = False                         # the capture has ended
@@ -53,9 +55,7 @@ class CaptureModel:
         self.nav = Navigation(self)
         self.text = RowText(self)
         self.replay = Replay(self)
-        self.checksum_errors = 0                  # shown events with a checksum problem (the status line's)
-        self._stats: tuple | None = None          # (what it was computed for, the Stats)
-        self._devices: tuple | None = None        # (shown, the device map)
+        self.totals = Totals(self)
         self.plots = PositionPlots()
         self._cache: dict[int, Event] = {}
 
@@ -66,43 +66,8 @@ class CaptureModel:
         return EventsView(self.store, lambda: self.shown)
 
     @property
-    def devices(self) -> dict[str, DeviceInfo]:
-        """The device map of the shown events, from the store's columns
-        (``store_stats.devices_of``), worked out when asked and kept until more
-        events are shown."""
-        if self._devices is None or self._devices[0] != self.shown:
-            from ..store_stats import devices_of  # numpy: loaded when first asked, not with the screen
-            self._devices = (self.shown, devices_of(self.store, self.shown))
-        return self._devices[1]
-
-    @property
     def series(self) -> dict[str, dict[str, Series]]:
         return self.plots.series
-
-    @property
-    def stats(self) -> Stats:
-        """The statistics of the shown events, or of the rows the filter shows, from
-        the store's columns (``store_stats``), computed when asked and kept until
-        the rows change."""
-        view = self.filter.view
-        key = (self.shown, id(view), None if view is None else len(view))
-        if self._stats is None or self._stats[0] != key:
-            import numpy as np
-
-            from ..store_stats import stats_of
-            rows = None if view is None else np.frombuffer(view.tobytes(), dtype=np.int32)
-            self._stats = (key, stats_of(self.store, self.shown, rows))
-        return self._stats[1]
-
-    @property
-    def error_count(self) -> int:
-        return bisect_right(self.store.errors, self.shown)
-
-    @property
-    def shown_error_count(self) -> int:
-        """Errors among the settled rows the filter lets through (``error_count``
-        without a filter)."""
-        return self.error_count if self.filter.view is None else self.filter.errors
 
     @property
     def follow(self) -> bool:
@@ -135,7 +100,7 @@ class CaptureModel:
         start = len(self.store)
         self.store.append_chunk(chunk.stored)
         self.shown = len(self.store)
-        self.checksum_errors += chunk.checksum_errors
+        self.totals.checksum_errors += chunk.checksum_errors
         self.plots.merge(chunk.points)
         self.filter.learn(self.store, start, self.shown)
         # a decoding process holds its unsettled events until they settle
@@ -161,7 +126,7 @@ class CaptureModel:
         self.shown = start + len(events)
         if devices is None:
             devices = [ev.device for ev in events]
-        self.checksum_errors += sum(1 for ev in events if ev.problems and checksum_problem(ev))
+        self.totals.learn(events)
         self.plots.add(events, devices)
         self.filter.learn(self.store, start, self.shown)
 
@@ -188,7 +153,7 @@ class CaptureModel:
             return self._grew(before)
         if k < n:
             self.shown = 0
-            self.checksum_errors = 0
+            self.totals.forget()
             self.plots = PositionPlots()
             self._cache.clear()
             self.filter.forget()
@@ -200,18 +165,19 @@ class CaptureModel:
         """Show only events matching ``text`` (the ``decode --filter`` language).
         Raises FilterError (with the column) for a bad expression; an empty text
         shows everything."""
-        self.apply_filter(text, *self.prepare_filter(text))
+        self.apply_filter(self.prepare_filter(text))
 
-    def prepare_filter(self, text: str, *, progress=None, cancelled=None) -> tuple:
+    def prepare_filter(self, text: str, *, progress: ReportProgress | None = None,
+                       cancelled: IsCancelled | None = None) -> PreparedFilter:
         """The slow half of ``set_filter``, safe in a worker thread (the store only
-        grows): (predicate, events scanned, matching indices). ``progress(done,
+        grows): the events shown so far that ``text`` selects. ``progress(done,
         total)`` is called as it goes; raises Cancelled when ``cancelled()``."""
         return FilterView.prepare(text, self.store, self.shown, progress=progress, cancelled=cancelled)
 
-    def apply_filter(self, text: str, pred, upto: int, view) -> None:
+    def apply_filter(self, prepared: PreparedFilter) -> None:
         """The fast half, on the thread that extends the model: catch up with the
         events shown while the view was being computed."""
-        self.filter.apply(text, pred, upto, view, self.store, self.shown, self.unsettled)
+        self.filter.apply(prepared, self.store, self.shown, self.unsettled)
 
     @property
     def filter_text(self) -> str:
@@ -288,7 +254,7 @@ class CaptureModel:
         i = bisect_left(times, start - 0.5, 0, self.shown)   # a long frame may start before the window
         j = bisect_right(times, end, i, self.shown)
         out = [e for e in map(self._stored, range(i, min(j, i + most))) if e.t_end is not None and e.t_end >= start]
-        out += [e for e in self.unsettled if e.t is not None and e.t <= end and e.t_end >= start]
+        out += [e for e in self.unsettled if e.t is not None and e.t <= end and e.t_end is not None and e.t_end >= start]
         return out
 
     # -------------------------------------------------------------- detail

@@ -1,4 +1,4 @@
-"""What a process decoding a file for the screen hands it (decode_apart.py):
+"""What a process decoding a file for the screen hands it (decode_process.py):
 the events as store columns (``StoreChunk``) and what the model's other parts
 would have learnt from them as objects (the position plots' points, the
 checksum errors), so the screen's thread copies arrays instead of handling a

@@ -13,19 +13,31 @@ from __future__ import annotations
 
 from array import array
 from bisect import bisect_left
-from collections.abc import Callable
+from dataclasses import dataclass
 
 from dissectors.event import Event
 
-from ...analysis.filter import compile_filter
-from ..store import ERROR
+from ...analysis.filter import Predicate, compile_filter
+from ..store import ERROR, EventStore
+from ..sweep import IsCancelled, ReportProgress
+
+
+@dataclass(frozen=True)
+class PreparedFilter:
+    """What ``FilterView.prepare`` found: the filter's text and predicate (None:
+    no filter), how many events it went through, and the store indices of
+    those it selects (None: no filter)."""
+    text: str
+    pred: Predicate | None
+    upto: int
+    view: array | None
 
 
 class FilterView:
     def __init__(self) -> None:
         self.text = ""
         self.history: list[str] = []
-        self.pred: Callable[[Event], object] | None = None
+        self.pred: Predicate | None = None
         self.view: array | None = None           # indices of matching shown events; None: every one
         self.unsettled: list[Event] = []         # the unsettled events that match
         self.errors = 0                          # error rows among ``view`` (the status line's count)
@@ -34,10 +46,10 @@ class FilterView:
         """How many settled rows there are, of ``shown`` settled events."""
         return shown if self.view is None else len(self.view)
 
-    def learn(self, store, start: int, stop: int) -> None:
+    def learn(self, store: EventStore, start: int, stop: int) -> None:
         """The stored events ``start``..``stop`` are shown now: the columns
         decide which match (``store_filter``), as for ``prepare``."""
-        if self.pred is None or stop <= start:
+        if self.pred is None or self.view is None or stop <= start:
             return
         from ..store_filter import matching
         found = matching(self.pred, store, start, stop)
@@ -57,23 +69,24 @@ class FilterView:
             self.errors = 0
 
     @staticmethod
-    def prepare(text: str, store, shown: int, *, progress=None, cancelled=None) -> tuple:
-        """(predicate, events scanned, matching indices) of ``text`` over the
-        first ``shown`` events of ``store``. Raises FilterError for a bad
-        expression, Cancelled when ``cancelled()``."""
+    def prepare(text: str, store: EventStore, shown: int, *, progress: ReportProgress | None = None,
+                cancelled: IsCancelled | None = None) -> PreparedFilter:
+        """The filter ``text`` over the first ``shown`` events of ``store``.
+        Raises FilterError for a bad expression, Cancelled when ``cancelled()``."""
         text = text.strip()
         pred = compile_filter(text) if text else None
         if pred is None:
-            return None, shown, None
+            return PreparedFilter(text, None, shown, None)
         from ..store_filter import matching  # numpy: loaded when a filter first runs, not with the screen
-        return pred, shown, matching(pred, store, 0, shown, progress=progress, cancelled=cancelled)
+        return PreparedFilter(text, pred, shown,
+                              matching(pred, store, 0, shown, progress=progress, cancelled=cancelled))
 
-    def apply(self, text: str, pred, upto: int, view, store, shown: int, unsettled: list[Event]) -> None:
+    def apply(self, prepared: PreparedFilter, store: EventStore, shown: int, unsettled: list[Event]) -> None:
         """Show what ``prepare`` found, caught up with the ``shown`` events now."""
-        text = text.strip()
+        pred, upto, view = prepared.pred, prepared.upto, prepared.view
         self.pred = pred
-        self.text = text
-        if pred is None:
+        self.text = prepared.text
+        if pred is None or view is None:
             self.view = None
             self.unsettled = unsettled
             self.errors = 0
@@ -86,12 +99,12 @@ class FilterView:
         self.view = view
         self.errors = error_rows(store, view, shown)
         self.unsettled = [e for e in unsettled if pred(e)]
-        if text in self.history:
-            self.history.remove(text)
-        self.history.append(text)
+        if self.text in self.history:
+            self.history.remove(self.text)
+        self.history.append(self.text)
 
 
-def error_rows(store, view: array, shown: int) -> int:
+def error_rows(store: EventStore, view: array, shown: int) -> int:
     """How many of the rows ``view`` (store indices below ``shown``) are errors,
     from the store's flags column (copies: the arrays go on growing)."""
     import numpy as np

@@ -9,6 +9,7 @@ Marks are event numbers the user set (``m``), kept across filters.
 from __future__ import annotations
 
 from bisect import bisect_right
+from collections.abc import Callable
 
 
 class Follow:
@@ -47,7 +48,7 @@ class Marks:
         self.numbers.add(number)
         return True
 
-    def next(self, number: int, shown) -> int | None:
+    def next(self, number: int, shown: Callable[[int], bool]) -> int | None:
         """The next mark after ``number`` among those ``shown(mark)`` says are shown, wrapping."""
         marks = sorted(m for m in self.numbers if shown(m))
         if not marks:

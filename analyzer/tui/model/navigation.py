@@ -7,26 +7,55 @@ number, or None when there is none (the screen rings the bell)."""
 from __future__ import annotations
 
 from bisect import bisect_left, bisect_right
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Protocol
 
-from dissectors.event import COMMAND
+from dissectors.event import COMMAND, Event
 
-from ..scan import scan_first
-from ..store import KINDS
+from ..store import KINDS, EventStore
+from ..sweep import IsCancelled, ReportProgress, first_match
+from .filter import FilterView
+from .follow import Marks
+from .row_text import RowText
+
+if TYPE_CHECKING:
+    import numpy as np
 
 COMMAND_CODE = KINDS.index(COMMAND)
 FIND_BY_FILTER = "="   # a search text that starts with it is a filter expression
 
 
+class Browsed(Protocol):
+    """What navigation reads of the model (capture.py)."""
+    store: EventStore
+    shown: int
+    filter: FilterView
+    marks: Marks
+    text: RowText
+
+    @property
+    def row_count(self) -> int: ...
+
+    def row(self, i: int) -> Event | None: ...
+
+    def row_of(self, number: int) -> int | None: ...
+
+    def event(self, number: int) -> Event | None: ...
+
+    def answers_of(self, number: int) -> list[int]: ...
+
+
 class Navigation:
-    def __init__(self, model) -> None:
+    def __init__(self, model: Browsed) -> None:
         self.model = model
-        self._hits: tuple | None = None   # (expression, shown, store indices it selects): find by filter
+        # find by filter: (expression, shown, store indices it selects)
+        self._hits: tuple[str, int, np.ndarray] | None = None
 
     @property
     def answers(self) -> dict[int, list[int]]:
         """Command number -> its answers' numbers, for the shown events."""
         store, shown = self.model.store, self.model.shown
-        out = {}
+        out: dict[int, list[int]] = {}
         for i in range(shown):
             if store.kind[i] == COMMAND_CODE:
                 found = store.answers_of(i + 1, shown)
@@ -121,7 +150,8 @@ class Navigation:
                 return view[r] + 1
         return None
 
-    def search(self, text: str, after: int, forward: bool = True, *, progress=None, cancelled=None) -> int | None:
+    def search(self, text: str, after: int, forward: bool = True, *, progress: ReportProgress | None = None,
+               cancelled: IsCancelled | None = None) -> int | None:
         """The next shown event whose row text contains ``text`` (case-insensitive),
         or, for ``=EXPR``, that the filter expression EXPR selects; wrapping round.
         Safe in a worker thread; raises Cancelled when ``cancelled()``, FilterError
@@ -139,16 +169,15 @@ class Navigation:
             ev = m.row(r)
             return ev is not None and needle in " ".join(cells(ev, r)).lower()
 
-        r = scan_first(_Wrapped(start, 1 if forward else -1, m.row_count), test,
-                       progress=progress, cancelled=cancelled)
+        r = first_match(_Wrapped(start, 1 if forward else -1, m.row_count), test,
+                        progress=progress, cancelled=cancelled)
         if r is None:
             return None
         ev = m.row(r)
         return ev.number if ev is not None else None
 
-
-    def find_by_filter(self, expr: str, after: int, forward: bool = True, *, progress=None,
-                       cancelled=None) -> int | None:
+    def find_by_filter(self, expr: str, after: int, forward: bool = True, *,
+                       progress: ReportProgress | None = None, cancelled: IsCancelled | None = None) -> int | None:
         """The next shown event after ``after`` that the filter expression selects,
         wrapping round: the stored events through the store's columns
         (``store_filter.matching``, as a filter), kept for the next ``n`` while no
@@ -196,7 +225,7 @@ class _Wrapped:
     def __len__(self) -> int:
         return self.n
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[int]:
         start, step, n = self.start, self.step, self.n
         for k in range(1, n + 1):
             yield (start + step * k) % n

@@ -6,9 +6,10 @@ points. The plots screen draws them."""
 from __future__ import annotations
 
 from array import array
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
+from typing import Any
 
-from dissectors.event import COMMAND, RESULT
+from dissectors.event import COMMAND, RESULT, Event
 
 
 class Series:
@@ -40,7 +41,7 @@ class PositionPlots:
     def __init__(self) -> None:
         self.series: dict[str, dict[str, Series]] = {}
 
-    def add(self, events, addresses=None) -> None:
+    def add(self, events: Sequence[Event], addresses: Sequence[str | None] | None = None) -> None:
         """``events``, and ``addresses``, their devices when already known."""
         for i, ev in enumerate(events):
             command = ev.command
@@ -58,7 +59,7 @@ class PositionPlots:
                 self._point(device, "reported", ev.t, fields)          # an unpaired answer says nothing
 
     def merge(self, series: dict[str, dict[str, Series]]) -> None:
-        """Points another process's plots found (a file decoded apart), after these."""
+        """Points the plots of a decoding process found (a file viewed), after these."""
         for addr, named in series.items():
             mine = self.series.get(addr)
             if mine is None:
@@ -68,7 +69,7 @@ class PositionPlots:
                 m.t.extend(s.t)
                 m.v.extend(s.v)
 
-    def _point(self, addr: str, which: str, t: float | None, fields: dict) -> None:
+    def _point(self, addr: str, which: str, t: float | None, fields: dict[str, Any]) -> None:
         if t is None:
             return
         series = self.series.get(addr)

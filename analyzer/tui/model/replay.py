@@ -6,6 +6,9 @@ from __future__ import annotations
 
 from bisect import bisect_right
 from dataclasses import dataclass
+from typing import Protocol
+
+from ..store import EventStore
 
 
 @dataclass
@@ -30,10 +33,19 @@ class Playback:
         return self.position
 
 
+class Played(Protocol):
+    """What a replay reads and moves of the model (capture.py)."""
+    store: EventStore
+    shown: int
+    done: bool
+
+    def show_first(self, k: int) -> int: ...
+
+
 class Replay:
     """``playback`` is None but for a replay (``start``)."""
 
-    def __init__(self, model) -> None:
+    def __init__(self, model: Played) -> None:
         self.model = model
         self.playback: Playback | None = None
 

@@ -5,15 +5,25 @@ looks for its text in them."""
 
 from __future__ import annotations
 
+from typing import Protocol
+
 from dissectors.event import COMMAND, Event
 
 from ...output import device_address, fmt_seconds, summary
+from ..store import EventStore
 
 TIME_MODES = ("absolute", "relative", "delta")
 
 
+class Rows(Protocol):
+    """What a row's text reads of the model (capture.py)."""
+    store: EventStore
+
+    def row(self, i: int) -> Event | None: ...
+
+
 class RowText:
-    def __init__(self, model) -> None:
+    def __init__(self, model: Rows) -> None:
         self.model = model
         self.time_mode = "absolute"
 

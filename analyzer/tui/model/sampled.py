@@ -7,13 +7,15 @@ A D0 9,888 bit/s 8N1  B D1 9,600 bit/s 8N1``.
 ``SampledInput.of`` is made in the capture thread, from the source's reports
 as they are then (the feed puts it in its batches, analyzer/tui/feed.py); it
 holds plain values only, so a batch carries it from a decoding process too
-(decode_apart.py). A serial port's capture has none.
+(decode_process.py). A serial port's capture has none.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
+
+from ...physical.report import LineReport
 
 # the input's name as the header says it (the sources say "standard input")
 SHORT_NAMES = {"standard input": "stdin"}
@@ -32,7 +34,7 @@ class LineMeasure:
     inverted: bool = False          # idle low
 
     @classmethod
-    def of(cls, report, line: str | None = None) -> LineMeasure:
+    def of(cls, report: LineReport, line: str | None = None) -> LineMeasure:
         """From a ``LineReport`` (read in the thread that updates it)."""
         known = report.nominal is not None
         return cls(line or report.line, report.channel, report.measured, report.nominal, report.given,
@@ -66,7 +68,7 @@ class SampledInput:
     lines: tuple[LineMeasure, ...]
 
     @classmethod
-    def of(cls, description: str, reports: Iterable, swapped: bool = False,
+    def of(cls, description: str, reports: Iterable[LineReport], swapped: bool = False,
            named: tuple[str, str] | None = None) -> SampledInput:
         """``description``: the source's own (``standard input (logic samples at
         1 MHz, 8 channels)``); ``reports``: its ``LineReport``s; ``swapped``:

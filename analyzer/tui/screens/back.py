@@ -1,5 +1,5 @@
 """The binding every full screen over the main one shares: Esc or q goes back."""
 
-from textual.binding import Binding
+from textual.binding import Binding, BindingType
 
-BACK = [Binding("escape,q", "app.pop_screen", "Back", id="screen.back")]
+BACK: list[BindingType] = [Binding("escape,q", "app.pop_screen", "Back", id="screen.back")]

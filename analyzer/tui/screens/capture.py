@@ -1,9 +1,12 @@
 """The main screen: the status bar, the event list, the detail tree and hex
 pane, the timeline, and the filter, search and go-to bars. It keeps the panes
 on the list's selection and carries out what the bars ask for: a filter or a
-search over a large capture runs in the background (``BackgroundScan``)."""
+search over a large capture runs in the background (``BackgroundSweep``)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
 
 from textual import on
 from textual.app import ComposeResult
@@ -12,9 +15,10 @@ from textual.screen import Screen
 from textual.widgets import Footer
 
 from ..model import CaptureModel
+from ..model.filter import PreparedFilter
 from ..model.navigation import FIND_BY_FILTER
 from ..widgets import (
-    BackgroundScan,
+    BackgroundSweep,
     DetailTree,
     EventList,
     FilterBar,
@@ -25,6 +29,7 @@ from ..widgets import (
     StatusBar,
     TimelineView,
 )
+from ..widgets.background_sweep import Work
 from ..widgets.prompt import Prompt
 
 # Filters and searches over more rows than this run in a worker thread, with
@@ -56,7 +61,7 @@ class CaptureScreen(Screen):
         self.search_bar = SearchBar(id="search")
         self.goto_bar = GotoBar(id="goto")
         self.record = RecordControl(record_path)
-        self.scan = BackgroundScan()
+        self.sweep = BackgroundSweep()
         self._detail_due = False   # following: the lower panes catch up on a timer (_detail_later)
 
     def compose(self) -> ComposeResult:
@@ -70,7 +75,7 @@ class CaptureScreen(Screen):
         yield self.search_bar
         yield self.goto_bar
         yield self.record
-        yield self.scan
+        yield self.sweep
         yield Footer()
 
     def on_mount(self) -> None:
@@ -83,7 +88,7 @@ class CaptureScreen(Screen):
         self.status_bar.shown(True)
 
     def refresh_status(self) -> None:
-        self.status_bar.scan = self.scan.text
+        self.status_bar.sweep = self.sweep.text
         self.status_bar.redraw()
 
     # ----------------------------------------------------------- selection
@@ -92,8 +97,8 @@ class CaptureScreen(Screen):
         lst, m = self.event_list, self.model
         before = lst.selected
         lst.rows_changed()
-        if lst.selected is None and m.row_count:
-            lst.go_to(m.row(0).number)   # a file opens on its first event
+        if lst.selected is None and (first := m.row(0)) is not None:
+            lst.go_to(first.number)   # a file opens on its first event
         unsettled = lst.selected is not None and bool(m.unsettled) and lst.selected >= m.unsettled[0].number
         if lst.selected is not None and (lst.selected != before or unsettled):
             if m.follow:
@@ -216,17 +221,17 @@ class CaptureScreen(Screen):
     def _filter(self, message: FilterBar.Applied) -> None:
         text, model = message.text, self.model
         if model.shown < BACKGROUND_ROWS:
-            self._filter_ready(text, *model.prepare_filter(text))
+            self._filter_ready(model.prepare_filter(text))
             return
-        # a large capture is scanned in a worker thread: the screen (and the capture)
+        # a large capture is swept in a worker thread: the screen (and the capture)
         # go on, the status line shows how far it got, and Esc stops it
         self._background("filtering", lambda progress, cancelled: model.prepare_filter(
-            text, progress=progress, cancelled=cancelled), lambda result: self._filter_ready(text, *result))
+            text, progress=progress, cancelled=cancelled), self._filter_ready)
 
-    def _filter_ready(self, text: str, pred, upto: int, view) -> None:
+    def _filter_ready(self, prepared: PreparedFilter) -> None:
         lst = self.event_list
         keep = lst.selected
-        self.model.apply_filter(text, pred, upto, view)
+        self.model.apply_filter(prepared)
         if keep is not None and not self.model.follow:
             lst.go_to(keep)
         lst.rows_changed()
@@ -260,16 +265,19 @@ class CaptureScreen(Screen):
             self.notify(f"{filtered_out(number)}: at the nearest shown event", timeout=2)
 
     # ---------------------------------------------------------- background
-    def _background(self, what: str, work, done) -> None:
-        self.scan.start(what, work, lambda result: (done(result), self.refresh_status()))
+    def _background(self, what: str, work: Work, done: Callable[[Any], None]) -> None:
+        def finished(result: Any) -> None:
+            done(result)
+            self.refresh_status()
+        self.sweep.start(what, work, finished)
         self.refresh_status()
 
-    @on(BackgroundScan.Progress)
-    def _scan_progress(self) -> None:
+    @on(BackgroundSweep.Progress)
+    def _sweep_progress(self) -> None:
         self.refresh_status()
 
-    def cancel_scan(self) -> None:
+    def cancel_sweep(self) -> None:
         """Esc: stop a filter or search that is still running."""
-        if self.scan.cancel():
+        if self.sweep.cancel():
             self.notify("stopped", timeout=1.5)
             self.refresh_status()

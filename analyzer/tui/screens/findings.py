@@ -3,10 +3,12 @@ Enter on an evidence line goes to that event (analyzer.analysis.doctor)."""
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from rich.text import Text
 from textual.app import ComposeResult
-from textual.binding import Binding
-from textual.widgets import Footer
+from textual.binding import Binding, BindingType
+from textual.widgets import Footer, Tree
 
 from ...styles import INFO, SEVERITY_STYLE
 from ...words import counted
@@ -18,7 +20,7 @@ class FindingsScreen(Redrawn):
     """The wiring doctor's findings, updated live; Enter on an evidence line goes
     to that event (analyzer.analysis.doctor)."""
 
-    BINDINGS = [Binding("escape,q,w", "dismiss_none", "Back", id="findings.back")]
+    BINDINGS: ClassVar[list[BindingType]] = [Binding("escape,q,w", "dismiss_none", "Back", id="findings.back")]
 
     def __init__(self, model: CaptureModel) -> None:
         super().__init__()
@@ -26,8 +28,6 @@ class FindingsScreen(Redrawn):
         self._shown: tuple | None = None
 
     def compose(self) -> ComposeResult:
-        from textual.widgets import Tree
-
         yield Tree("findings", id="findings")
         yield Footer()
 
@@ -36,8 +36,6 @@ class FindingsScreen(Redrawn):
         self.query_one("#findings").focus()
 
     def redraw(self) -> None:
-        from textual.widgets import Tree
-
         m = self.model
         findings = m.findings
         shown = (id(findings), m.findings_known, m.done, m.doctor_error)
@@ -75,7 +73,7 @@ class FindingsScreen(Redrawn):
             return "no findings: the wiring doctor found nothing wrong"
         return "no findings yet: the doctor checks the traffic once a second"
 
-    def on_tree_node_selected(self, event) -> None:
+    def on_tree_node_selected(self, event: Tree.NodeSelected[int | None]) -> None:
         if isinstance(event.node.data, int):
             self.dismiss(event.node.data)
 

@@ -5,10 +5,12 @@ with the keys the keymap gave it."""
 
 from __future__ import annotations
 
+from typing import ClassVar, Protocol
+
 from rich.table import Table
 from rich.text import Text
 from textual.app import ComposeResult
-from textual.binding import Binding
+from textual.binding import Binding, BindingType
 from textual.containers import VerticalScroll
 from textual.screen import Screen
 from textual.widgets import Footer, Static
@@ -17,10 +19,19 @@ from ...styles import LEGEND, ROW_STYLE
 from .back import BACK
 
 
+class KeyedApp(Protocol):
+    """What the help screen reads of the app (app.py): its keys, the keymap's
+    keys for them, and how Textual shows a key."""
+    BINDINGS: ClassVar[list[BindingType]]
+    keymap: dict[str, str]
+
+    def get_key_display(self, binding: Binding) -> str: ...
+
+
 class HelpScreen(Screen):
     BINDINGS = BACK
 
-    def __init__(self, app) -> None:
+    def __init__(self, app: KeyedApp) -> None:
         super().__init__()
         self._app = app
 
@@ -36,7 +47,8 @@ class HelpScreen(Screen):
         t.add_column("key")
         t.add_column("does")
         t.add_column("id", style="dim")
-        for b in list(EventList.BINDINGS) + list(type(self._app).BINDINGS):
+        for b in [*EventList.BINDINGS, *type(self._app).BINDINGS]:
+            assert isinstance(b, Binding)   # (every key here is declared as a Binding)
             t.add_row(self.keys_of(b), b.description, b.id or "")
         rules = Text("\nRow colours: ", style="bold")
         for name, row in LEGEND:

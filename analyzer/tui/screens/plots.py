@@ -9,26 +9,21 @@ from textual.containers import VerticalScroll
 from textual.widgets import Footer, Static
 
 from ..model import CaptureModel
+from ..model.plots import Series
 from .back import BACK
 from .redraw import Redrawn
 
 
-def _column(points, k: int):
-    """Times (k = 0) or values (k = 1) of a series: its array, or from (t, v) pairs."""
-    arr = getattr(points, "t" if k == 0 else "v", None)
-    return arr if arr is not None else [p[k] for p in points]
-
-
-def plot(series: dict, width: int, height: int) -> Text:
+def plot(series: dict[str, Series], width: int, height: int) -> Text:
     """Series as dots on a character grid (one colour each), with the value range."""
     colours = ["cyan", "bright_green", "magenta", "yellow"]
     filled = [s for s in series.values() if len(s)]
     if not filled:
         return Text("no positions yet (go-to commands and position queries)", style="dim")
-    # the ranges from the columns (devices.Series), at C speed: a day of polling is
+    # the ranges from the columns (plots.Series), at C speed: a day of polling is
     # millions of points
-    t0, t1 = min(min(_column(s, 0)) for s in filled), max(max(_column(s, 0)) for s in filled)
-    v0, v1 = min(min(_column(s, 1)) for s in filled), max(max(_column(s, 1)) for s in filled)
+    t0, t1 = min(min(s.t) for s in filled), max(max(s.t) for s in filled)
+    v0, v1 = min(min(s.v) for s in filled), max(max(s.v) for s in filled)
     if t1 - t0 < 1e-9:
         t1 = t0 + 1
     if v1 - v0 < 1e-9:

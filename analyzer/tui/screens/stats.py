@@ -13,6 +13,7 @@ from textual.app import ComposeResult
 from textual.containers import VerticalScroll
 from textual.widgets import Footer, Static
 
+from ...analysis.stats import bucket_middle
 from ...listeners.stats import counts_table, summary
 from ...output import fmt_seconds
 from ...words import counted
@@ -25,12 +26,11 @@ def histogram(model: CaptureModel, width: int = 50) -> Text:
     """ACK latency over all commands, in log-spaced bins (factor 2)."""
     bins: dict[int, int] = {}
     zero = 0
-    for c in model.stats.by_command.values():
+    for c in model.totals.stats.by_command.values():
         lat = c.ack_latency
         zero += lat.zero
         for b, n in lat.buckets.items():
-            x = math.exp((b + 0.5) * math.log(1.01))
-            k = math.floor(math.log2(x * 1e4))   # bins of 0.1 ms × 2^k
+            k = math.floor(math.log2(bucket_middle(b) * 1e4))   # bins of 0.1 ms × 2^k
             bins[k] = bins.get(k, 0) + n
     out = Text("ACK latency histogram\n", style="bold")
     if not bins and not zero:
@@ -50,7 +50,7 @@ def device_map(model: CaptureModel) -> Table:
     t = Table(title="Device map", title_justify="left", header_style="bold")
     for col in ("device", "answered on", "commands", "answers", "answered NIC to"):
         t.add_column(col)
-    for addr, info in sorted(model.devices.items()):
+    for addr, info in sorted(model.totals.devices.items()):
         t.add_row(addr, ", ".join(sorted(info.lines)) or "never", str(info.commands), str(info.answered),
                   ", ".join(sorted(info.nic)) or "-")
     return t
@@ -77,7 +77,7 @@ class StatsScreen(Redrawn):
 
     def refresh_stats(self) -> None:
         m = self.model
-        d = m.stats.to_dict()
+        d = m.totals.stats.to_dict()
         # the words and columns of `gimbalscope stats` (analyzer/listeners/stats.py)
         head = Text()
         if m.filter_text:

@@ -1,10 +1,10 @@
 """The TUI's widgets, one a module, each with its own messages: the panes
 (event list, detail tree, hex, timeline), the status bar, the filter bar, the
 search and go-to prompts, and two that draw nothing (the record control, the
-background scan). Each reads the ``CaptureModel`` or what it is handed; none
+background sweep). Each reads the ``CaptureModel`` or what it is handed; none
 holds events of its own or reaches into the app."""
 
-from .background_scan import BackgroundScan
+from .background_sweep import BackgroundSweep
 from .detail_tree import DetailTree
 from .event_list import EventList
 from .filter_bar import FilterBar
@@ -15,5 +15,5 @@ from .search import SearchBar
 from .status_bar import StatusBar
 from .timeline_view import TimelineView
 
-__all__ = ["BackgroundScan", "DetailTree", "EventList", "FilterBar", "GotoBar", "HexView", "RecordControl",
+__all__ = ["BackgroundSweep", "DetailTree", "EventList", "FilterBar", "GotoBar", "HexView", "RecordControl",
            "SearchBar", "StatusBar", "TimelineView"]

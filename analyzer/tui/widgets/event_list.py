@@ -7,10 +7,13 @@ screen, so a million events cost no more than a hundred.
 
 from __future__ import annotations
 
+from typing import Any, ClassVar
+
 from rich.segment import Segment
 from rich.style import Style
 from rich.text import Text
-from textual.binding import Binding
+from textual import events
+from textual.binding import Binding, BindingType
 from textual.geometry import Size
 from textual.message import Message
 from textual.scroll_view import ScrollView
@@ -39,7 +42,7 @@ def _fit(text: str, width: int, right: bool = False) -> str:
 class EventList(ScrollView, can_focus=True):
     """Number, time, lane, address, kind, command, summary, status, latency."""
 
-    BINDINGS = [
+    BINDINGS: ClassVar[list[BindingType]] = [
         Binding("up,k", "move(-1)", "Up", show=False, id="list.up"),
         Binding("down,j", "move(1)", "Down", show=False, id="list.down"),
         Binding("pageup", "page(-1)", "Page up", show=False, id="list.page_up"),
@@ -59,14 +62,16 @@ class EventList(ScrollView, can_focus=True):
         """End in the list: go to the last event and follow (a file still
         loading: until it has loaded), as the app's End does."""
 
-    def __init__(self, model: CaptureModel, **kw) -> None:
+    def __init__(self, model: CaptureModel, **kw: Any) -> None:
         super().__init__(**kw)
         self.model = model
         self.cursor = 0
         self.selected: int | None = None   # event number under the cursor
 
     # ------------------------------------------------------------ layout
-    def _widths(self) -> list[int]:
+    def column_widths(self) -> list[int]:
+        """The columns' widths in cells: the number column fits the largest
+        number, the summary takes what the others leave."""
         width = max(self.scrollable_content_region.width, 40)
         widths = [w for _t, w in COLUMNS]
         widths[0] = max(widths[0], len(str(self.model.largest_number)))   # the number column fits No. 10000000
@@ -74,11 +79,11 @@ class EventList(ScrollView, can_focus=True):
         return [w if w else max(10, width - fixed) for w in widths]
 
     def header_text(self) -> Text:
-        cells = [_fit(t, w, right=k in (0, 8)) for k, ((t, _), w) in enumerate(zip(COLUMNS, self._widths()))]
+        cells = [_fit(t, w, right=k in (0, 8)) for k, ((t, _), w) in enumerate(zip(COLUMNS, self.column_widths()))]
         return Text(" ".join(cells), style=HEADER)
 
     def render_line(self, y: int) -> Strip:
-        scroll_x, scroll_y = self.scroll_offset
+        scroll_y = self.scroll_offset.y
         width = self.size.width
         if y == 0:
             return Strip([Segment(_fit(self.header_text().plain, width), HEADER)]).crop(0, width)
@@ -87,7 +92,7 @@ class EventList(ScrollView, can_focus=True):
         if ev is None:
             return Strip.blank(width)
         cells = self.model.text.cells(ev, row)
-        text = " ".join(_fit(c, w, right=k in (0, 8)) for k, (c, w) in enumerate(zip(cells, self._widths())))
+        text = " ".join(_fit(c, w, right=k in (0, 8)) for k, (c, w) in enumerate(zip(cells, self.column_widths())))
         style = ROW_STYLES[row_class(ev, self.model.slow)]
         if ev.number in self.model.marks:
             style = style + MARK
@@ -155,7 +160,7 @@ class EventList(ScrollView, can_focus=True):
         self._navigate()
         self._set_cursor(0)
 
-    def on_click(self, event) -> None:
+    def on_click(self, event: events.Click) -> None:
         row = int(self.scroll_y) + event.y - 1
         if 0 <= row < self.model.row_count:
             self._navigate()

@@ -6,7 +6,9 @@ the background."""
 
 from __future__ import annotations
 
-from textual import on
+from typing import Any
+
+from textual import events, on
 from textual.app import ComposeResult
 from textual.containers import Vertical
 from textual.message import Message
@@ -29,7 +31,7 @@ class FilterBar(Vertical):
     class Closed(Message):
         """The bar was closed: the event list takes the keys again."""
 
-    def __init__(self, **kw) -> None:
+    def __init__(self, **kw: Any) -> None:
         super().__init__(**kw)
         self._history: list[str] = []
         self._history_pos: int | None = None
@@ -81,7 +83,7 @@ class FilterBar(Vertical):
         self.close()
         self.post_message(self.Applied(text))
 
-    def on_key(self, event) -> None:
+    def on_key(self, event: events.Key) -> None:
         hist = self._history
         if event.key == "escape":
             self.close()

@@ -3,6 +3,8 @@ there (``Go``); anything but a number rings the bell."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from textual import on
 from textual.message import Message
 from textual.widgets import Input
@@ -16,7 +18,7 @@ class GotoBar(Prompt):
             super().__init__()
             self.number = number
 
-    def __init__(self, **kw) -> None:
+    def __init__(self, **kw: Any) -> None:
         super().__init__(placeholder="go to event number (Enter goes, Esc cancels)", type="integer", **kw)
 
     @on(Input.Submitted)

@@ -3,6 +3,8 @@ field's bytes highlighted."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from rich.text import Text
 from textual.widgets import Static
 
@@ -12,11 +14,16 @@ from ..detail import hex_lines
 class HexView(Static):
     """Hex and ASCII of the selected event; the selected field's bytes highlighted."""
 
+    def __init__(self, **kw: Any) -> None:
+        super().__init__(**kw)
+        self._shown: tuple[bytes, tuple[int, int] | None] | None = None   # what ``show`` was last given
+
     def show(self, raw: bytes | None, span: tuple[int, int] | None = None) -> None:
-        self._shown = (raw, span)
         if raw is None:
+            self._shown = None
             self.update("")
             return
+        self._shown = (raw, span)
         # 16 bytes a line when there is room (4 columns a byte: hex, space, ASCII)
         per = 16 if self.size.width - 2 >= 72 else 8 if self.size.width - 2 >= 40 else 4
         lines = []
@@ -31,6 +38,6 @@ class HexView(Static):
         self.update(Text("\n").join(lines))
 
     def on_resize(self) -> None:
-        shown = getattr(self, "_shown", None)
+        shown = self._shown
         if shown is not None:
             self.show(*shown)

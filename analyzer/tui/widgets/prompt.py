@@ -3,6 +3,7 @@ takes the keys; Enter or Esc hides it again (``Closed``)."""
 
 from __future__ import annotations
 
+from textual import events
 from textual.message import Message
 from textual.widgets import Input
 
@@ -20,7 +21,7 @@ class Prompt(Input):
         self.remove_class("shown")
         self.post_message(self.Closed())
 
-    def on_key(self, event) -> None:
+    def on_key(self, event: events.Key) -> None:
         if event.key == "escape":
             self.close()
             event.stop()

@@ -9,6 +9,7 @@ the ``--record`` file."""
 from __future__ import annotations
 
 from datetime import datetime
+from typing import Any
 
 from textual.message import Message
 from textual.widget import Widget
@@ -22,7 +23,7 @@ class RecordControl(Widget):
             super().__init__()
             self.path = path
 
-    def __init__(self, record_path: str | None, **kw) -> None:
+    def __init__(self, record_path: str | None, **kw: Any) -> None:
         super().__init__(**kw)
         self.record_path = record_path   # where the record key writes (--record), or None
 

@@ -5,6 +5,8 @@ compile is said, and the prompt stays open on it."""
 
 from __future__ import annotations
 
+from typing import Any
+
 from textual import on
 from textual.message import Message
 from textual.widgets import Input
@@ -20,7 +22,7 @@ class SearchBar(Prompt):
             super().__init__()
             self.text = text
 
-    def __init__(self, **kw) -> None:
+    def __init__(self, **kw: Any) -> None:
         super().__init__(placeholder=f"search text, or {FIND_BY_FILTER}filter expression (Enter finds, "
                                      "n/N next/previous)", **kw)
         self.text = ""     # the last text searched for

@@ -6,7 +6,7 @@ what it is, then each line's channel and the rate and format its software UART
 measured ("measuring" until it has; model/sampled.py) in place of the ports
 and the settings. Line 2: events, errors, checksum errors, the doctor's
 findings, the filter, replay position and speed, follow state or "+N new", a
-running scan's progress or the feed's last warning. It only shows: it reads
+running sweep's progress or the feed's last warning. It only shows: it reads
 the model and what the app hands it, and has no messages of its own. Counts have thousands separators (8,671), as
 everywhere on the TUI.
 
@@ -28,6 +28,7 @@ from __future__ import annotations
 import time
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 from rich.cells import cell_len
 from rich.text import Text
@@ -65,8 +66,11 @@ class Part:
 
     def __post_init__(self) -> None:
         self.full = self.free
-        if self.cut_rank is None:
-            self.cut_rank = self.rank
+
+    @property
+    def cut_at(self) -> int:
+        """The rank at which the free text is shortened."""
+        return self.rank if self.cut_rank is None else self.cut_rank
 
     def width(self, first: bool) -> int:
         return cell_len(self.head) + cell_len(self.free) + cell_len(self.tail) + (0 if first else cell_len(self.sep))
@@ -141,23 +145,8 @@ def fit(parts: list[Part], width: int | None) -> Text:
     a shortened text then takes back any room left; last, the line is cropped
     with an ellipsis."""
     parts = [p for p in parts if p.head or p.free or p.tail]
-
-    def over() -> int:
-        return sum(p.width(i == 0) for i, p in enumerate(parts)) - width
     if width is not None and width > 0:
-        for rank in sorted({p.rank for p in parts} | {p.cut_rank for p in parts}):
-            if over() <= 0:
-                break
-            _share_cut([p for p in parts if p.cut_rank == rank and p.free], over())
-            for p in reversed([p for p in parts if p.rank == rank and rank < MUST]):
-                if over() <= 0:
-                    break
-                if any(q is p for q in parts):   # (not gone with its group)
-                    parts[:] = [q for q in parts if q is not p and not (p.group and q.group == p.group)]
-        for p in sorted((p for p in parts if p.free != p.full), key=lambda p: -p.rank):
-            if over() >= 0:
-                break
-            p.shorten(over())
+        _make_room(parts, width)
     spans: list[list[str]] = []   # [text, style]
     for i, p in enumerate(parts):
         text = p.head + p.free + p.tail
@@ -176,6 +165,26 @@ def fit(parts: list[Part], width: int | None) -> Text:
     return line
 
 
+def _make_room(parts: list[Part], width: int) -> None:
+    """``fit``'s shortening and leaving out, in place, until ``parts`` fit in
+    ``width`` cells or nothing more can go."""
+    def over() -> int:
+        return sum(p.width(i == 0) for i, p in enumerate(parts)) - width
+    for rank in sorted({p.rank for p in parts} | {p.cut_at for p in parts}):
+        if over() <= 0:
+            break
+        _share_cut([p for p in parts if p.cut_at == rank and p.free], over())
+        for p in reversed([p for p in parts if p.rank == rank and rank < MUST]):
+            if over() <= 0:
+                break
+            if any(q is p for q in parts):   # (not gone with its group)
+                parts[:] = [q for q in parts if q is not p and not (p.group and q.group == p.group)]
+    for p in sorted((p for p in parts if p.free != p.full), key=lambda p: -p.rank):
+        if over() >= 0:
+            break
+        p.shorten(over())
+
+
 def _size(n: float) -> str:
     for unit in ("B", "kB", "MB", "GB"):
         if n < 1000 or unit == "GB":
@@ -185,7 +194,7 @@ def _size(n: float) -> str:
 
 
 class StatusBar(Static):
-    def __init__(self, model: CaptureModel, *, mode: str, source: str, settings: str = "", **kw) -> None:
+    def __init__(self, model: CaptureModel, *, mode: str, source: str, settings: str = "", **kw: Any) -> None:
         super().__init__(**kw)
         self.model = model
         self.mode = mode                 # live, replay, view
@@ -196,12 +205,12 @@ class StatusBar(Static):
         self.messages: deque[str] = deque(maxlen=100)   # the feed's warnings, newest last (the last shows)
         self.started = time.monotonic()
         self.ended = self.started        # when the capture ended (model.done)
-        self.scan = ""                   # a filter or search running in a worker: its progress
+        self.sweep = ""                  # a filter or search sweeping in a worker: its progress
         self._shown: Text | None = None
         self._on_screen = False          # the main screen is showing (not under a full screen)
         self._clock: Timer | None = None
 
-    def batch(self, batch: FeedBatch) -> None:
+    def from_feed(self, batch: FeedBatch) -> None:
         """A batch from the feed: the lines' state, and what it had to say."""
         self.last = batch
         if batch.sampled is not None:   # (a last word without it keeps what was measured)
@@ -344,17 +353,17 @@ class StatusBar(Static):
     def _events(self) -> list[Part]:
         """Line 2: what the events are, and what the screen is doing."""
         m = self.model
-        errors = m.error_count
+        errors = m.totals.errors
         parts = [Part(MUST, counted(m.shown + len(m.unsettled), "event"), style="bold"),
                  Part(MUST, counted(errors, "error"), style=SEVERITY_BADGE[ERROR] if errors else ""),
-                 Part(4, f"{m.checksum_errors:,} checksum")]
+                 Part(4, f"{m.totals.checksum_errors:,} checksum")]
         problems = [f for f in m.findings if f.severity != INFO]
         if problems:
             worst = ERROR if any(f.severity == ERROR for f in problems) else WARNING
             parts.append(Part(6, f"⚠ {counted(len(problems), 'finding')} (w): ", free=problems[0].title,
                               style=SEVERITY_BADGE[worst]))
         if m.filter_text:
-            shown = f" ({m.row_count:,} shown, {counted(m.shown_error_count, 'error')})"
+            shown = f" ({m.row_count:,} shown, {counted(m.totals.shown_errors, 'error')})"
             parts.append(Part(7, "filter: ", free=m.filter_text, tail=shown, style="cyan"))
         pb = m.replay.playback
         if pb is not None:
@@ -368,8 +377,8 @@ class StatusBar(Static):
             parts.append(Part(3, "(End follows)", style="bold yellow", sep=" "))
         if m.done and self.mode == "live":
             parts.append(Part(MUST, "capture ended", style="red"))
-        if self.scan:
-            parts.append(Part(7, free=self.scan, style="bold cyan"))
+        if self.sweep:
+            parts.append(Part(7, free=self.sweep, style="bold cyan"))
         elif self.messages:
             parts.append(Part(5, free=" ".join(self.messages[-1].splitlines()), style="italic"))
         return parts

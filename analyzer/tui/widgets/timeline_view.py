@@ -4,6 +4,7 @@ each answer linked to its command (the layout is timeline.py's)."""
 from __future__ import annotations
 
 from itertools import groupby
+from typing import Any
 
 from rich.text import Text
 from textual.widgets import Static
@@ -16,7 +17,7 @@ from ..timeline import SCALES, layout
 class TimelineView(Static):
     """Lanes A and B on a time axis around the selected event; z / Z zoom."""
 
-    def __init__(self, model: CaptureModel, **kw) -> None:
+    def __init__(self, model: CaptureModel, **kw: Any) -> None:
         super().__init__(**kw)
         self.model = model
         self.scale_index = SCALES.index(0.002)

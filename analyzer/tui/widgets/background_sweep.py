@@ -1,38 +1,42 @@
-"""Scans too long for the screen's thread (a filter or a search over more
-than ``BACKGROUND_ROWS`` rows) run here, in a worker thread: the screen and
-the capture go on, ``Progress`` says how far it got (at most ten messages a
-second, posted from the worker: it never waits for the screen), and
-``cancel()`` (Esc) stops it between steps. It draws nothing (the status line
-shows the progress)."""
+"""Sweeps too long for the screen's thread (a filter or a search over more
+than ``BACKGROUND_ROWS`` rows, analyzer/tui/sweep.py) run here, in a worker
+thread: the screen and the capture go on, ``Progress`` says how far it got (at
+most ten messages a second, posted from the worker: it never waits for the
+screen), and ``cancel()`` (Esc) stops it between steps. It draws nothing (the
+status line shows the progress)."""
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 from textual.message import Message
 from textual.widget import Widget
 from textual.worker import get_current_worker
 
 from ...words import counted
-from ..scan import Cancelled
+from ..sweep import Cancelled, IsCancelled, ReportProgress
+
+# what a sweep runs in the worker: work(progress, cancelled) -> its result
+Work = Callable[[ReportProgress, IsCancelled], Any]
 
 
-class BackgroundScan(Widget):
+class BackgroundSweep(Widget):
     class Progress(Message):
-        """How far the running scan has got."""
+        """How far the running sweep has got."""
 
         def __init__(self, text: str) -> None:
             super().__init__()
             self.text = text
 
-    def __init__(self, **kw) -> None:
+    def __init__(self, **kw: Any) -> None:
         super().__init__(**kw)
-        self.text = ""   # the running scan's progress; "" when none runs
+        self.text = ""   # the running sweep's progress; "" when none runs
 
-    def start(self, what: str, work: Callable, done: Callable) -> None:
+    def start(self, what: str, work: Work, done: Callable[[Any], None]) -> None:
         """Run ``work(progress, cancelled)`` in a worker thread (stopping any
-        scan still running), then ``done(result)`` on the screen's thread."""
+        sweep still running), then ``done(result)`` on the screen's thread."""
         self.text = f"{what} …"
         last = [0.0]
 
@@ -51,21 +55,21 @@ class BackgroundScan(Widget):
                 return
             self.app.call_from_thread(self._done, done, result)
 
-        self.run_worker(run, thread=True, exclusive=True, group="scan")
+        self.run_worker(run, thread=True, exclusive=True, group="sweep")
 
-    def _done(self, done: Callable, result) -> None:
+    def _done(self, done: Callable[[Any], None], result: Any) -> None:
         self.text = ""
         done(result)
 
     def cancel(self) -> bool:
-        """Stop the running scan; False if none runs."""
+        """Stop the running sweep; False if none runs."""
         if not self.text:
             return False
-        self.workers.cancel_group(self, "scan")
+        self.workers.cancel_group(self, "sweep")
         self.text = ""
         return True
 
-    def on_background_scan_progress(self, message: Progress) -> None:
+    def on_background_sweep_progress(self, message: Progress) -> None:
         if self.text:   # not stopped meanwhile: the screen shows it
             self.text = message.text
         else:
