@@ -24,7 +24,7 @@ def missing_extra(error: ImportError, needed_by: str) -> str | None:
     """The one line for ``error`` when it is an extra's package that is not
     installed (``needed_by`` names what wanted it: a command, a method); None for
     any other import error, which is a bug to show whole."""
-    top = (getattr(error, "name", None) or "").split(".")[0]
+    top = (error.name or "").split(".")[0]
     extra = EXTRA_OF.get(top)
     # installed but broken inside is not "missing": that error stays as it is
     if extra is None or importlib.util.find_spec(top) is not None:

@@ -8,7 +8,7 @@ recorders write them as the raw topics, so they live at the bottom.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 if TYPE_CHECKING:
     from dissectors.problems import Problem
@@ -18,17 +18,21 @@ LINE_B = "B"    # device → controller
 LINE_AB = "AB"  # single-line tap: both directions on one wire
 
 
-class Chunk(NamedTuple):
-    """Bytes read from one line (a NamedTuple: one is made per read, so it is cheap)."""
+class _ChunkFields(NamedTuple):
     line: str
     data: bytes
     t: float | None = None   # seconds since capture start of the first byte's start bit
 
-    # Not a field: why the bytes are for the recording only and not to be decoded
-    # ("behind", "stopped": a live tap's subclasses in analyzer/sources/serialport.py);
-    # None for every ordinary chunk, read as a class attribute (no per-chunk cost).
-    undecoded = None
 
+class Chunk(_ChunkFields):
+    """Bytes read from one line (a named tuple: one is made per read, so it is cheap)."""
+    __slots__ = ()
+
+    # Not a field (a NamedTuple's body holds only fields, hence the base above): why
+    # the bytes are for the recording only and not to be decoded ("behind", "stopped":
+    # a live tap's subclasses in analyzer/sources/serialport.py); None for every
+    # ordinary chunk, read as a class attribute (no per-chunk cost).
+    undecoded: ClassVar[str | None] = None
 
 
 class LineFault(NamedTuple):

@@ -29,7 +29,8 @@ import errno
 import os
 import tempfile
 from collections.abc import Callable, Iterable
-from typing import BinaryIO
+from types import TracebackType
+from typing import BinaryIO, Self
 
 from .errors import OutputError, OutputRefused
 
@@ -173,10 +174,11 @@ class AtomicOutput:
         except FileNotFoundError:
             pass
 
-    def __enter__(self) -> AtomicOutput:
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, exc_type, exc, tb) -> None:
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
         if exc_type is None:
             self.commit()
         else:

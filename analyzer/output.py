@@ -14,6 +14,8 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from functools import partial
+from types import TracebackType
+from typing import TYPE_CHECKING
 
 from dissectors import summarize
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RATE, RESULT, Event
@@ -25,12 +27,17 @@ from .outfile import OutputError, reason, write_error
 from .styles import ROW_STYLE, row_class
 from .words import counted
 
+if TYPE_CHECKING:
+    from rich.console import Console
+
+dumps_line: Callable[[object], bytes]   # one object's JSON and a newline
+
 try:
     import orjson
 
     _NL = orjson.OPT_APPEND_NEWLINE
 
-    def dumps(obj) -> bytes:
+    def dumps(obj: object) -> bytes:
         return orjson.dumps(obj)
 
     # a writer's per-event call: orjson itself, without a Python frame around it
@@ -38,11 +45,13 @@ try:
 except ImportError:  # pragma: no cover - orjson is a dependency; keep working without it
     import json
 
-    def dumps(obj) -> bytes:
+    def dumps(obj: object) -> bytes:
         return json.dumps(obj, ensure_ascii=False, separators=(",", ":")).encode()
 
-    def dumps_line(obj) -> bytes:
+    def _dumps_line(obj: object) -> bytes:
         return dumps(obj) + b"\n"
+
+    dumps_line = _dumps_line
 
 
 STDOUT = "standard output"
@@ -73,9 +82,10 @@ class Writing:
     def __enter__(self) -> None:
         return None
 
-    def __exit__(self, kind, e, tb) -> bool:
-        if kind is None or not issubclass(kind, OSError) or issubclass(kind, BrokenPipeError):
-            return False
+    def __exit__(self, kind: type[BaseException] | None, e: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        if kind is None or not isinstance(e, OSError) or isinstance(e, BrokenPipeError):
+            return
         raise self.error(e) from None
 
 
@@ -120,13 +130,13 @@ def summary(ev: Event) -> str:
         text = summarize(entry.summary, ev.fields) if entry is not None and ev.fields else (
             entry.name.lower() if entry is not None else "")
         if entry is None or not ev.fields and ev.problems and MALFORMED.matches(ev.problems[0]):
-            text = f"'{payload_text(ev.payload)}'"
+            text = f"'{_payload_shown(ev)}'"
         return text
     if kind == RESULT:
         entry = ev.entry
         if entry is not None and ev.fields:
             return summarize(entry.result_summary, ev.fields)
-        return f"'{payload_text(ev.payload)}'"
+        return f"'{_payload_shown(ev)}'"
     if kind in (ACK, NAK, NIC):
         return kind.upper()
     if kind == RATE:
@@ -135,6 +145,11 @@ def summary(ev: Event) -> str:
     preview = ev.raw[:12].hex(" ")
     n = len(ev.raw)
     return f"{counted(n, 'byte')}: {preview}{' …' if n > 12 else ''}"
+
+
+def _payload_shown(ev: Event) -> str:
+    assert ev.payload is not None, "a frame (a command, a result) has a payload"
+    return payload_text(ev.payload)
 
 
 def fmt_seconds(s: float | None) -> str:
@@ -171,13 +186,13 @@ def style_of(ev: Event) -> str:
     return ROW_STYLE[row_class(ev)]
 
 
-class SgrCodes(dict):
+class SgrCodes(dict[str, tuple[str, str]]):
     """Style name → (the escape codes that start it, those that end it), each
     rendered once by Rich for ``console``'s colour system (so ``styles.py`` stays
     the one table of looks, and a 256-colour style is downgraded as Rich would
     on a 16-colour terminal). The plain style has none."""
 
-    def __init__(self, console) -> None:
+    def __init__(self, console: Console) -> None:
         super().__init__()
         from rich.console import COLOR_SYSTEMS  # Rich's names ("256") to its ColorSystem
         system = console.color_system

@@ -13,7 +13,11 @@ test of the rules costs no import.
 from __future__ import annotations
 
 import re
+from typing import TYPE_CHECKING
 from urllib.parse import unquote, urlsplit
+
+if TYPE_CHECKING:
+    from pyarrow import fs
 
 # a scheme of two letters or more: "C:\\..." is a Windows drive, not a URI
 _URI = re.compile(r"^([A-Za-z][A-Za-z0-9+.-]+)://")
@@ -52,7 +56,7 @@ def failure(e: BaseException) -> str:
     return " ".join(str(e).split()) or type(e).__name__
 
 
-def arrow_filesystem(uri: str):
+def arrow_filesystem(uri: str) -> tuple[fs.FileSystem, str]:
     """(pyarrow filesystem, path in it) for a remote URI. Raises ``OSError`` or
     ``ValueError`` (pyarrow's, or ``ArrowInvalid``) when the filesystem cannot be
     made: an unknown scheme, no libhdfs, bad credentials."""

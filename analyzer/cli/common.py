@@ -6,6 +6,8 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from collections.abc import Callable
+from typing import Any, Protocol, TypeVar
 
 from ..analysis.filter import FilterError, Predicate, compile_filter
 from ..analysis.pairing import Timeouts
@@ -22,12 +24,28 @@ from ..sources import registry
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
 
 
+class Subcommands(Protocol):
+    """What a subcommand's ``register`` adds its parser to: the main parser's
+    ``add_subparsers()`` (argparse names its class only privately)."""
+
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser: ...
+
+
+class ArgumentHolder(Protocol):
+    """What options are added to: a parser, or a group of its options."""
+
+    def add_argument(self, *name_or_flags: str, **kwargs: Any) -> argparse.Action: ...
+
+
 # Numeric option types for argparse (``type=``): a bad value is refused while the
 # command line is parsed, as one line naming the option ("argument --frame-gap:
 # '-1': must be a finite number above 0"). float() takes "nan" and "inf", which
 # would pass every range check and hang or crash later, so each type says finite.
 
-def _number(text: str, kind: type, in_range, wanted: str):
+Number = TypeVar("Number", int, float)
+
+
+def _number(text: str, kind: type[Number], in_range: Callable[[Number], bool], wanted: str) -> Number:
     """Parse ``text`` as ``kind``; refuse it unless finite and ``in_range``."""
     try:
         value = kind(text)
@@ -83,6 +101,8 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
 # recording's own settings win over defaults, and lose to options given
 # (docs/time.md, "Recordings"). Per-command timeouts (--timeout, a list) are read apart.
 DEFAULTS = {key: value for key, value in Options().settings().items() if key != "timeouts"}
+# the time and instrument options: only for commands that read capture files
+FILE_OPTIONS = ("tz", "start_time", "channels", "adapter", "usb_device", "samplerate", "unitsize")
 
 
 def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
@@ -99,10 +119,13 @@ def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
     if files:
         add_time_args(p)
         add_instrument_args(p)
+    else:
+        # what options_from reads of the file options, unset (a command may still add some of them)
+        p.set_defaults(**dict.fromkeys(FILE_OPTIONS))
     _pairing_args(p.add_argument_group("pairing"))
 
 
-def add_character_args(g, measured: bool = False) -> None:
+def add_character_args(g: ArgumentHolder, measured: bool = False) -> None:
     """``--baud``, ``--data-bits``, ``--parity``, ``--stop-bits``; ``measured``:
     for a logic capture alone, whose software UART measures what is not given."""
     default = {"baud": "measured", "data_bits": "measured", "parity": "measured", "stop_bits": "measured"} \
@@ -113,7 +136,7 @@ def add_character_args(g, measured: bool = False) -> None:
     g.add_argument("--stop-bits", type=float, choices=(1, 1.5, 2), help=f"(default {default['stop_bits']})")
 
 
-def add_channels_arg(g) -> None:
+def add_channels_arg(g: ArgumentHolder) -> None:
     g.add_argument("--channels", type=channels, metavar="A=CH,B=CH",
                    help="the logic channels of line A and line B, by name or number (default: the first two "
                         "that toggle); A=CH alone: a single line carrying both directions")
@@ -153,7 +176,7 @@ def add_instrument_args(p: argparse.ArgumentParser) -> None:
     add_sample_stream_args(g)
 
 
-def add_sample_stream_args(g) -> None:
+def add_sample_stream_args(g: ArgumentHolder) -> None:
     """A bare stream of logic samples has no header: its rate and sample size are given."""
     g.add_argument("--samplerate", type=samplerate, metavar="RATE",
                    help="the input is a bare stream of logic samples (sigrok-cli -O binary) taken at RATE, "
@@ -183,7 +206,7 @@ def add_time_args(p: argparse.ArgumentParser) -> None:
                         "file's modification time less the capture's duration at the baud rate)")
 
 
-def _pairing_args(t) -> None:
+def _pairing_args(t: ArgumentHolder) -> None:
     t.add_argument("--ack-timeout", type=positive_float, metavar="S",
                    help="seconds a command waits for its ACK/NAK (default 0.5)")
     t.add_argument("--result-timeout", type=positive_float, metavar="S",
@@ -208,7 +231,7 @@ def iso_time(text: str) -> float:
     """``--start-time``: ISO 8601, as epoch seconds; without a zone it is UTC."""
     import datetime
     try:
-        when = datetime.datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+        when = datetime.datetime.fromisoformat(text.strip())   # "Z" too, since Python 3.11
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: expected an ISO 8601 time such as "
                                          "2026-11-21T08:35:52Z") from None
@@ -234,11 +257,12 @@ def build_filter(expr: str | None) -> Predicate | None:
 def options_from(args: argparse.Namespace) -> Options:
     """The capture options; the numbers were checked by their argparse types.
     ``Options.explicit`` names those given on the command line."""
-    given = {key for key in DEFAULTS if getattr(args, key, None) is not None}
-    per_command = getattr(args, "timeout", None) or []
+    parsed = vars(args)
+    given = {key for key in DEFAULTS if parsed[key] is not None}
+    per_command = args.timeout or []
     if per_command:
         given.add("timeouts")
-    value = {key: getattr(args, key) if key in given else default for key, default in DEFAULTS.items()}
+    value = {key: parsed[key] if key in given else default for key, default in DEFAULTS.items()}
     if "baud" in given and value["baud"] not in STANDARD_BAUDS:
         warn(f"--baud {value['baud']} is not a rate of §1.5.1 ({', '.join(map(str, STANDARD_BAUDS))})")
     timeouts = Timeouts(ack=value["ack_timeout"], result=value["result_timeout"],
@@ -246,10 +270,9 @@ def options_from(args: argparse.Namespace) -> Options:
     return Options(baud=value["baud"], data_bits=value["data_bits"], parity=value["parity"],
                    stop_bits=value["stop_bits"], frame_gap=value["frame_gap"], timeouts=timeouts,
                    swap_lines=value["swap_lines"], follow_rate=value["follow_rate"],
-                   tz=getattr(args, "tz", None), start_time=getattr(args, "start_time", None),
-                   channels=getattr(args, "channels", None), adapter=getattr(args, "adapter", None),
-                   usb_device=getattr(args, "usb_device", None), samplerate=getattr(args, "samplerate", None),
-                   unitsize=getattr(args, "unitsize", None) or 1, explicit=frozenset(given))
+                   tz=args.tz, start_time=args.start_time, channels=args.channels, adapter=args.adapter,
+                   usb_device=args.usb_device, samplerate=args.samplerate, unitsize=args.unitsize or 1,
+                   explicit=frozenset(given))
 
 
 # -q/--quiet: warnings are not said (set by cli/main.py for the command running;
@@ -260,6 +283,11 @@ _quiet = False
 def set_quiet(quiet: bool) -> None:
     global _quiet
     _quiet = bool(quiet)
+
+
+def quiet() -> bool:
+    """Was -q given: warnings are not said."""
+    return _quiet
 
 
 def add_quiet_arg(p: argparse.ArgumentParser) -> None:

@@ -21,10 +21,10 @@ from ..errors import UsageError
 from ..info import CaptureInfo
 from ..outfile import check_output, show
 from ..writers import WRITERS, open_writer, writer_class
-from .common import add_input_args, open_inputs, run_tap
+from .common import Subcommands, add_input_args, open_inputs, run_tap
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("convert", help="convert a capture to MCAP, JSON Lines or pcapng (" + ", ".join(WRITERS) + ")",
                        description="Convert a capture (any input decode reads: see INPUT) to MCAP "
                                    "(re-dissectable, Foxglove-readable), JSON Lines or pcapng (Wireshark); the "

@@ -11,12 +11,12 @@ import argparse
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..writers import FORMATS, open_format
-from .common import add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
+from .common import Subcommands, add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
 
 COLOR = {"auto": None, "always": True, "never": False}   # --color: None = when standard output is a terminal
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("decode", help="print every event of a capture",
                        description="Decode a capture: one line per event, or JSON Lines.")
     add_input_args(p)

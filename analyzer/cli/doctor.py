@@ -27,7 +27,7 @@ from dataclasses import replace
 
 from ..analysis.doctor import INFO, WiringDoctor
 from ..analysis.findings import Finding
-from ..capture import Capture, open_live
+from ..capture import Capture, Options, open_live
 from ..capture import open as open_capture
 from ..listeners import DoctorListener, FindingTeller
 from ..runner import Listener
@@ -36,6 +36,7 @@ from ..styles import ERROR, SEVERITY_STYLE, WARNING
 from ..words import counted
 from .common import (
     STANDARD_BAUDS,
+    Subcommands,
     UsageError,
     add_quiet_arg,
     add_serial_args,
@@ -46,7 +47,7 @@ from .common import (
 )
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("doctor", help="say what is wrong with the link, and what to try",
                        description="Findings about the wiring and the devices from a capture (see INPUT), or "
                                    "live from one or two ports.")
@@ -109,6 +110,7 @@ def examine(capture: Capture, *listeners: Listener, notes: bool = True,
     # findings are printed by the report (or FindingTeller), not as notes
     runner = run_tap(capture, "doctor", doctor, *listeners, notes=notes, findings=False, say_empty=False,
                      progress=progress)
+    assert doctor.doctor is not None, "made as the run started"
     return doctor.doctor, runner.events
 
 
@@ -116,7 +118,7 @@ def diagnose(capture: Capture, args: argparse.Namespace, live: bool) -> int:
     timer = None
     old = {}
     if live:
-        def stop(*_):
+        def stop(*_: object) -> None:
             capture.source.stop()
         old = {sig: signal.signal(sig, stop) for sig in (signal.SIGINT, signal.SIGTERM)}
         if args.seconds > 0:
@@ -189,7 +191,7 @@ def report(findings: list[Finding], doctor: WiringDoctor, events: int) -> None:
             console.print(Text("         evidence: " + " ".join(f"#{n}" for n in f.evidence), style="dim"))
 
 
-def scan_baud(ports: list[str], options, args: argparse.Namespace) -> int:
+def scan_baud(ports: list[str], options: Options, args: argparse.Namespace) -> int:
     """Listen at each standard rate; the one whose bytes decode is the line's rate."""
     rows = []
     for rate in STANDARD_BAUDS:
@@ -198,7 +200,7 @@ def scan_baud(ports: list[str], options, args: argparse.Namespace) -> int:
         timer.daemon = True
         timer.start()
         try:
-            doctor, events = examine(capture, notes=False)   # other rates' warnings are noise
+            doctor, _events = examine(capture, notes=False)   # other rates' warnings are noise
         finally:
             timer.cancel()
         total = sum(line.bytes for line in doctor.lines.values())

@@ -36,10 +36,10 @@ from ..sources import registry
 from ..words import counted
 from ..writers import WRITERS, file_output, folder_output, holds_many_captures
 from . import common
-from .common import UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
+from .common import Subcommands, UsageError, add_quiet_arg, add_serial_args, options_from, positive_int
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("export", help="export captures as a Parquet dataset (query, report, DuckDB, Spark) "
                                       "or as pcapng (Wireshark)",
                        description="Export captures into a dataset folder of Parquet tables (events, "
@@ -74,10 +74,11 @@ def run(args: argparse.Namespace) -> int:
     from .. import uris
     from ..dataset.inputs import captures_of
 
-    remote_output = uris.is_remote(args.output)
+    local_output = uris.local_path(args.output)
+    remote_output = local_output is None
     if (remote_output or any(uris.is_remote(i) for i in args.inputs)) and not args.spark:
         raise UsageError("URIs (hdfs://, s3a://) are for --spark; a local export reads and writes local paths")
-    to_file = not remote_output and file_output(uris.local_path(args.output))
+    to_file = local_output is not None and file_output(local_output)
     root = args.output if to_file or remote_output else folder_output(args.output)
     options = options_from(args)
     jobs = [Job(i, paths, root, options, site=args.site) for i, paths in enumerate(captures_of(args.inputs))]
@@ -125,8 +126,9 @@ def run_to_file(args: argparse.Namespace, jobs: list[Job]) -> int:
     check_output(path, [p for job in jobs for p in job.paths], force=args.force)
     parts = tempfile.mkdtemp(prefix=".gimbalscope-export-", dir=os.path.dirname(os.path.abspath(path)))
     try:
+        part_of = {job.index: os.path.join(parts, f"{job.index}{os.path.splitext(path)[1]}") for job in jobs}
         for job in jobs:
-            job.file = os.path.join(parts, f"{job.index}{os.path.splitext(path)[1]}")
+            job.file = part_of[job.index]
         outcomes = run_jobs(args, jobs)
         exported = [o for o in outcomes if o.error is None]
         if exported:   # nothing read, no file: an empty one would not open
@@ -134,7 +136,7 @@ def run_to_file(args: argparse.Namespace, jobs: list[Job]) -> int:
                 try:
                     for job in jobs:
                         if outcomes[job.index].error is None:
-                            with open(job.file, "rb") as part:
+                            with open(part_of[job.index], "rb") as part:
                                 shutil.copyfileobj(part, target.file, 1 << 20)
                 except OSError as e:
                     raise write_error(path, e) from None
@@ -163,7 +165,7 @@ class OutcomeNotes:
     skipped; ``close()`` sums up warnings said too often."""
 
     def __init__(self) -> None:
-        self.notes = NotePrinter(findings=False, quiet=common._quiet)
+        self.notes = NotePrinter(findings=False, quiet=common.quiet())
 
     def __call__(self, outcome: Outcome) -> None:
         for text in outcome.warnings:

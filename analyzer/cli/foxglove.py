@@ -33,8 +33,8 @@ import json
 import os
 import re
 import sys
-from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Container, Iterable, Sequence
+from typing import TYPE_CHECKING, Literal
 
 from ..analysis.positions import AZ, EL
 from ..capture import Capture
@@ -43,8 +43,8 @@ from ..info import CaptureInfo
 from ..listeners import PositionFinder
 from ..outfile import AtomicOutput, check_output, show
 from ..output import print_out
-from ..sources import registry
-from .common import add_serial_args, open_inputs, run_tap, warn
+from ..sources import Source, registry
+from .common import Subcommands, add_serial_args, open_inputs, run_tap, warn
 
 if TYPE_CHECKING:
     import foxglove.layouts as fl
@@ -64,10 +64,11 @@ _POSITION_SCHEMA = S.POSITION["title"]
 # solid line through the P? reports (the gimbal moves between them at its set
 # rate, so a straight line between two reports is the better guess).
 _AXES = (("az", AZ, "#2f80ed"), ("el", EL, "#eb7a2f"))
-_PARTS = (("target", "dashed", "step"), ("reported", "solid", "linear"))
+_PARTS: tuple[tuple[str, Literal["dashed", "solid"], Literal["step", "linear"]], ...] = (
+    ("target", "dashed", "step"), ("reported", "solid", "linear"))
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("foxglove", help="files for the Foxglove app: a layout for gimbalscope's topics",
                        description="Files for the Foxglove app, which opens gimbalscope's MCAP recordings "
                                    "and connects to its live servers.")
@@ -151,7 +152,7 @@ def address_key(device: str) -> tuple:
         return (1, device)
 
 
-def recorded_devices(source) -> tuple[set[str] | None, set[str]]:
+def recorded_devices(source: Source) -> tuple[set[str] | None, set[str]]:
     """The gimbals of a gimbalscope recording (or of its parts) by its position
     channels, and its topics; no gimbals (None) when ``source`` is no recording or
     was recorded without the position topics (no gimbalscope.Position schema): it
@@ -182,8 +183,8 @@ def recorded_devices(source) -> tuple[set[str] | None, set[str]]:
 def channel_records(path: str) -> tuple[set[str], set[str]]:
     """(schema names, channel topics) of an MCAP file: from its summary, or
     without one by a walk over its records and chunks (each length checked:
-    analyzer/sources/mcapscan.py). Damage ends the walk through what it hit."""
-    from ..sources.mcapscan import (
+    analyzer/sources/mcapwalk.py). Damage ends the walk through what it hit."""
+    from ..sources.mcapwalk import (
         OP_CHANNEL,
         OP_CHUNK,
         OP_SCHEMA,
@@ -221,10 +222,10 @@ def channel_records(path: str) -> tuple[set[str], set[str]]:
     return schemas, topics
 
 
-def _records_in(records: bytes, wanted) -> Iterable[tuple[int, bytes]]:
+def _records_in(records: bytes, wanted: Container[int]) -> Iterable[tuple[int, bytes]]:
     """(opcode, body) of the records in a chunk's content with opcodes in ``wanted``,
     up to one that runs past its end."""
-    from ..sources.mcapscan import RECORD, RECORD_HEAD
+    from ..sources.mcapwalk import RECORD, RECORD_HEAD
 
     pos, end = 0, len(records)
     while end - pos >= RECORD_HEAD:
@@ -238,16 +239,18 @@ def _records_in(records: bytes, wanted) -> Iterable[tuple[int, bytes]]:
 
 
 def _collect(records: Iterable[tuple[int, bytes]], schemas: set[str], topics: set[str]) -> None:
-    from ..sources.mcapscan import OP_CHANNEL, Damaged, parse
+    from mcap.records import Channel, Schema
+
+    from ..sources.mcapwalk import Damaged, parse
 
     for op, body in records:
         try:
             record = parse(op, body)
         except Damaged:
             return
-        if op == OP_CHANNEL:
+        if isinstance(record, Channel):
             topics.add(record.topic)
-        else:
+        elif isinstance(record, Schema):
             schemas.add(record.name)
 
 

@@ -61,6 +61,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "pyserial URLs) and logic sample streams. Logic analysers and USB captures: "
                              f"{page('instruments.md')}")
     p.add_argument("--version", action="version", version=f"gimbalscope {__version__}")
+    # no command (or a group without its subcommand) runs nothing; commands without -q are not quiet
+    p.set_defaults(run=None, quiet=False)
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     decode.register(sub)
     stats.register(sub)
@@ -103,13 +105,13 @@ def quiet_stdout() -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not getattr(args, "run", None):
+    if args.run is None:
         parser.print_help()
         return EXIT_INPUT
     if sys.stdout is None:   # started with `>&-`: say so before doing any work
         error("standard output is closed")
         return EXIT_OUTPUT
-    set_quiet(getattr(args, "quiet", False))
+    set_quiet(args.quiet)
     READS.clear()   # the progress bar counts this command's inputs
     try:
         code = args.run(args)

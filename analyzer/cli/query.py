@@ -22,17 +22,26 @@ import datetime as dt
 import decimal
 import math
 import sys
+from collections.abc import Callable, Iterable, Iterator
+from typing import TYPE_CHECKING, Any
 
 from ..errors import DatasetError
 from ..output import dumps
 from ..words import counted
+from .common import Subcommands
 
 BATCH = 10_000       # rows fetched at a time
 TABLE_ROWS = 10_000  # a terminal shows at most this many rows (the rest is counted)
 TERMINAL = ("table", "vertical")
 
+if TYPE_CHECKING:
+    from duckdb import DuckDBPyConnection
+    from rich.console import Console
 
-def register(sub: argparse._SubParsersAction) -> None:
+Row = tuple[Any, ...]   # a result row, as DuckDB fetches it
+
+
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("query", help="run SQL (DuckDB) over an exported dataset",
                        description="Run SQL over a dataset made by 'gimbalscope export', with the views events, "
                                    "transactions and findings (docs/dataset.md).")
@@ -55,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     con = connect(args.dataset)
     try:
         cur = con.execute(sql)
-    except Exception as e:   # duckdb.Error and its kinds: the SQL's fault, said in DuckDB's words
+    except Exception as e:  # noqa: BLE001 - duckdb.Error and its kinds: the SQL's fault, said in DuckDB's words
         raise DatasetError(f"query: {duckdb_message(e)}") from None
     if cur.description is None:   # a statement with no result (CREATE VIEW ...)
         return 0
@@ -70,18 +79,18 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _batches(cur, message):
+def _batches(cur: DuckDBPyConnection, message: Callable[[Exception], str]) -> Iterator[list[Row]]:
     while True:
         try:
             rows = cur.fetchmany(BATCH)
-        except Exception as e:   # an error found while running (a cast that fails on a row)
+        except Exception as e:  # noqa: BLE001 - an error found while running (a cast that fails on a row), one line
             raise DatasetError(f"query: {message(e)}") from None
         if not rows:
             return
         yield rows
 
 
-def _plain(value):
+def _plain(value: object) -> object:
     """A value as JSON has it: times as ISO 8601, decimals as numbers, bytes as hex."""
     if isinstance(value, (dt.datetime, dt.date, dt.time)):
         return value.isoformat()
@@ -100,13 +109,13 @@ def _plain(value):
     return value
 
 
-def _jsonl(names, batches) -> None:
+def _jsonl(names: list[str], batches: Iterable[list[Row]]) -> None:
     out = sys.stdout.buffer
     for rows in batches:
         out.write(b"".join(dumps({n: _plain(v) for n, v in zip(names, row)}) + b"\n" for row in rows))
 
 
-def _csv_cell(value):
+def _csv_cell(value: object) -> object:
     value = _plain(value)
     if value is None:
         return ""
@@ -117,14 +126,14 @@ def _csv_cell(value):
     return value
 
 
-def _csv(names, batches) -> None:
+def _csv(names: list[str], batches: Iterable[list[Row]]) -> None:
     w = csv.writer(sys.stdout, lineterminator="\n")
     w.writerow(names)
     for rows in batches:
         w.writerows([_csv_cell(v) for v in row] for row in rows)
 
 
-def _shown(batches) -> tuple[list[list[str]], int]:
+def _shown(batches: Iterable[list[Row]]) -> tuple[list[list[str]], int]:
     """The first TABLE_ROWS rows as text, and how many more there are."""
     shown: list[list[str]] = []
     more = 0
@@ -137,7 +146,7 @@ def _shown(batches) -> tuple[list[list[str]], int]:
     return shown, more
 
 
-def _terminal(names, batches, fmt: str | None) -> None:
+def _terminal(names: list[str], batches: Iterable[list[Row]], fmt: str | None) -> None:
     """A table, or a record at a time: ``fmt`` says which, or (None) the table when
     its columns fit the terminal side by side, each as wide as its widest value."""
     from rich.console import Console
@@ -166,7 +175,7 @@ def _terminal(names, batches, fmt: str | None) -> None:
     console.print(FitLines(said))
 
 
-def _vertical(console, names, rows) -> None:
+def _vertical(console: Console, names: list[str], rows: list[list[str]]) -> None:
     """Each record as psql's \\x shows it: a rule naming it, then a column and its
     value a line, the names aligned; a long value wraps under itself."""
     from rich.rule import Rule

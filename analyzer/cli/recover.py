@@ -2,7 +2,7 @@
 tap, full disk) or damaged into a complete file holding everything intact.
 
 The input is walked record by record without trusting its lengths
-(analyzer/sources/mcapscan.py). Every intact chunk and top-level record is kept;
+(analyzer/sources/mcapwalk.py). Every intact chunk and top-level record is kept;
 a damaged chunk is skipped by its length and the walk goes on with the next
 record; a chunk whose CRC fails but that decompresses is kept message by message
 up to its first record that does not read as written. Channels and schemas
@@ -20,14 +20,15 @@ import argparse
 import os
 import stat
 import sys
+from typing import BinaryIO
 
-from mcap.records import Channel, Schema
+from mcap.records import Attachment, Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
 from ..listeners.progress import ReadProgress, wanted
 from ..outfile import AtomicOutput, check_output, show, write_error
 from ..sources.files import open_input
-from ..sources.mcapscan import (
+from ..sources.mcapwalk import (
     MAGIC,
     OP_ATTACHMENT,
     OP_CHANNEL,
@@ -48,13 +49,13 @@ from ..sources.mcapscan import (
     summary_records,
 )
 from ..words import counted
-from .common import UsageError, add_quiet_arg, warn
+from .common import Subcommands, UsageError, add_quiet_arg, warn
 
 EXIT_NOTHING_KEPT = 1
 _TOP = frozenset((OP_HEADER, OP_SCHEMA, OP_CHANNEL, OP_MESSAGE, OP_CHUNK, OP_METADATA, OP_ATTACHMENT))
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("recover", help="rewrite a cut-short or damaged MCAP recording whole",
                        description="Rewrite an MCAP recording that has no summary (a killed tap) or a damaged "
                                    "chunk into a complete file with everything intact.")
@@ -128,13 +129,15 @@ class Salvage:
         self.from_cut = 0                             # messages kept from a chunk cut short
 
     # ------------------------------------------------------------- reading
-    def read(self, f, size: int) -> None:
+    def read(self, f: BinaryIO, size: int) -> None:
         # channels and schemas a damaged chunk defined may be in the summary too
         for op, body in summary_records(f, size, (OP_SCHEMA, OP_CHANNEL)):
             try:
-                self._define(op, parse(op, body))
+                record = parse(op, body)
             except Damaged:
-                pass   # the summary is a second copy: its damage costs nothing
+                continue   # the summary is a second copy: its damage costs nothing
+            if isinstance(record, (Schema, Channel)):
+                self._define(record)
         walk = Walk(f, size)
         for offset, op, body in walk.records(_TOP):
             if op == OP_CHUNK:
@@ -145,29 +148,29 @@ class Salvage:
             except Damaged as e:
                 self._drop("damaged record", offset, str(e))
                 continue
-            self._top(op, record)
+            self._top(record)
         if walk.tail is not None:
             self._cut_chunk(*walk.tail)
         if walk.stop:
             self.cut = walk.stop
 
-    def _top(self, op: int, record) -> None:
-        if op == OP_HEADER:
+    def _top(self, record: McapRecord) -> None:
+        if isinstance(record, Header):
             self.profile = record.profile
-        elif op in (OP_SCHEMA, OP_CHANNEL):
-            self._define(op, record)
-        elif op == OP_MESSAGE:
+        elif isinstance(record, (Schema, Channel)):
+            self._define(record)
+        elif isinstance(record, Message):
             self._message(record, None)
-        elif op == OP_METADATA:
+        elif isinstance(record, Metadata):
             self._start()
             self.writer.add_metadata(record.name, dict(record.metadata))
-        else:   # an attachment
+        elif isinstance(record, Attachment):
             self._start()
             self.writer.add_attachment(record.create_time, record.log_time, record.name, record.media_type,
                                        record.data)
 
-    def _define(self, op: int, record) -> None:
-        if op == OP_SCHEMA:
+    def _define(self, record: Schema | Channel) -> None:
+        if isinstance(record, Schema):
             self.schemas.setdefault(record.id, record)
         else:
             self.channels.setdefault(record.id, record)
@@ -216,10 +219,10 @@ class Salvage:
                     record = parse(op, records[body:body + length])
                 except Damaged as e:
                     return f"{e} at byte {pos} of its records"
-                if op == OP_MESSAGE:
+                if isinstance(record, Message):
                     self._message(record, offset)
-                else:
-                    self._define(op, record)
+                elif isinstance(record, (Schema, Channel)):
+                    self._define(record)
             pos = body + length
         return None
 
@@ -229,7 +232,7 @@ class Salvage:
             self.writer.start(profile=self.profile, library="gimbalscope recover")
             self.started = True
 
-    def _message(self, record, offset: int | None) -> None:
+    def _message(self, record: Message, offset: int | None) -> None:
         channel = self._channel(record.channel_id)
         if channel is None:
             self._drop("message on an unknown channel", offset, f"channel {record.channel_id}")
@@ -251,10 +254,11 @@ class Salvage:
         schema_id = 0
         schema = self.schemas.get(channel.schema_id)
         if schema is not None:
-            schema_id = self.schema_ids.get(schema.id)
-            if schema_id is None:
-                schema_id = self.schema_ids[schema.id] = self.writer.register_schema(
+            known = self.schema_ids.get(schema.id)
+            if known is None:
+                known = self.schema_ids[schema.id] = self.writer.register_schema(
                     schema.name, schema.encoding, schema.data)
+            schema_id = known
         out = self.channel_ids[cid] = self.writer.register_channel(
             channel.topic, channel.message_encoding, schema_id, dict(channel.metadata))
         return out

@@ -8,12 +8,25 @@ from __future__ import annotations
 import argparse
 import math
 import time
+from collections.abc import Callable
 
+from dissectors.event import Event
+
+from ..capture import Capture
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..outfile import show
 from ..writers import open_format
-from .common import UsageError, add_filter_arg, add_quiet_arg, add_serial_args, build_filter, open_inputs, run_tap
+from .common import (
+    Subcommands,
+    UsageError,
+    add_filter_arg,
+    add_quiet_arg,
+    add_serial_args,
+    build_filter,
+    open_inputs,
+    run_tap,
+)
 from .live import add_foxglove_arg, add_tui_args, open_servers, wants_tui
 
 
@@ -29,7 +42,7 @@ def speed(text: str) -> float:
     return value
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("replay", help="play an MCAP recording back at its pace",
                        description="Replay an MCAP recording, or the parts of one (in any order): events "
                                    "at their recorded pace.")
@@ -62,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def replay_in_tui(capture, info: CaptureInfo, args: argparse.Namespace) -> int:
+def replay_in_tui(capture: Capture, info: CaptureInfo, args: argparse.Namespace) -> int:
     """The TUI reads the file flat out and paces the screen: a --foxglove server
     paces what it sends itself."""
     from ..tui.run import keymap_from, open_tui
@@ -72,13 +85,13 @@ def replay_in_tui(capture, info: CaptureInfo, args: argparse.Namespace) -> int:
     return open_tui(capture, args, mode="replay", speed=args.speed, keymap=keymap, info=info, listeners=servers)
 
 
-def pacer(speed: float):
+def pacer(speed: float) -> Callable[[Event], None] | None:
     """Waits until each event's recorded time, ``speed`` times faster (None: no waiting)."""
     if not speed:
         return None
     start = time.monotonic()
 
-    def pace(ev) -> None:
+    def pace(ev: Event) -> None:
         if ev.t is not None:
             delay = start + ev.t / speed - time.monotonic()
             if delay > 0:

@@ -12,13 +12,17 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from typing import TYPE_CHECKING
 
 from ..outfile import AtomicOutput, check_output, show
 from ..output import dumps
-from .common import UsageError, positive_int
+from .common import Subcommands, UsageError, positive_int
+
+if TYPE_CHECKING:
+    from ..dataset.report import Report
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     from ..dataset.report import MIN_COMMANDS
     p = sub.add_parser("report", help="each device over time, and which are trending worse",
                        description="Per device and day (or week): commands, error and NAK rates, ACK and result "
@@ -57,16 +61,17 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def duckdb_report(args: argparse.Namespace):
+def duckdb_report(args: argparse.Namespace) -> Report:
     from .. import uris
     from ..dataset.query import connect
     from ..dataset.report import build
-    if uris.is_remote(args.dataset):
+    local = uris.local_path(args.dataset)
+    if local is None:
         raise UsageError(f"{args.dataset}: a dataset behind a URI is read with --spark MASTER")
-    return build(connect(uris.local_path(args.dataset)), args.period, min_commands=args.min_commands)
+    return build(connect(local), args.period, min_commands=args.min_commands)
 
 
-def spark_report(args: argparse.Namespace):
+def spark_report(args: argparse.Namespace) -> Report:
     from .. import uris
     from ..dataset.query import check_dataset
     from ..dataset.spark.report import build_on_spark
@@ -82,7 +87,7 @@ def spark_report(args: argparse.Namespace):
         spark.stop()
 
 
-def render_text(report) -> None:
+def render_text(report: Report) -> None:
     from rich.console import Console
     from rich.text import Text
 

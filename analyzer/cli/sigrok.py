@@ -14,13 +14,17 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from typing import TYPE_CHECKING
 
 from ..errors import UsageError
 from ..outfile import install_into, one_line, show
-from .common import add_channels_arg, add_character_args, add_quiet_arg, warn
+from .common import Subcommands, add_channels_arg, add_character_args, add_quiet_arg, warn
+
+if TYPE_CHECKING:
+    from ..sigrok.command import SigrokCommand
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("sigrok", help="sigrok: install the gimbal protocol decoder for PulseView and sigrok-cli, "
                                       "and print the sigrok-cli command for a capture",
                        description="sigrok interop (docs/instruments.md, 'The sigrok decoder').")
@@ -61,7 +65,7 @@ def run_install(args: argparse.Namespace) -> int:
     from ..sigrok.command import generic, generic_hints
     from ..sigrok.install import install
 
-    if args.capture is None and any(getattr(args, key) is not None for key in READING):
+    if args.capture is None and any(vars(args)[key] is not None for key in READING):
         raise UsageError("--channels, --baud, --data-bits, --parity and --stop-bits go with --for CAPTURE")
     # the capture first: one that cannot be read installs nothing
     found = _command_for(args) if args.capture is not None else None
@@ -84,16 +88,16 @@ def run_command(args: argparse.Namespace) -> int:
     return 0
 
 
-def _command_for(args: argparse.Namespace):
+def _command_for(args: argparse.Namespace) -> SigrokCommand:
     from ..sigrok.command import command_for
 
-    cmd, warnings = command_for(args.capture, decoders=args.dir, **{key: getattr(args, key) for key in READING})
+    cmd, warnings = command_for(args.capture, decoders=args.dir, **{key: vars(args)[key] for key in READING})
     for message in warnings:
         warn(message)
     return cmd
 
 
-def _print(cmd) -> None:
+def _print(cmd: SigrokCommand) -> None:
     print(one_line(cmd.text))
     for note in cmd.notes:
         print(f"# {one_line(note)}")

@@ -26,7 +26,7 @@ from ..simulation.bus import GimbalBus
 from ..simulation.controller import SimController
 from ..simulation.gimbal import Faults, GimbalModel
 from ..simulation.link import VirtualLink
-from .common import UsageError, non_negative_float, positive_int, probability
+from .common import Subcommands, UsageError, non_negative_float, positive_int, probability
 
 DEFAULT_ADDRESS = (1, 1, 1)
 # what only gimbals do: refused when the command runs a controller alone
@@ -45,7 +45,7 @@ def parse_address(text: str) -> tuple[int, int, int]:
         raise argparse.ArgumentTypeError(f"{text!r}: expected GROUP.PORT.DEVICE, each 0..254") from None
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("sim", help="simulated gimbals, a simulated controller, or both on pseudo-terminals",
                        description="Answer as gimbals on PORT (a device name or pyserial URL), drive gimbals "
                                    "as a controller does from --controller PORT, or run both on "
@@ -85,7 +85,7 @@ def check_roles(args: argparse.Namespace) -> None:
         raise UsageError("nothing to simulate: give PORT (gimbals), --controller PORT, or --pty (both, "
                          "on pseudo-terminals, to try gimbalscope live)")
     if args.controller and not args.port:
-        given = [option for name, option in GIMBAL_OPTIONS.items() if getattr(args, name)]
+        given = [option for name, option in GIMBAL_OPTIONS.items() if vars(args)[name]]
         if given:
             raise UsageError(f"{given[0]} is a fault of the simulated gimbals: give PORT for them, "
                              "or use --pty")

@@ -8,10 +8,10 @@ import sys
 
 from ..listeners import StatsListener
 from ..output import dumps
-from .common import add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
+from .common import Subcommands, add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("stats", help="summarise a capture: counts, errors, latency",
                        description="Counts, errors and latency per command and per device.")
     add_input_args(p)

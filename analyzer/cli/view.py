@@ -8,10 +8,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .common import UsageError, add_filter_arg, add_input_args, build_filter, open_inputs
+from .common import Subcommands, UsageError, add_filter_arg, add_input_args, build_filter, open_inputs
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("view", help="open a capture in the TUI",
                        description="Open a capture (see INPUT) in the TUI.")
     add_input_args(p)

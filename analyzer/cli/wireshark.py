@@ -12,9 +12,10 @@ import shutil
 import sys
 
 from ..outfile import install_into, show
+from .common import Subcommands
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("wireshark", help="Wireshark: install the gimbal dissector and the extcap capture",
                        description="Wireshark interop (docs/wireshark.md). Export captures for it with "
                                    "'gimbalscope export CAPTURE -o FILE.pcapng'.")

@@ -12,57 +12,60 @@ from dissectors.event import Event
 
 from ..analysis.doctor import INFO, UNTIMED_CHECK_EVERY, Invocation, WiringDoctor, one_line
 from ..analysis.findings import Finding
-from ..runner import DOCTOR, Listener, Note
+from ..runner import DOCTOR, Listener, Note, TapRunner
 
 
 class DoctorListener(Listener):
     def __init__(self, every: float = 1.0, *, tui: bool = False) -> None:
         self.every = every
         self.tui = tui
-        self.runner = None
-        self.doctor: WiringDoctor | None = None
+        self.doctor: WiringDoctor | None = None   # from on_start
         self.findings: list[Finding] = []   # as of the last check
         self.checked = False                # the last step re-checked the findings
+        self._runner: TapRunner | None = None
         self._told: set[tuple[str, str]] = set()
         self._swapped = False
-
-    def on_start(self, runner) -> None:
-        self.runner = runner
-        self._swapped = runner.swapped
-        self._restart()
-
-    def _restart(self) -> None:
-        runner = self.runner
-        info = runner.info
-        self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
-                                   Invocation(info.inputs, info.live, info.command, self.tui, baud=info.baud))
-        self.doctor.physical = runner.physical
-        self._told.clear()
-        self._next: float | None = None
+        self._next: float | None = None     # the capture time of the next check
         self._next_event = UNTIMED_CHECK_EVERY
 
+    def on_start(self, runner: TapRunner) -> None:
+        self._runner = runner
+        self._swapped = runner.swapped
+        self.doctor = self._new_doctor(runner)
+
+    def _new_doctor(self, runner: TapRunner) -> WiringDoctor:
+        """A doctor for the runner's wiring as it is now, nothing told yet."""
+        info = runner.info
+        doctor = WiringDoctor(runner.lines, runner.ack_timeout,
+                              Invocation(info.inputs, info.live, info.command, self.tui, baud=info.baud))
+        doctor.physical = runner.physical
+        self._told.clear()
+        self._next = None
+        self._next_event = UNTIMED_CHECK_EVERY
+        return doctor
+
     def on_events(self, events: list[Event]) -> None:
-        runner = self.runner
+        runner, doctor = self._runner, self.doctor
+        assert runner is not None and doctor is not None, "on_start comes first"
         if runner.swapped != self._swapped:
             # the lines were swapped while capturing (the TUI's key): a new wiring,
             # so start again rather than mix evidence from both
             self._swapped = runner.swapped
-            self._restart()
-        doctor = self.doctor
+            doctor = self.doctor = self._new_doctor(runner)
         skew_from = runner.skew_from
         if skew_from is not None and skew_from != doctor.trend_from:
             doctor.restart_ack_trend(skew_from)
-        self.checked = self._add(doctor, events)
+        self.checked = self._add(runner, doctor, events)
         for cmd in runner.echoed:
             doctor.echoed(cmd)
         t = doctor.last_t
         if t is None or (self._next is not None and t < self._next):
             return
         self._next = t + self.every
-        self._check()
+        self._check(runner, doctor)
         self.checked = True
 
-    def _add(self, doctor: WiringDoctor, events: list[Event]) -> bool:
+    def _add(self, runner: TapRunner, doctor: WiringDoctor, events: list[Event]) -> bool:
         add = doctor.add
         checked = False
         for ev in events:
@@ -71,16 +74,16 @@ class DoctorListener(Listener):
             # capture's batches can be tens of thousands of events long
             if ev.t is None and doctor.events >= self._next_event:
                 self._next_event = doctor.events + UNTIMED_CHECK_EVERY
-                self._check()
+                self._check(runner, doctor)
                 checked = True
         return checked
 
-    def _check(self) -> None:
-        self.findings = self.doctor.findings()
+    def _check(self, runner: TapRunner, doctor: WiringDoctor) -> None:
+        self.findings = doctor.findings()
         for f in self.findings:
             if f.severity != INFO and f.key not in self._told:
                 self._told.add(f.key)
-                self.runner.post(one_line(f), f.severity, finding=f, origin=DOCTOR)
+                runner.post(one_line(f), f.severity, finding=f, origin=DOCTOR)
 
     def on_stop(self) -> None:
         if self.doctor is not None:

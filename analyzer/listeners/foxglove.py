@@ -39,6 +39,7 @@ import threading
 import time
 
 import foxglove
+from foxglove.websocket import WebSocketServer
 
 from dissectors.event import Event
 
@@ -91,8 +92,9 @@ class FoxgloveServer(Listener):
         self._speed = speed or None
         self._started = time.monotonic()
         self._context = foxglove.Context()
-        self._server = _start(self._context, host, port)
-        self.address = show_address(host, self._server.port)
+        server = _start(self._context, host, port)
+        self._server: WebSocketServer | None = server   # None once closed
+        self.address = show_address(host, server.port)
         self._channels: dict[str, foxglove.Channel] = {}
         for topic, key in fixed_topics(info.lines):
             self._channel(topic, key)
@@ -139,14 +141,14 @@ class FoxgloveServer(Listener):
         self._messages.raw(chunk, offset)
 
     def on_events(self, events: list[Event]) -> None:
-        event, paced = self._messages.event, self._speed is not None
+        event, speed = self._messages.event, self._speed
         for ev in events:
-            if paced:
-                self._wait_for(ev)
+            if speed is not None:
+                self._wait_for(ev, speed)
             event(ev)
         # a live tap's idle ticks come here too; a paced replay's last events must not
         # wait for a next step that may not come until the screen closes
-        if self._burst and (paced or time.monotonic() >= self._due):
+        if self._burst and (speed is not None or time.monotonic() >= self._due):
             self._flush()
 
     def on_note(self, note: Note) -> None:
@@ -164,11 +166,11 @@ class FoxgloveServer(Listener):
         finally:
             self.close()
 
-    def _wait_for(self, ev: Event) -> None:
+    def _wait_for(self, ev: Event, speed: float) -> None:
         """Until ``ev``'s recorded time, ``speed`` times faster; what is due goes out first."""
         if ev.t is None:
             return
-        delay = self._started + ev.t / self._speed - time.monotonic()
+        delay = self._started + ev.t / speed - time.monotonic()
         if delay > 0:
             self._flush()
             self._closed.wait(delay)
@@ -209,7 +211,7 @@ class FoxgloveServer(Listener):
         self._due = time.monotonic() + FLUSH_SECONDS
 
 
-def _start(context: foxglove.Context, host: str, port: int):
+def _start(context: foxglove.Context, host: str, port: int) -> WebSocketServer:
     try:
         return foxglove.start_server(name=NAME, host=host, port=port, context=context,
                                      message_backlog_size=BACKLOG)

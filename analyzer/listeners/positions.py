@@ -3,6 +3,8 @@ one position plot per gimbal found."""
 
 from __future__ import annotations
 
+from dissectors.event import Event
+
 from ..analysis.positions import PositionTracker
 from ..runner import Listener
 
@@ -15,7 +17,7 @@ class PositionFinder(Listener):
         self.tracker = PositionTracker()
         self.devices: set[str] = set()
 
-    def on_events(self, events) -> None:
+    def on_events(self, events: list[Event]) -> None:
         see, devices = self.tracker.see, self.devices
         for ev in events:
             found = see(ev)

@@ -12,10 +12,10 @@ from typing import TYPE_CHECKING
 from dissectors.event import Event
 
 from ..outfile import one_line
-from ..runner import DOCTOR, ERROR, INFO, Listener, Note
+from ..runner import DOCTOR, ERROR, INFO, Listener, Note, TapRunner
 
 if TYPE_CHECKING:
-    from ..writers.base import FileWriter
+    from ..writers.base import EventLines
 
 REPEATS = 3   # warnings of one kind said in full before the rest are counted
 
@@ -25,14 +25,14 @@ class EventPrinter(Listener):
     ``keep`` accepts when a filter is given; ``pace(event)`` may wait before each
     (``replay`` at the recorded pace). ``seen`` counts every event heard."""
 
-    def __init__(self, writer: FileWriter, keep: Callable[[Event], bool] | None = None,
+    def __init__(self, writer: EventLines, keep: Callable[[Event], bool] | None = None,
                  pace: Callable[[Event], None] | None = None) -> None:
         self.writer = writer
         self.keep = keep
         self.pace = pace
         self.seen = 0
 
-    def on_start(self, runner) -> None:
+    def on_start(self, runner: TapRunner) -> None:
         self.writer.on_start(runner)
 
     def on_events(self, events: list[Event]) -> None:

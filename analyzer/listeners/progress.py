@@ -28,13 +28,27 @@ from __future__ import annotations
 import os
 import sys
 import threading
+from typing import TYPE_CHECKING, Protocol, Self, TextIO
 
-from ..runner import Listener
-from ..sources.meter import READS, ReadMeter
+from ..runner import Listener, TapRunner
+from ..sources.meter import READS
+
+if TYPE_CHECKING:
+    from rich.progress import Progress, TaskID
 
 DELAY = 3.0                                # seconds of work before a bar appears
 DELAY_ENV = "GIMBALSCOPE_PROGRESS_DELAY"   # another delay in seconds (tests: 0)
 REFRESH = 0.25                             # seconds between updates of the bar
+
+
+class Meter(Protocol):
+    """What a bar shows: the bytes of the whole (None: not known) and those done.
+    ``READS`` (this process's input files) is one; an export's pool and its Spark
+    tasks have their own."""
+
+    def total(self) -> int | None: ...
+
+    def done(self) -> int: ...
 
 
 def delay() -> float:
@@ -46,7 +60,7 @@ def delay() -> float:
     return value if value >= 0 else DELAY
 
 
-def _is_terminal(stream) -> bool:
+def _is_terminal(stream: TextIO | None) -> bool:
     try:
         return stream is not None and stream.isatty()
     except (OSError, ValueError):
@@ -66,7 +80,7 @@ class ReadProgress:
     after ``delay`` seconds if the work has not ended; ``with ReadProgress():``
     or ``start()`` and ``stop()``. Does nothing when not ``enabled``."""
 
-    def __init__(self, enabled: bool = True, meter: ReadMeter = READS, wait: float | None = None,
+    def __init__(self, enabled: bool = True, meter: Meter = READS, wait: float | None = None,
                  label: str = "reading") -> None:
         self.enabled = enabled
         self.meter = meter
@@ -75,8 +89,7 @@ class ReadProgress:
         self.shown = False                 # a bar was shown
         self._ended = threading.Event()
         self._lock = threading.Lock()      # the bar is opened, updated and closed by two threads
-        self._progress = None
-        self._task = None
+        self._bar: tuple[Progress, TaskID] | None = None   # once shown: Rich's progress and its one task
         self._thread: threading.Thread | None = None
 
     def start(self) -> None:
@@ -94,19 +107,19 @@ class ReadProgress:
             self._thread = None
         self._close()
 
-    def __enter__(self) -> ReadProgress:
+    def __enter__(self) -> Self:
         self.start()
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()
 
     def _run(self) -> None:
-        if self._progress is None:
+        if self._bar is None:
             if self._ended.wait(self.wait):
                 return                     # ended before the delay: no bar
             self._open_bar()
-            if self._progress is None:
+            if self._bar is None:
                 return
         while not self._ended.wait(REFRESH):
             self._update()
@@ -133,20 +146,22 @@ class ReadProgress:
             if self._ended.is_set():
                 return
             progress.start()
-            self._progress, self._task = progress, task
+            self._bar = progress, task
             self.shown = True
 
     def _update(self) -> None:
         with self._lock:
-            if self._progress is not None:
-                self._progress.update(self._task, completed=self.meter.done())
-                self._progress.refresh()
+            if self._bar is not None:
+                progress, task = self._bar
+                progress.update(task, completed=self.meter.done())
+                progress.refresh()
 
     def _close(self) -> None:
         with self._lock:
-            progress, self._progress = self._progress, None
-            if progress is not None:
-                progress.update(self._task, completed=self.meter.done())
+            bar, self._bar = self._bar, None
+            if bar is not None:
+                progress, task = bar
+                progress.update(task, completed=self.meter.done())
                 progress.stop()
 
 
@@ -156,7 +171,7 @@ class ProgressListener(Listener):
     def __init__(self, progress: ReadProgress) -> None:
         self.progress = progress
 
-    def on_start(self, runner) -> None:
+    def on_start(self, runner: TapRunner) -> None:
         self.progress.start()
 
     def on_stop(self) -> None:

@@ -12,7 +12,7 @@ from dissectors.event import Event
 from ..analysis.doctor import Invocation
 from ..analysis.findings import Finding
 from ..analysis.signs import WiringSigns
-from ..runner import WARNING, Listener
+from ..runner import WARNING, Listener, TapRunner
 
 
 def warning_text(f: Finding) -> str:
@@ -23,28 +23,30 @@ def warning_text(f: Finding) -> str:
 
 class WiringCheck(Listener):
     def __init__(self) -> None:
-        self.runner = None
-        self.signs: WiringSigns | None = None
+        self._runner: TapRunner | None = None
+        self.signs: WiringSigns | None = None   # from on_start
         self.findings: list[Finding] = []
         self.warnings: list[str] = []        # what was said, for a job that reports them itself
 
-    def on_start(self, runner) -> None:
-        self.runner = runner
+    def on_start(self, runner: TapRunner) -> None:
+        self._runner = runner
         self.signs = WiringSigns(runner.lines)
 
     def on_events(self, events: list[Event]) -> None:
+        assert self.signs is not None, "on_start comes first"
         add = self.signs.add
         for ev in events:
             add(ev)
 
     def on_stop(self) -> None:
-        if self.signs is None:
+        runner = self._runner
+        if self.signs is None or runner is None:
             return
-        info = self.runner.info
+        info = runner.info
         how = Invocation(info.inputs, info.live, info.command, baud=info.baud)
         self.signs.read_baud = info.baud     # the rate the tap read at: a wrong rate is named against it
         self.findings = self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
         for f in self.findings:
             text = warning_text(f)
             self.warnings.append(text)
-            self.runner.post(text, WARNING, finding=f)
+            runner.post(text, WARNING, finding=f)
