@@ -14,7 +14,11 @@ import contextlib
 import os
 import queue
 import time
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Protocol
+
+from dissectors.event import Event
 
 from .. import uris
 from ..capture import Options
@@ -26,6 +30,10 @@ from ..runner import Listener, TapRunner
 from ..sources import CaptureError
 from ..sources.meter import READS
 from ..words import counted
+from ..writers.base import FileWriter
+
+if TYPE_CHECKING:   # pyarrow (the fleet extra) only for a dataset
+    from ..writers.parquet import ParquetDatasetWriter
 
 REPORT_EVERY = 0.25   # seconds between a job's reports of the bytes it has read
 MCAP_MAGIC = b"\x89MCAP0\r\n"
@@ -51,6 +59,15 @@ class Outcome:
     events: int = 0
     warnings: list[str] = field(default_factory=list)
     seconds: float = 0.0
+
+
+class Reports(Protocol):
+    """Where jobs report the bytes of their inputs read: ``(job index, bytes)``,
+    ``(job index, None)`` once done. A queue: of this process, or the pool's."""
+
+    def put(self, report: tuple[int, int | None], /) -> None: ...
+
+    def get_nowait(self) -> tuple[int, int | None]: ...
 
 
 def capture_name(paths: tuple[str, ...]) -> str:
@@ -81,46 +98,53 @@ def cut_mcap(path: str) -> str | None:
 class _Reporter(Listener):
     """Tells the pool's parent how many bytes of its inputs this job has read."""
 
-    def __init__(self, index: int, out) -> None:
+    def __init__(self, index: int, out: Reports) -> None:
         self.index = index
         self.out = out
         self._next = 0.0
 
-    def on_events(self, events) -> None:
+    def on_events(self, events: list[Event]) -> None:
         now = time.monotonic()
         if now >= self._next:
             self._next = now + REPORT_EVERY
             self.out.put((self.index, READS.done()))
 
 
-_PROGRESS = None   # the pool's progress queue, in a worker process
+_PROGRESS: Reports | None = None   # the pool's progress queue, in a worker process
 
 
-def _init_worker(progress) -> None:
+def _init_worker(progress: Reports) -> None:
     global _PROGRESS
     _PROGRESS = progress
 
 
-def _file_writer(job: Job, info: CaptureInfo) -> Listener:
-    """The writer of a file output's part: a file of its own, which ``export``
-    joins with the others in the inputs' order (a pcapng file may hold several
-    sections one after the other)."""
-    from ..writers import writer_class
-    return writer_class(job.root)(job.file, info, capture=job.index)
+def _writer(job: Job, info: CaptureInfo, site: str | None) -> FileWriter | ParquetDatasetWriter:
+    """The job's writer: of a file output's part (``job.file``: a file of its own,
+    which ``export`` joins with the others in the inputs' order; a pcapng file
+    may hold several sections one after the other), or of the dataset folder."""
+    if job.file is not None:
+        from ..writers import open_writer
+        return open_writer(job.file, info, capture=job.index)   # the part has the output's suffix
+    # pyarrow (the fleet extra) only for a dataset: a pcapng file needs the base install alone
+    from ..writers.parquet import ParquetDatasetWriter, capture_key
+    return ParquetDatasetWriter(job.root, info, capture=capture_name(job.paths), site=site,
+                                key=capture_key(job.paths))
 
 
-def _discard(job: Job, writer) -> None:
-    if job.file is None:
+def _discard(writer: FileWriter | ParquetDatasetWriter, part: str | None) -> None:
+    """Drop what a job wrote: a dataset's new files, or a file output's ``part``."""
+    if not isinstance(writer, FileWriter):
         writer.abort()
-    else:
-        writer.on_stop()
+        return
+    writer.on_stop()
+    if part is not None:
         try:
-            os.unlink(job.file)
+            os.unlink(part)
         except OSError:
             pass
 
 
-def run_job(job: Job, progress=None) -> Outcome:
+def run_job(job: Job, progress: Reports | None = None) -> Outcome:
     """Export one capture (in a worker process, a Spark executor, or this one)."""
     progress = progress if progress is not None else _PROGRESS
     started = time.monotonic()
@@ -138,7 +162,7 @@ def run_job(job: Job, progress=None) -> Outcome:
     return out
 
 
-def _export(job: Job, local: tuple[str, ...], out: Outcome, progress) -> None:
+def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | None) -> None:
     name = out.capture
     for path in local:
         if path.lower().endswith(".mcap"):
@@ -146,62 +170,61 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress) -> None:
             if why:
                 out.error = why
                 return
-    writer = None
+    writer: FileWriter | ParquetDatasetWriter | None = None
     try:
         capture = open_capture(*local, options=job.options)
         site = job.site
         if site is None:
-            site = (getattr(capture.source, "metadata", None) or {}).get("site") or None
+            site = (capture.source.metadata or {}).get("site") or None
         info = CaptureInfo.of(capture, command="export", site=site)
-        if job.file is not None:
-            writer = _file_writer(job, info)
-        else:
-            # pyarrow (the fleet extra) only for a dataset: a pcapng file needs the base install alone
-            from ..writers.parquet import ParquetDatasetWriter, capture_key
-            writer = ParquetDatasetWriter(job.root, info, capture=name, site=site, key=capture_key(job.paths))
+        writer = _writer(job, info, site)
         check = WiringCheck()   # swapped lines, a wrong rate, not this protocol: said, as decode says them
-        listeners = [check, writer] if progress is None else [_Reporter(job.index, progress), check, writer]
+        listeners: list[Listener] = [check, writer]
+        if progress is not None:
+            listeners.insert(0, _Reporter(job.index, progress))
         out.events = TapRunner(capture, listeners, info=info).run()
         out.warnings = list(capture.warnings) + [f"{name}: {text}" for text in check.warnings]
         cut = next((w for w in capture.warnings if "ends early" in w), None)
         if cut is not None:
-            _discard(job, writer)
+            _discard(writer, job.file)
             out.error = cut
-        elif job.file is not None:
-            out.rows = {"packets": writer.packets}
+        elif isinstance(writer, FileWriter):
+            out.rows = {writer.noun: writer.count}
         else:
             writer.commit()
             out.rows = dict(writer.rows)
     except CaptureError as e:
         if writer is not None:
-            _discard(job, writer)
+            _discard(writer, job.file)
         out.error = str(e)
     except OSError as e:   # the dataset folder: full, read-only
         if writer is not None:
-            _discard(job, writer)
+            _discard(writer, job.file)
         out.error = f"{show(e.filename or job.root)}: {e.strerror or e}"
     except BaseException:
         if writer is not None:
-            _discard(job, writer)
+            _discard(writer, job.file)
         raise
 
 
 @contextlib.contextmanager
-def staged(paths: tuple[str, ...]):
+def staged(paths: tuple[str, ...]) -> Iterator[tuple[str, ...]]:
     """The capture's files as local paths: a ``file://`` URI's path, and a remote
     URI's file copied into a temporary folder (the readers read local files; an
     executor has no other copy), removed after."""
-    if not any(uris.is_remote(p) for p in paths):
-        yield tuple(uris.local_path(p) for p in paths)
+    here = tuple(p for p in map(uris.local_path, paths) if p is not None)
+    if len(here) == len(paths):   # none remote
+        yield here
         return
     import shutil
     import tempfile
     folder = tempfile.mkdtemp(prefix="gimbalscope-input-")
     try:
-        local = []
+        local: list[str] = []
         for i, path in enumerate(paths):
-            if not uris.is_remote(path):
-                local.append(uris.local_path(path))
+            on_disk = uris.local_path(path)
+            if on_disk is not None:
+                local.append(on_disk)
                 continue
             # its own name (the readers know some kinds by it: .gz, .zst), in a folder of its own
             target = os.path.join(folder, str(i), path.rstrip("/").rsplit("/", 1)[-1] or "capture")
@@ -232,8 +255,10 @@ def input_size(job: Job) -> int:
 
 def make_dataset_folder(root: str) -> None:
     """The local dataset folder ``root`` made if absent, or one line saying why not."""
+    local = uris.local_path(root)
+    assert local is not None, root   # a remote folder is Spark's (spark/export.py, check_output)
     try:
-        os.makedirs(uris.local_path(root), exist_ok=True)
+        os.makedirs(local, exist_ok=True)
     except OSError as e:
         raise OutputRefused(f"{show(root)}: cannot make the dataset folder: {e.strerror or e}") from None
 
@@ -242,7 +267,7 @@ class PoolMeter:
     """Bytes read of every job's inputs, from the jobs' reports (the progress
     bar's meter, analyzer/listeners/progress.py)."""
 
-    def __init__(self, jobs: list[Job], reports) -> None:
+    def __init__(self, jobs: list[Job], reports: Reports) -> None:
         self.sizes = {job.index: input_size(job) for job in jobs}
         self.read = {job.index: 0 for job in jobs}
         self.reports = reports
@@ -261,17 +286,18 @@ class PoolMeter:
         return sum(self.read.values())
 
 
-def export(jobs: list[Job], workers: int, *, show_progress: bool = False, on_done=None) -> list[Outcome]:
+def export(jobs: list[Job], workers: int, *, show_progress: bool = False,
+           on_done: Callable[[Outcome], None] | None = None) -> list[Outcome]:
     """Run every job, ``workers`` at a time; ``on_done(outcome)`` as each ends.
     The outcomes in the jobs' order."""
     from ..listeners.progress import ReadProgress
 
     outcomes: dict[int, Outcome] = {}
     if workers <= 1 or len(jobs) <= 1:
-        reports: queue.Queue = queue.Queue()
-        with ReadProgress(enabled=show_progress, meter=PoolMeter(jobs, reports), label="exporting"):
+        here: queue.Queue[tuple[int, int | None]] = queue.Queue()
+        with ReadProgress(enabled=show_progress, meter=PoolMeter(jobs, here), label="exporting"):
             for job in jobs:
-                outcome = outcomes[job.index] = run_job(job, reports)
+                outcome = outcomes[job.index] = run_job(job, here)
                 if on_done is not None:
                     on_done(outcome)
         return [outcomes[job.index] for job in jobs]

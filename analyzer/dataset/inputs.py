@@ -58,22 +58,21 @@ def captures_of(inputs: list[str]) -> list[tuple[str, ...]]:
 def _listing(text: str) -> list[str] | None:
     """The files a folder or a pattern names, sorted (None: ``text`` is one file).
     A folder or pattern with no capture in it is refused in one line."""
-    if uris.is_remote(text):
+    local = uris.local_path(text)
+    if local is None:   # a remote URI
         names = _remote_listing(text)
         if names is None:
             return None
+    elif os.path.isdir(local):
+        names = sorted(os.path.join(text, n) for n in os.listdir(local) if _wanted(n)
+                       and os.path.isfile(os.path.join(local, n)))
+    elif not os.path.exists(local) and _PATTERN.search(local):
+        prefix = text[:len(text) - len(local)]   # "file://" kept on what it matched
+        names = sorted(prefix + p for p in glob.glob(local) if os.path.isfile(p) and _wanted(os.path.basename(p)))
+        if not names:
+            raise UsageError(f"{text}: no file matches")
     else:
-        local = uris.local_path(text)
-        if os.path.isdir(local):
-            names = sorted(os.path.join(text, n) for n in os.listdir(local) if _wanted(n)
-                           and os.path.isfile(os.path.join(local, n)))
-        elif not os.path.exists(local) and _PATTERN.search(local):
-            prefix = text[:len(text) - len(local)]   # "file://" kept on what it matched
-            names = sorted(prefix + p for p in glob.glob(local) if os.path.isfile(p) and _wanted(os.path.basename(p)))
-            if not names:
-                raise UsageError(f"{text}: no file matches")
-        else:
-            return None
+        return None
     if not names:
         raise UsageError(f"{text}: no capture in this folder")
     return names
@@ -107,7 +106,7 @@ def _wanted(name: str) -> bool:
 def grouped(names: list[str]) -> list[tuple[str, ...]]:
     """``names`` (sorted) as captures: the numbered parts of one recording
     together, in their number order, at the place of the first; the rest alone."""
-    out: list[tuple[str, ...] | list[str]] = []
+    out: list[tuple[str, ...] | list[tuple[int, str]]] = []
     parts: dict[str, list[tuple[int, str]]] = {}
     for name in names:
         m = _PART.match(name)

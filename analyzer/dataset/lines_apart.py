@@ -12,7 +12,7 @@ naming the ``+`` form. ``--separate`` says they really are two captures."""
 
 from __future__ import annotations
 
-from itertools import islice
+from itertools import islice, pairwise
 
 from dissectors.event import COMMAND, NO_RESULT, OK, ST_NIC
 
@@ -68,7 +68,7 @@ def one_capture(a: str, b: str, options: Options) -> str | None:
 
 def lines_of_one_capture(inputs: list[tuple[str, ...]], options: Options) -> str | None:
     """The refusal for neighbouring inputs that are one capture's lines, or None."""
-    for first, second in zip(inputs, inputs[1:]):
+    for first, second in pairwise(inputs):
         if len(first) != 1 or len(second) != 1:
             continue
         for a, b in ((first[0], second[0]), (second[0], first[0])):

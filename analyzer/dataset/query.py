@@ -9,9 +9,13 @@ from __future__ import annotations
 
 import os
 import re
+from typing import TYPE_CHECKING
 
 from ..errors import DatasetError
 from ..formats.parquet_schema import PARTITION, TABLES
+
+if TYPE_CHECKING:
+    from duckdb import DuckDBPyConnection
 
 
 def table_glob(root: str, table: str) -> str:
@@ -45,7 +49,7 @@ def check_dataset(root: str) -> None:
         raise DatasetError(f"{root}: no dataset here: none of the folders {', '.join(TABLES)}")
 
 
-def connect(root: str):
+def connect(root: str) -> DuckDBPyConnection:
     """A DuckDB connection (in memory) with the dataset's views."""
     import duckdb
     import pyarrow as pa

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import datetime as dt
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 from ..output import fmt_seconds
 
@@ -171,11 +172,21 @@ class Dialect:
     quantile: str   # with {col} and {q}
 
 
+class Rows(Protocol):
+    def fetchall(self) -> list[Any]: ...
+
+
+class Engine(Protocol):
+    """What ``build`` asks of an SQL engine over the dataset's views."""
+
+    def execute(self, sql: str, /) -> Rows: ...
+
+
 DUCKDB = Dialect(quantile="quantile_cont({col}, {q})")
 SPARK = Dialect(quantile="percentile({col}, {q})")
 
 
-def build(con, period: str = "day", *, min_commands: int = MIN_COMMANDS, dialect: Dialect = DUCKDB) -> Report:
+def build(con: Engine, period: str = "day", *, min_commands: int = MIN_COMMANDS, dialect: Dialect = DUCKDB) -> Report:
     """The report of the dataset behind ``con``: anything whose ``execute(sql)``
     gives rows by ``fetchall()`` (a DuckDB connection, ``query.connect``; Spark,
     ``spark/report.py``), in ``dialect``."""
@@ -219,7 +230,7 @@ def _utc(when: dt.datetime | None) -> dt.datetime | None:
     return None if when is None else when.astimezone(dt.UTC)
 
 
-def _device_key(device: str):
+def _device_key(device: str) -> tuple[tuple[int, ...], str]:
     """1.1.10 after 1.1.9: addresses sort by their numbers."""
     parts = device.split(".")
     return tuple(int(p) if p.isdigit() else 1 << 30 for p in parts), device

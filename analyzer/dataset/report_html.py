@@ -11,9 +11,13 @@ import datetime as dt
 import html
 import io
 import re
+from typing import TYPE_CHECKING
 
 from ..words import counted
 from .report import PERIOD_COLUMNS, DeviceReport, Report, period_cells
+
+if TYPE_CHECKING:   # matplotlib is imported only for a page
+    from matplotlib.figure import Figure
 
 _CSS = """
 body { font-family: system-ui, sans-serif; margin: 2em; color: #222; }
@@ -28,7 +32,7 @@ th:first-child, td:first-child { text-align: left; white-space: nowrap; }
 """
 
 
-def _svg(fig) -> str:
+def _svg(fig: Figure) -> str:
     """A figure as SVG markup to put inline: without the XML prologue, the DOCTYPE
     (a URL a browser never fetches, but a page needs none) and the metadata block."""
     buf = io.StringIO()
@@ -59,9 +63,10 @@ def _charts(device: DeviceReport) -> str:
         ax.set_title(f"{device.device}: {title}", fontsize=9)
         ax.tick_params(labelsize=7)
         if xs:
-            ax.plot(xs, ys, marker="o", color="#b00020" if device.worse else "#1f5f9f")
+            # dates: matplotlib plots them through its date converter, though its hints name only numbers
+            ax.plot(xs, ys, marker="o", color="#b00020" if device.worse else "#1f5f9f")   # type: ignore[arg-type]
             # a day either side: one or two points still sit inside a readable axis
-            ax.set_xlim(min(xs) - dt.timedelta(days=1), max(xs) + dt.timedelta(days=1))
+            ax.set_xlim(min(xs) - dt.timedelta(days=1), max(xs) + dt.timedelta(days=1))   # type: ignore[arg-type]
             locator = mdates.AutoDateLocator(maxticks=6)
             ax.xaxis.set_major_locator(locator)
             ax.xaxis.set_major_formatter(mdates.ConciseDateFormatter(locator))

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from collections.abc import Callable, Iterable
 from typing import Any
 
@@ -84,7 +85,7 @@ def reports_of(record: dict[str, str]) -> dict[str, LineReport]:
 
 def _report(line: str, values: Any) -> LineReport:
     if not isinstance(values, dict):
-        raise ValueError(f"line {line} is not a JSON object")
+        raise ValueError(f"line {line} is not a JSON object")   # noqa: TRY004 - reports_of says all in ValueError
     report = LineReport(line, "")
     for f in dataclasses.fields(LineReport):
         if f.name == "line" or f.name not in values:
@@ -99,43 +100,49 @@ def _report(line: str, values: Any) -> LineReport:
     return report
 
 
+# A value's check: the value, or TypeError or ValueError (``_report`` says which field)
+
 def _number(v: Any) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != v or abs(v) == float("inf"):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise TypeError
+    if isinstance(v, float) and not math.isfinite(v):
         raise ValueError
     return v
 
 
 def _count(v: Any) -> int:
-    if isinstance(v, bool) or not isinstance(v, int) or v < 0:
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise TypeError
+    if v < 0:
         raise ValueError
     return v
 
 
 def _flag(v: Any) -> bool:
     if not isinstance(v, bool):
-        raise ValueError
+        raise TypeError
     return v
 
 
 def _text(v: Any) -> str:
     if not isinstance(v, str):
-        raise ValueError
+        raise TypeError
     return v
 
 
 def _texts(v: Any) -> list[str]:
     if not isinstance(v, list):
-        raise ValueError
+        raise TypeError
     return [_text(x) for x in v]
 
 
 def _rate_changes(v: Any) -> list[RateChange]:
     if not isinstance(v, list):
-        raise ValueError
+        raise TypeError
     out = []
     for x in v:
         if not isinstance(x, dict):
-            raise ValueError
+            raise TypeError
         out.append(RateChange(_number(x["t"]), _number(x["before"]), _number(x["after"])))
     return out
 

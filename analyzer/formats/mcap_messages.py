@@ -117,9 +117,9 @@ class WireClock:
     def time_ns(self, t: float | None, order: int, offset: int | None = None) -> int:
         if t is None:
             if offset is not None and self.wire_byte_time is not None:
-                return self.start_ns + int(round(offset * self.wire_byte_time * 1e9))
+                return self.start_ns + round(offset * self.wire_byte_time * 1e9)
             return self.start_ns + order
-        return self.start_ns + int(round(t * 1e9))
+        return self.start_ns + round(t * 1e9)
 
 
 class Messages(WireClock):
@@ -180,7 +180,7 @@ class Messages(WireClock):
         if not reads:
             self._reads_ts = self.time_ns(t, self._seq, offset)
             self._reads_t = t
-        read = {"line": line, "t": t, "data": data} if t is not None else {"line": line, "data": data}
+        read: dict[str, Any] = {"line": line, "t": t, "data": data} if t is not None else {"line": line, "data": data}
         if line_errors:
             read["line_errors"] = line_errors
         reads.append(read)

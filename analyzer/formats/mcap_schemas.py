@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 from functools import cache
+from typing import Any
 
 from dissectors import problems
 from dissectors.commands import COMMANDS, field_types
@@ -66,7 +67,7 @@ def _fields_schema() -> dict:
         text = what + (f", {ft.unit}" if ft.unit else "") + (f": {ft.desc}" if ft.desc else "")
         if name in carriers:
             text += f" ({', '.join(carriers[name])})"
-        prop = {"type": ft.type, "description": text}
+        prop: dict[str, Any] = {"type": ft.type, "description": text}
         if ft.items is not None:
             prop["items"] = {"type": ft.items}
         if ft.unit:

@@ -13,16 +13,19 @@ bytes from the wire never raise.
 from __future__ import annotations
 
 import datetime as dt
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Callable, Iterable, Iterator
+from typing import TYPE_CHECKING, Any, Protocol
 
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from dissectors.event import Event
+from dissectors.event import Event, Origin
 from dissectors.wire import payload_text
 
 from . import parquet_schema as S
+
+if TYPE_CHECKING:
+    from ..analysis.transactions import OpenTransaction
 
 _EPOCH = dt.date(1970, 1, 1)
 
@@ -125,7 +128,7 @@ _PAYLOAD_TEXT: dict[bytes, str] = {}
 class EventBatches:
     """Rows of the ``events`` table."""
 
-    _NAMES = [name for name, _ in S.EVENT_COLUMNS if name not in ("capture", "site", "ts")]
+    _NAMES = tuple(name for name, _ in S.EVENT_COLUMNS if name not in ("capture", "site", "ts"))
 
     def __init__(self, capture: str, site: str | None, start_time: float | None) -> None:
         self.capture = capture
@@ -157,6 +160,7 @@ class EventBatches:
         dst(ev.dst)
         src(ev.src)
         payload = ev.payload
+        text = None
         if payload is not None:
             payload = bytes(payload)
             text = _PAYLOAD_TEXT.get(payload)
@@ -164,8 +168,7 @@ class EventBatches:
                 if len(_PAYLOAD_TEXT) > 8192:
                     _PAYLOAD_TEXT.clear()
                 text = _PAYLOAD_TEXT[payload] = payload_text(payload)
-            payload = text
-        payload_(payload)
+        payload_(text)
         checksum_ok(ev.checksum_ok)
         problems(ev.problems)
         txn(ev.txn)
@@ -193,7 +196,7 @@ class EventBatches:
 class TransactionBatches:
     """Rows of the ``transactions`` table, from ``analyzer.analysis.transactions.OpenTransaction``."""
 
-    _NAMES = [name for name, _ in S.TRANSACTION_COLUMNS if name not in ("capture", "site", "ts")]
+    _NAMES = tuple(name for name, _ in S.TRANSACTION_COLUMNS if name not in ("capture", "site", "ts"))
 
     def __init__(self, capture: str, site: str | None, start_time: float | None) -> None:
         self.capture = capture
@@ -209,7 +212,7 @@ class TransactionBatches:
     def __len__(self) -> int:
         return self.n
 
-    def add(self, txn) -> None:
+    def add(self, txn: OpenTransaction) -> None:
         row = txn.to_dict()
         ack, nic, result = txn.answer_numbers()
         c = self.cols
@@ -270,7 +273,17 @@ def findings_batch(findings: list, capture: str, site: str | None, start_time: f
     return pa.RecordBatch.from_arrays([arrays[name] for name, _ in S.FINDING_COLUMNS], schema=S.FINDINGS)
 
 
-def events_table(capture, keep=None, batch_rows: int = 65536) -> pa.Table:
+class EventSource(Protocol):
+    """What ``events_table`` reads: a capture (``analyzer.capture.Capture``)."""
+
+    @property
+    def origin(self) -> Origin: ...
+
+    def batches(self) -> Iterator[list[Event]]: ...
+
+
+def events_table(capture: EventSource, keep: Callable[[Event], bool] | None = None,
+                 batch_rows: int = 65536) -> pa.Table:
     """Every event of ``capture`` (those ``keep`` accepts) as one Table (the API's
     ``Capture.to_arrow``)."""
     origin = capture.origin

@@ -14,6 +14,8 @@ absolute time (``ts``, UTC); the partition column ``date`` is in the path.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import pyarrow as pa
 
 from dissectors.commands import field_types
@@ -97,7 +99,7 @@ EVENT_FIELDS = _field_columns({n for n, _ in EVENT_COLUMNS})
 TRANSACTION_FIELDS = _field_columns({n for n, _ in TRANSACTION_COLUMNS})
 
 
-def _schema(columns, fields) -> pa.Schema:
+def _schema(columns: Iterable[tuple[str, pa.DataType]], fields: Iterable[tuple[str, str, pa.DataType]]) -> pa.Schema:
     return pa.schema([pa.field(n, t) for n, t in columns] + [pa.field(c, t) for _, c, t in fields])
 
 

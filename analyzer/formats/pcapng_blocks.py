@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable, Iterator
-from typing import BinaryIO
+from typing import Protocol
 
 from ..errors import CaptureError
 
@@ -21,6 +21,12 @@ BOM = 0x1A2B3C4D
 SHB, IDB, EPB, SPB = 0x0A0D0D0A, 1, 6, 3
 IF_NAME, IF_TSRESOL = 2, 9
 CUT = "the file ends inside a block (cut short?): read up to there"
+
+
+class Reader(Protocol):
+    """What the walk reads from: a binary stream's ``read``."""
+
+    def read(self, n: int = -1, /) -> bytes: ...
 
 
 def options(body: bytes, endian: str) -> dict[int, bytes]:
@@ -45,7 +51,7 @@ def ts_scale(tsresol: bytes | None) -> float:
     return 2.0 ** -(v & 0x7F) if v & 0x80 else 10.0 ** -v
 
 
-def blocks(f: BinaryIO, name: str, warn: Callable[[str], None]) -> Iterator[tuple[int, str, bytes]]:
+def blocks(f: Reader, name: str, warn: Callable[[str], None]) -> Iterator[tuple[int, str, bytes]]:
     """Every block of the stream ``f`` as (type, byte order, body); a cut at the
     end is said, not raised."""
     endian = "<"

@@ -141,9 +141,8 @@ def encode(ev: Event, capture: int = 0) -> bytes:
                              len(command)),
            command, bytes((min(len(ev.problems), 255),))]
     for problem in ev.problems[:255]:
-        info = getattr(problem, "id", None)
         text = str(problem).encode("utf-8")[:0xFFFF]
-        index = _PROBLEM.get(id(info)) if info is not None else None
+        index = _PROBLEM.get(id(problem.id)) if isinstance(problem, P.Problem) else None
         if index is None:   # a plain string from a hand-built event: its category names it
             index = _PROBLEM[id(P.parse(str(problem)).id)]
         out.append(struct.pack(">HH", index, len(text)))

@@ -80,7 +80,7 @@ class Setup(NamedTuple):
     request_type: int
     request: int
     value: int
-    index: int
+    w_index: int   # wIndex (``index`` is a tuple's method)
     length: int
 
 
@@ -158,7 +158,7 @@ def _pcap_packets(f: BinaryIO, name: str, warn: Callable[[str], None], endian: s
         at += 16 + caplen
 
 
-def _pcapng_packets(f: BinaryIO, name: str, warn: Callable[[str], None]) -> Iterator[tuple[int, int, str, bytes]]:
+def _pcapng_packets(f: png.Reader, name: str, warn: Callable[[str], None]) -> Iterator[tuple[int, int, str, bytes]]:
     interfaces: list[tuple[int, float]] = []   # (link type, seconds per timestamp unit)
     try:
         for kind, endian, body in png.blocks(f, name, warn):

@@ -134,7 +134,6 @@ class Cp210xIn:
         self.escape: int | None = None   # the escape character while event insertion is on
         self.taken = 0
         self._state = "data"
-        self._lsr = 0
         self._pending: list[str] = []    # a line status's errors, for the next byte
 
     def events(self, escape: int | None) -> None:
@@ -158,6 +157,7 @@ class Cp210xIn:
                 self._state = {0: "data", 1: "lsr data", 2: "lsr", 3: "msr"}.get(byte, "data")
                 if byte != 0:
                     continue   # an unknown code is dropped, as the driver drops it
+                assert self.escape is not None   # an escape is read only while insertion is on
                 byte = self.escape
             elif state in ("lsr data", "lsr"):
                 self._pending += _cp210x_errors(byte)

@@ -20,6 +20,7 @@ import math
 import re
 import shlex
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from ..errors import CaptureError
 from ..lines import LINE_A, LINE_AB, LINE_B
@@ -29,6 +30,11 @@ from ..physical.report import LineReport
 from ..sources.sampled import hz
 from ..words import counted
 from .decoder import DECODER_ID
+
+if TYPE_CHECKING:
+    from ..physical.edges import Waveform
+    from ..sources.sampled import SampledSource
+    from ..sources.vcd import Header
 
 # What the uart decoder calls our parity letters (mark parity is a 1 bit, space a 0).
 PARITY = {"N": "none", "E": "even", "O": "odd", "M": "one", "S": "zero"}
@@ -85,7 +91,7 @@ def generic_hints() -> list[str]:
     ]
 
 
-def command_for(path: str, *, decoders: str | None = None, **given) -> tuple[SigrokCommand, list[str]]:
+def command_for(path: str, *, decoders: str | None = None, **given: Any) -> tuple[SigrokCommand, list[str]]:
     """The command for the capture at ``path``, and the warnings reading it gave.
     ``given``: the reading options the user gave (``channels``, ``baud``,
     ``data_bits``, ``parity``, ``stop_bits``; None: measured). Raises
@@ -93,6 +99,7 @@ def command_for(path: str, *, decoders: str | None = None, **given) -> tuple[Sig
     cannot name."""
     from ..capture import open as open_capture
     from ..sources.sampled import SampledSource
+    from ..sources.vcd import ValueChangeDump
 
     name = show(path)
     if path == "-":
@@ -108,7 +115,7 @@ def command_for(path: str, *, decoders: str | None = None, **given) -> tuple[Sig
         _read_until_measured(source)
         reports = [source.physical[line] for line in source.lines]
         notes: list[str] = []
-        if inputs[0] == "-I":
+        if isinstance(wave, ValueChangeDump):   # read with -I vcd
             names = _vcd_names(wave.header, name, reports)
             notes += _downsample(inputs, wave.header.unit, reports)
         else:
@@ -125,7 +132,7 @@ def _env(decoders: str | None) -> dict[str, str]:
     return {"SIGROKDECODE_DIR": show(decoders)} if decoders is not None else {}
 
 
-def _input_args(name: str, path: str, wave) -> list[str]:
+def _input_args(name: str, path: str, wave: Waveform) -> list[str]:
     """sigrok-cli's input arguments for the capture, or a CaptureError saying
     why sigrok-cli cannot read it."""
     from ..sources.sigrok import SigrokSession
@@ -142,7 +149,7 @@ def _input_args(name: str, path: str, wave) -> list[str]:
                        "Logic 2 as VCD (File, Export Data, VCD) and run gimbalscope sigrok command on that")
 
 
-def _read_until_measured(source) -> None:
+def _read_until_measured(source: SampledSource) -> None:
     """Opening measured the lines on the capture's first blocks; a line that had
     not shown its rate by then is read on until it does (or the capture ends)."""
     def measured() -> bool:
@@ -182,6 +189,7 @@ def _command(name: str, inputs: list[str], reports: list[LineReport], names: dic
         raise CaptureError(f"{name}: no line shows a bit rate ({shown}); give it with --baud")
     lead = rated[0]
     baud = _rate(lead)
+    assert baud is not None   # a rated line's
     opts = [f"baudrate={baud}"]
     if lead.data_bits != 8:
         opts.append(f"data_bits={lead.data_bits}")
@@ -238,7 +246,7 @@ def _described(r: LineReport) -> str:
     return text
 
 
-def _session_names(name: str, wave, reports: list[LineReport]) -> dict[str, str]:
+def _session_names(name: str, wave: Waveform, reports: list[LineReport]) -> dict[str, str]:
     """Each line's channel: the session's name for it, which sigrok-cli takes
     unless two channels share it."""
     for r in reports:
@@ -248,7 +256,7 @@ def _session_names(name: str, wave, reports: list[LineReport]) -> dict[str, str]
     return {r.line: r.channel for r in reports}
 
 
-def _vcd_names(header, name: str, reports: list[LineReport]) -> dict[str, str]:
+def _vcd_names(header: Header, name: str, reports: list[LineReport]) -> dict[str, str]:
     """Each line's channel as sigrok's VCD input names it, or a CaptureError when
     it leaves the channel out or gives two channels its name. ``header``: the
     VCD's, as our reader read it (analyzer/sources/vcd.py, ``Header``)."""
@@ -293,7 +301,7 @@ def _seconds(unit: float) -> str:
 _VCD_CHANNEL_KINDS = ("wire", "reg")      # what sigrok's VCD input (libsigrok 0.5) reads
 
 
-def _vcd_channels(header) -> list[tuple[str, str]]:
+def _vcd_channels(header: Header) -> list[tuple[str, str]]:
     """(sigrok's name, ours) of every channel sigrok's VCD input reads, in the
     order declared. sigrok names a channel by its reference alone; ours adds the
     scope to a name two scopes use (analyzer/sources/vcd.py)."""

@@ -13,7 +13,7 @@ says so with its ACK and the bus switches the port (docs/time.md, "Rate changes"
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Protocol, Union
+from typing import Protocol
 
 
 class GimbalState(Protocol):
@@ -40,7 +40,7 @@ class GimbalState(Protocol):
     initialized: list[bool]
 
 
-Answer = Union[str, tuple[float, str], None]
+Answer = str | tuple[float, str] | None
 Handler = Callable[[GimbalState, dict], Answer]
 
 PAN, TILT = 0, 1
@@ -48,7 +48,7 @@ PAN, TILT = 0, 1
 
 def h4(value: float) -> str:
     """Hundredths as 4 upper-case hex digits, two's complement (Table 15)."""
-    return f"{int(round(value * 100)) & 0xFFFF:04X}"
+    return f"{round(value * 100) & 0xFFFF:04X}"
 
 
 # ------------------------------------------------------------------ motion

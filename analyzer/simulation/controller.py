@@ -14,12 +14,13 @@ from __future__ import annotations
 import random
 import threading
 import time
+from collections.abc import Iterable, Iterator
 
 import serial
 
 from dissectors import Deframer, dissect_command
 from dissectors.commands import BAUD_CODES, DUE
-from dissectors.event import ACK, NAK, NIC, NO_RESULT, OK, RESULT, ST_NIC
+from dissectors.event import ACK, NAK, NIC, NO_RESULT, OK, RESULT, ST_NIC, Event
 from dissectors.wire import WILDCARD, build_frame
 
 RATE_CODES = {baud: code for code, baud in BAUD_CODES.items()}   # Table 4: 9600 -> C3
@@ -27,6 +28,8 @@ BROADCAST = (WILDCARD, WILDCARD, WILDCARD)
 # After switching its own port, the controller waits this long before talking at
 # the new rate: longer than a gimbal takes to switch (bus.RATE_SWITCH_DELAY).
 RATE_SETTLE = 0.15
+
+Step = tuple[tuple[int, int, int], str, float]   # a script's step: (device, payload, result timeout)
 
 
 def rate_set_payload(baud: int) -> str:
@@ -38,7 +41,7 @@ def rate_set_payload(baud: int) -> str:
 
 class SimController(threading.Thread):
     def __init__(self, port: str, devices: list[tuple[int, int, int]], *, group: int = 0, seed: int = 3,
-                 ack_timeout: float = 0.25, retries: int = 2, baud: int = 9600, script: list | None = None,
+                 ack_timeout: float = 0.25, retries: int = 2, baud: int = 9600, script: list[Step] | None = None,
                  wait_for_ack: bool = True, ix_patience: float = 3.0, retry_pause: float = 0.01,
                  rate_change: tuple[int, float] | None = None) -> None:
         super().__init__(daemon=True, name="sim-controller")
@@ -82,7 +85,7 @@ class SimController(threading.Thread):
                 return
             self._inbox += self._deframer.idle(now)
 
-    def _next(self, until: float, kinds: tuple[str, ...]):
+    def _next(self, until: float, kinds: tuple[str, ...]) -> Event | None:
         """The next answer of one of ``kinds``, or None by ``until``; events before
         it are consumed, events after it are kept."""
         scanned = 0
@@ -150,7 +153,7 @@ class SimController(threading.Thread):
         time.sleep(RATE_SETTLE)
 
     # --------------------------------------------------------------- script
-    def default_script(self):
+    def default_script(self) -> Iterator[Step]:
         """An endless mix: poll, sweep, set rates, query, and now and then a
         command the gimbal does not implement; one IX (initialisation) early on."""
         targets = [(40.0, -10.0), (-40.0, 10.0), (0.0, 0.0)]
@@ -175,10 +178,10 @@ class SimController(threading.Thread):
                     yield (self.devices[-1], "IX", self.ix_patience)
             k += 1
 
-    def _with_rate_change(self, steps):
+    def _with_rate_change(self, steps: Iterable[Step], rate_change: tuple[int, float]) -> Iterator[Step]:
         """``steps``, with a broadcast rate-set to ``rate_change``'s rate once its
         seconds have passed (every gimbal on the link must follow it)."""
-        baud, after = self.rate_change
+        baud, after = rate_change
         due: float | None = time.monotonic() + after
         for step in steps:
             if due is not None and time.monotonic() >= due:
@@ -189,7 +192,7 @@ class SimController(threading.Thread):
     def run(self) -> None:
         steps = iter(self.script) if self.script is not None else self.default_script()
         if self.rate_change is not None:
-            steps = self._with_rate_change(steps)
+            steps = self._with_rate_change(steps, self.rate_change)
         try:
             for dev, payload, result_timeout in steps:
                 if self._halt.is_set():

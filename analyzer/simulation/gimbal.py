@@ -99,12 +99,14 @@ class GimbalModel:
 
     # ------------------------------------------------------------ commands
     def addressed(self, ev: Event) -> bool:
+        assert ev.dst is not None   # a command frame's
         g, p, d = ev.dst
         mg, mp, md = self.address
         return (g in (mg, WILDCARD)) and (p in (mp, WILDCARD)) and (d in (md, WILDCARD))
 
     def handle(self, ev: Event, now: float) -> list[Reply]:
         """The replies to one command frame addressed to this gimbal."""
+        assert ev.payload is not None and ev.src is not None   # a command frame's
         self.update(now)
         f = self.faults
         if f.silent:

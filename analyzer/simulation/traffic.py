@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from dissectors.wire import ACK, NAK, NIC, build_frame, byte_time
@@ -47,7 +48,7 @@ class Traffic:
         for w in sorted(self.writes, key=lambda w: w.t + len(w.data) * self.bt):
             t_last = start_epoch + w.t + len(w.data) * self.bt
             sec = int(t_last)
-            usec = int(round((t_last - sec) * 1e6))
+            usec = round((t_last - sec) * 1e6)
             if usec == 1_000_000:
                 sec, usec = sec + 1, 0
             stamp = time.strftime("%Y/%m/%d %H:%M:%S", time.localtime(sec))
@@ -116,7 +117,8 @@ def _payload_for(kind: str, rng: random.Random) -> tuple[str, str | None]:
     return kind, None
 
 
-def generate(commands: int, *, baud: int = 9600, seed: int = 1, devices=((1, 1, 1), (1, 1, 2), (1, 2, 1)),
+def generate(commands: int, *, baud: int = 9600, seed: int = 1,
+             devices: Sequence[tuple[int, int, int]] = ((1, 1, 1), (1, 1, 2), (1, 2, 1)),
              controller_group: int = 0, bit_error_rate: float = 0.0, drop_ack_rate: float = 0.0,
              noise_rate: float = 0.0, ack_timeout: float = 0.2,
              think: tuple[float, float] = (0.005, 0.02),

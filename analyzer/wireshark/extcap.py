@@ -22,8 +22,10 @@ import argparse
 import re
 import signal
 import sys
+from typing import BinaryIO
 
 from dissectors.commands import BAUD_CODES
+from dissectors.event import Event
 
 from ..errors import ExtcapError
 from ..formats import pdu
@@ -67,7 +69,7 @@ def _ports() -> list[tuple[str, str]]:
     try:
         from serial.tools import list_ports
         return [(p.device, p.description or p.device) for p in sorted(list_ports.comports())]
-    except Exception:   # listing is a convenience: a port can always be typed in
+    except Exception:   # noqa: BLE001 - listing is a convenience: a port can always be typed in
         return []
 
 
@@ -84,14 +86,14 @@ def config() -> list[str]:
         _clean(d) if desc in ("n/a", d) else f"{_clean(d)} ({_clean(desc)})" for d, desc in ports) if ports else ""
     placeholder = _clean(ports[0][0]) if ports else "/dev/ttyUSB0"
     out = [
-        "arg {number=0}{call=--port}{display=Port}{type=string}{required=true}"
-        f"{{placeholder={placeholder}}}"
-        "{tooltip=The serial port of line A (controller to device), or of a single-line tap: "
-        f"a device name or a pyserial URL{found}}}",
-        "arg {number=1}{call=--port2}{display=Second port}{type=string}"
-        "{tooltip=The serial port of line B (device to controller); empty for a single-line tap}",
-        "arg {number=2}{call=--baud}{display=Baud rate}{type=selector}"
-        "{tooltip=The line rate at the start; a rate-set command (C0-C7) changes it}",
+        ("arg {number=0}{call=--port}{display=Port}{type=string}{required=true}"
+         f"{{placeholder={placeholder}}}"
+         "{tooltip=The serial port of line A (controller to device), or of a single-line tap: "
+         f"a device name or a pyserial URL{found}}}"),
+        ("arg {number=1}{call=--port2}{display=Second port}{type=string}"
+         "{tooltip=The serial port of line B (device to controller); empty for a single-line tap}"),
+        ("arg {number=2}{call=--baud}{display=Baud rate}{type=selector}"
+         "{tooltip=The line rate at the start; a rate-set command (C0-C7) changes it}"),
         "arg {number=3}{call=--framing}{display=Framing}{type=selector}{tooltip=Data bits, parity, stop bits}",
     ]
     for baud in BAUD_CODES.values():
@@ -118,7 +120,7 @@ def capture(args: argparse.Namespace) -> int:
     # the FIFO first, whatever follows: Wireshark waits to open its end, and
     # reads our error line once we close ours
     try:
-        fifo = open(args.fifo, "wb")
+        fifo = open(args.fifo, "wb")   # noqa: SIM115 - closed below, after an error is said into it
     except OSError as e:
         raise ExtcapError(f"{args.fifo}: cannot open the capture FIFO: {e.strerror or e}") from None
     try:
@@ -136,7 +138,7 @@ def capture(args: argparse.Namespace) -> int:
             pass
 
 
-def _tap(args: argparse.Namespace, fifo) -> int:
+def _tap(args: argparse.Namespace, fifo: BinaryIO) -> int:
     from ..capture import Options, open_live
     from ..info import CaptureInfo
     from ..runner import Listener, TapRunner
@@ -169,7 +171,7 @@ def _tap(args: argparse.Namespace, fifo) -> int:
 
     class Guard(Listener):
         """The writer, stopping the tap instead of raising when the reader has gone."""
-        def on_events(self, events) -> None:
+        def on_events(self, events: list[Event]) -> None:
             try:
                 writer.on_events(events)
             except (BrokenPipeError, OSError):

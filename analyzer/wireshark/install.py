@@ -34,7 +34,7 @@ def _tshark_folders() -> dict[str, str] | None:
     if exe is None:
         return None
     try:
-        out = subprocess.run([exe, "-G", "folders"], capture_output=True, text=True, timeout=30).stdout
+        out = subprocess.run([exe, "-G", "folders"], capture_output=True, text=True, timeout=30, check=False).stdout
     except (OSError, subprocess.SubprocessError):
         return None
     folders = {}

@@ -24,6 +24,7 @@ What the generated dissector does itself, and what it reads from the packet
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable
 
 from dissectors import problems as P
 from dissectors.commands import BAUD_CODES, COMMANDS, DERIVED, ERROR_BITS, STATUS_BITS, field_types
@@ -157,7 +158,7 @@ def _field_spec(f: Field) -> str:
     return "{" + ", ".join(items) + "}"
 
 
-def _lua_value(v) -> str:
+def _lua_value(v: object) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, (int, float)):
@@ -175,7 +176,8 @@ def _derive_name(layout: Layout) -> str | None:
     return name
 
 
-def _layout_spec(layout: Layout) -> str:
+def layout_spec(layout: Layout) -> str:
+    """A layout as the dissector's Lua table: its pattern, fields and derive function."""
     fields = ", ".join(_field_spec(f) for f in layout.fields)
     derive = _derive_name(layout)
     spec = f"{{p = {lua_string(layout_pattern(layout))}, f = {{{fields}}}"
@@ -185,8 +187,8 @@ def _layout_spec(layout: Layout) -> str:
 def _commands() -> str:
     lines = []
     for i, c in enumerate(COMMANDS, 1):
-        layouts = [f"[0] = {_layout_spec(c.layout)}"] + [f"[{k}] = {_layout_spec(r)}"
-                                                          for k, r in enumerate(c.result, 1)]
+        layouts = [f"[0] = {layout_spec(c.layout)}"] + [f"[{k}] = {layout_spec(r)}"
+                                                         for k, r in enumerate(c.result, 1)]
         lines.append(f"  [{i}] = {{id = {lua_string(c.id)}, name = {lua_string(c.name)}, "
                      f"ref = {lua_string(c.ref)},\n         layouts = {{{', '.join(layouts)}}}}},")
     return "\n".join(lines)
@@ -225,7 +227,7 @@ def _experts() -> str:
     return "\n".join(out)
 
 
-def _codes(values) -> str:
+def _codes(values: Iterable[str | None]) -> str:
     return "{" + ", ".join(f"[{i}] = {lua_string(v)}" for i, v in enumerate(values) if v is not None) + "}"
 
 

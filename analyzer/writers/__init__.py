@@ -17,14 +17,13 @@ from __future__ import annotations
 
 import importlib
 import os
-from typing import TYPE_CHECKING, BinaryIO
+from typing import TYPE_CHECKING, Any
 
 from ..info import CaptureInfo
 from ..outfile import OutputRefused, show
-from ..runner import Listener
 
 if TYPE_CHECKING:   # the registry stays light: a command imports only the writer it uses
-    from .base import FileWriter
+    from .base import EventLines, FileWriter
 
 # a folder output: a dataset of tables rather than one file (``gimbalscope export``)
 FOLDER_WRITER = "analyzer.writers.parquet:ParquetDatasetWriter"
@@ -48,7 +47,7 @@ def suffixes() -> list[str]:
     return list(WRITERS)
 
 
-def writer_class(path: str) -> type[Listener]:
+def writer_class(path: str) -> type[FileWriter]:
     """The writer for ``path``'s suffix; any other suffix is refused, naming those there are."""
     suffix = os.path.splitext(path)[1].lower()
     entry = WRITERS.get(suffix)
@@ -58,21 +57,24 @@ def writer_class(path: str) -> type[Listener]:
     return _load(entry)
 
 
-def _load(entry: str) -> type[Listener]:
+def _load(entry: str) -> Any:
+    """The class ``entry`` names (``module:Class``), its module imported now."""
     module, _, name = entry.partition(":")
     return getattr(importlib.import_module(module), name)
 
 
-def open_writer(path: str, info: CaptureInfo, file: BinaryIO | None = None, **options) -> Listener:
-    """A writer of ``path``'s format, writing into ``file`` (or ``path`` itself);
-    ``options`` are the format's own (MCAP's ``lean``)."""
-    return writer_class(path)(path, info, file=file, **options)
+def open_writer(path: str, info: CaptureInfo, **options: Any) -> FileWriter:
+    """A writer of ``path``'s format; ``options`` are the writer base's (``file``:
+    an open file to write into instead of ``path``) and the format's own (MCAP's
+    ``lean``)."""
+    return writer_class(path)(path, info, **options)
 
 
-def open_format(name: str, info: CaptureInfo, **options) -> FileWriter:
+def open_format(name: str, info: CaptureInfo, **options: Any) -> EventLines:
     """A writer of the format ``name`` (``FORMATS``) to standard output;
     ``options`` are the format's own (the text's ``color``, ``flush_each``)."""
-    return _load(FORMATS[name])(None, info, **options)
+    kind: type[EventLines] = _load(FORMATS[name])
+    return kind(None, info, **options)
 
 
 def file_output(path: str) -> bool:
@@ -86,7 +88,10 @@ def holds_many_captures(path: str) -> bool:
     captures (``export``)?"""
     suffix = path.lower() if path.startswith(".") else os.path.splitext(path)[1].lower()
     entry = WRITERS.get(suffix)
-    return entry is not None and bool(getattr(_load(entry), "many_captures", False))
+    if entry is None:
+        return False
+    kind: type[FileWriter] = _load(entry)
+    return kind.many_captures
 
 
 def folder_output(path: str) -> str:

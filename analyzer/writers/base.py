@@ -32,7 +32,11 @@ from __future__ import annotations
 
 import os
 import sys
-from typing import IO
+from abc import ABC, abstractmethod
+from types import TracebackType
+from typing import IO, Any, Self
+
+from dissectors.event import Event
 
 from ..info import CaptureInfo
 from ..outfile import AtomicOutput, OutputError, show, write_error
@@ -49,20 +53,22 @@ def wrote(counts: dict[str, int], name: str) -> str:
 
 
 class Target:
-    """Where a writer's bytes go: ``file``, and how it ends. ``close()``: the
-    run ended well; ``discard()``: it did not. The base targets are a given
-    file (or standard output): flushed and left open, whatever happened."""
+    """Where a writer's bytes go: ``file`` (None: the format opens its files
+    itself), and how it ends. ``close()``: the run ended well; ``discard()``: it
+    did not. The base targets are a given file (or standard output): flushed and
+    left open, whatever happened."""
 
-    def __init__(self, file: IO | None, name: str | os.PathLike) -> None:
+    def __init__(self, file: IO[Any] | None, name: str | os.PathLike[str]) -> None:
         self.file = file
         self.name = name   # in messages: the path as given, or STDOUT
 
     def error(self, e: OSError) -> OutputError:
         """The one-line error for a failed write."""
-        return output_error(self.name, e)
+        return output_error(os.fspath(self.name), e)
 
     def close(self) -> None:
-        self.file.flush()
+        if self.file is not None:
+            self.file.flush()
 
     def discard(self) -> None:
         pass
@@ -71,7 +77,7 @@ class Target:
 class Atomic(Target):
     """A path, written beside it and renamed onto it (module doc)."""
 
-    def __init__(self, path: str | os.PathLike) -> None:
+    def __init__(self, path: str | os.PathLike[str]) -> None:
         self.output = AtomicOutput(path)
         super().__init__(self.output.file, path)
 
@@ -86,9 +92,11 @@ class InPlace(Target):
     """A path written in place: the file is there under its name from the
     start; a writer flushes when what it wrote must be in it (a live tap's)."""
 
-    def __init__(self, path: str | os.PathLike) -> None:
+    file: IO[bytes]
+
+    def __init__(self, path: str | os.PathLike[str]) -> None:
         try:
-            file = open(path, "wb")
+            file = open(path, "wb")   # noqa: SIM115 - open until the run ends: close() or discard()
         except OSError as e:
             raise write_error(path, e) from None
         super().__init__(file, path)
@@ -103,7 +111,7 @@ class InPlace(Target):
             pass   # a full disk fails the last flush too
 
 
-def _name_of(file: IO) -> str:
+def _name_of(file: IO[Any]) -> str:
     """A given file's name in messages: STDOUT for standard output."""
     if file is sys.stdout or file is getattr(sys.stdout, "buffer", None):
         return STDOUT
@@ -121,9 +129,10 @@ class FileWriter(Listener):
     noun = "events"    # what ``count`` counts
     count = 0          # written so far
     binary = True      # standard output as bytes; False: as text
+    many_captures = False   # True: one file may hold several captures, one after the other (``export``)
 
-    def __init__(self, path: str | os.PathLike | None = None, info: CaptureInfo | None = None, *,
-                 file: IO | None = None, atomic: bool = True) -> None:
+    def __init__(self, path: str | os.PathLike[str] | None = None, info: CaptureInfo | None = None, *,
+                 file: IO[Any] | None = None, atomic: bool = True) -> None:
         self.path = path
         self.info = info
         self.broken = False          # a write failed: nothing more is written
@@ -144,14 +153,14 @@ class FileWriter(Listener):
         return show(self.target.name)
 
     # ------------------------------------------------------------ what a writer adds
-    def open_target(self, path, file: IO | None, atomic: bool) -> Target:
+    def open_target(self, path: str | os.PathLike[str] | None, file: IO[Any] | None, atomic: bool) -> Target:
         if file is not None:
             return Target(file, _name_of(file) if path is None else path)
         if path is None:
             return Target(sys.stdout.buffer if self.binary else sys.stdout, STDOUT)
         return Atomic(path) if atomic else self.in_place(path)
 
-    def in_place(self, path) -> Target:
+    def in_place(self, path: str | os.PathLike[str]) -> Target:
         """The target of ``atomic=False``: the path itself. A writer whose format
         opens its files itself (a recording in parts) gives its own."""
         return InPlace(path)
@@ -203,14 +212,28 @@ class FileWriter(Listener):
             self._closed = True
             self.target.discard()
 
-    def __enter__(self) -> FileWriter:
+    def __enter__(self) -> Self:
         self._held = True
         return self
 
-    def __exit__(self, kind, e, tb) -> None:
+    def __exit__(self, kind: type[BaseException] | None, e: BaseException | None,
+                 tb: TracebackType | None) -> None:
         self._held = False
         if kind is not None:
             self.discard()
             return
         self.on_stop()   # when the runner did not (a run never started)
         self.close()
+
+
+class EventLines(FileWriter, ABC):
+    """A writer of a line per event (the formats of ``--format``): ``write(ev)``
+    writes one, the printer's call after its filter."""
+
+    def on_events(self, events: list[Event]) -> None:
+        write = self.write
+        for ev in events:
+            write(ev)
+
+    @abstractmethod
+    def write(self, ev: Event) -> None: ...

@@ -13,17 +13,21 @@ from __future__ import annotations
 
 import glob
 import os
-from typing import Protocol
+from collections.abc import Iterable
+from typing import Any, Protocol
 
 from .. import uris
 
 
 class DatasetFolder(Protocol):
+    """A dataset folder, local or remote: paths in it, its files' writers (pyarrow's
+    ``ParquetWriter``, of a ``pyarrow.Schema``), and the files' replacement."""
+
     root: str
 
     def file(self, *names: str) -> str: ...
-    def writer(self, path: str, schema): ...
-    def files_named(self, tables, partition: str, name: str) -> list[str]: ...
+    def writer(self, path: str, schema: Any) -> Any: ...
+    def files_named(self, tables: Iterable[str], partition: str, name: str) -> list[str]: ...
     def remove(self, path: str) -> None: ...
     def replace(self, src: str, dst: str) -> None: ...
     def drop_if_empty(self, folder: str) -> None: ...
@@ -42,7 +46,7 @@ class LocalFolder:
     def file(self, *names: str) -> str:
         return os.path.join(self.root, *names)
 
-    def writer(self, path: str, schema):
+    def writer(self, path: str, schema: Any) -> Any:
         """A Parquet writer of a new file. Its partition folder may be new and
         empty until the file is made, and another capture exported alongside
         (``export -j``) removes partition folders it leaves empty: make the
@@ -58,7 +62,7 @@ class LocalFolder:
                 if not tries:
                     raise
 
-    def files_named(self, tables, partition: str, name: str) -> list[str]:
+    def files_named(self, tables: Iterable[str], partition: str, name: str) -> list[str]:
         out = []
         for table in tables:
             out += glob.glob(os.path.join(glob.escape(self.root), table, f"{partition}=*", glob.escape(name)))
@@ -92,12 +96,12 @@ class RemoteFolder:
     def file(self, *names: str) -> str:
         return "/".join([self.root, *names])
 
-    def writer(self, path: str, schema):
+    def writer(self, path: str, schema: Any) -> Any:
         import pyarrow.parquet as pq
         self.fs.create_dir(path.rsplit("/", 1)[0], recursive=True)
         return pq.ParquetWriter(path, schema, compression="zstd", filesystem=self.fs)
 
-    def files_named(self, tables, partition: str, name: str) -> list[str]:
+    def files_named(self, tables: Iterable[str], partition: str, name: str) -> list[str]:
         from pyarrow import fs
         out = []
         for table in tables:

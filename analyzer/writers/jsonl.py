@@ -13,15 +13,16 @@ from dissectors.event import Event
 
 from ..info import CaptureInfo
 from ..output import dumps_line
-from .base import FileWriter
+from .base import EventLines
 
 
-class JsonLinesWriter(FileWriter):
+class JsonLinesWriter(EventLines):
     """Lines are written in blocks of ``BLOCK`` events; ``flush_each`` (live taps)
     writes and flushes every event. ``write(event)`` writes one (the printer's
     call, after its filter)."""
 
     BLOCK = 512
+    file: IO[bytes]   # the target's: a path's, the given file or standard output (never None)
 
     def __init__(self, path: str | os.PathLike | None = None, info: CaptureInfo | None = None, *,
                  file: IO[bytes] | None = None, flush_each: bool = False, atomic: bool = True) -> None:
@@ -29,11 +30,6 @@ class JsonLinesWriter(FileWriter):
         self._lines: list[bytes] = []
         self._block = 1 if flush_each else self.BLOCK   # events per write
         super().__init__(path, info, file=file, atomic=atomic)
-
-    def on_events(self, events: list[Event]) -> None:
-        write = self.write
-        for ev in events:
-            write(ev)
 
     def write(self, ev: Event) -> None:
         lines = self._lines

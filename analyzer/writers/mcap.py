@@ -34,8 +34,9 @@ gives the new rate in its metadata, so a part decoded alone starts right.
 
 from __future__ import annotations
 
+import os
 from collections import deque
-from typing import BinaryIO
+from typing import IO, Any
 
 from dissectors.event import RATE, Event
 from dissectors.wire import byte_time
@@ -45,10 +46,12 @@ from ..formats import mcap_schemas as S
 from ..formats.mcap_lines import LINES_RECORD, line_error, lines_record
 from ..info import CaptureInfo
 from ..lines import LineFault
-from ..runner import ERROR, INFO, RECORDING, WARNING, Note
+from ..runner import ERROR, INFO, RECORDING, WARNING, Note, TapRunner
 from ..sources import Chunk
 from .base import FileWriter, Target
 from .mcap_recorder import McapRecorder, RotatingRecorder
+
+FLUSH_INTERVAL = 1.0   # seconds: a killed tap's recording loses at most about that much
 
 # note level -> foxglove.Log level
 LOG_LEVELS = {ERROR: S.ERROR, WARNING: S.WARNING, INFO: S.INFO}
@@ -57,7 +60,7 @@ LOG_LEVELS = {ERROR: S.ERROR, WARNING: S.WARNING, INFO: S.INFO}
 # How a run maps onto topic messages (analyzer/formats/mcap_messages.py), shared with the live
 # Foxglove server (analyzer/listeners/foxglove.py) so both carry the same messages.
 
-def message_clock(info: CaptureInfo) -> dict:
+def message_clock(info: CaptureInfo) -> dict[str, Any]:
     """``Messages``' times for the run ``info`` describes: from its start time and,
     for untimed input, from byte offsets at its rate (docs/time.md, "Message times")."""
     untimed = None if info.timed else byte_time(info.baud, info.data_bits, info.parity, info.stop_bits)
@@ -77,12 +80,18 @@ class McapWriter(FileWriter):
     """The registry's ``.mcap`` writer (module doc): a conversion is written
     atomically by the writer base; a live recording, or one in parts, in place."""
 
-    def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, live: bool = False,
+    path: str
+    info: CaptureInfo
+    recorder: McapRecorder | RotatingRecorder
+
+    def __init__(self, path: str, info: CaptureInfo, *, file: IO[bytes] | None = None, live: bool = False,
                  rotate_bytes: int | None = None, rotate_seconds: float | None = None,
-                 metadata: dict[str, str] | None = None, lean: bool = False) -> None:
+                 metadata: dict[str, str] | None = None, lean: bool = False,
+                 flush_interval: float = FLUSH_INTERVAL) -> None:
         self.live = live
+        self.flush_interval = flush_interval   # seconds between a live recording's flushes
         self.lean = lean   # docs/mcap.md, "Lean recordings"; said in the metadata record
-        self._runner = None
+        self._runner: TapRunner | None = None
         # the source's line errors (a list it adds to as it reads; None: it sees none),
         # how many of them were taken, and those taken waiting for their byte, by line
         self._faults: list[LineFault] | None = None
@@ -93,21 +102,23 @@ class McapWriter(FileWriter):
         # live (and in parts): in place, the recorder's own files (module doc)
         super().__init__(path, info, file=file, atomic=not (live or self._rotate))
 
-    def in_place(self, path: str) -> Target:
+    def in_place(self, path: str | os.PathLike[str]) -> Target:
         """A live recording, or one in parts: the recorder opens its files itself,
-        in place, flushes them every second when live, and after a failed write
+        in place, flushes them every ``flush_interval`` when live, and after a failed write
         closes them as well as it can (analyzer/writers/mcap_recorder.py)."""
-        kw = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean, records=self._records)
+        kw: dict[str, Any] = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean,
+                                  records=self._records)
         if self.live:
-            kw.update(metadata=self.info.metadata(**self._extra), flush_interval=1.0, on_error=self._failed)
+            kw.update(metadata=self.info.metadata(**self._extra), flush_interval=self.flush_interval,
+                      on_error=self._failed)
         else:
             kw.update(metadata={})
         if self._rotate:
             max_bytes, max_seconds = self._rotate
-            self.recorder = RotatingRecorder(path, max_bytes=max_bytes, max_seconds=max_seconds, **kw)
+            self.recorder = RotatingRecorder(os.fspath(path), max_bytes=max_bytes, max_seconds=max_seconds, **kw)
         else:
-            self.recorder = McapRecorder(path, **kw)
-        return Recording(self.recorder, path)
+            self.recorder = McapRecorder(os.fspath(path), **kw)
+        return Recording(self.recorder, os.fspath(path))
 
     def begin(self) -> None:
         """A recording into the target's file (a conversion)."""
@@ -120,7 +131,7 @@ class McapWriter(FileWriter):
         return self.recorder.failed
 
     @property
-    def count(self) -> int:
+    def count(self) -> int:   # type: ignore[override]  # read-only here: the recorder counts, not the writer
         """Messages recorded (the recorder counts them)."""
         return self.recorder.messages
 
@@ -137,20 +148,23 @@ class McapWriter(FileWriter):
         return None if rec.failed else rec.path
 
     # ------------------------------------------------------------ listener
-    def on_start(self, runner) -> None:
+    def on_start(self, runner: TapRunner) -> None:
         self._runner = runner
         self._faults = runner.faults
 
     def on_chunk(self, chunk: Chunk, offset: int) -> None:
-        errors = self._line_errors(chunk, offset) if self._faults is not None else None
+        runner, faults = self._runner, self._faults
+        errors = None
+        if runner is not None and faults is not None:
+            errors = self._line_errors(runner, faults, chunk, offset)
         self.recorder.raw(chunk, offset, errors)
 
-    def _line_errors(self, chunk: Chunk, offset: int) -> list[dict] | None:
+    def _line_errors(self, runner: TapRunner, faults: list[LineFault], chunk: Chunk,
+                     offset: int) -> list[dict[str, Any]] | None:
         """The line errors on ``chunk``'s bytes (``offset``: its first byte's on its
         line), as its raw message keeps them. The source tells each before the
         chunk holding its byte, naming the line as wired; one whose byte was read
         before the recording started is left out."""
-        faults = self._faults
         if self._taken < len(faults):
             for f in faults[self._taken:]:
                 self._waiting.setdefault(f.line, deque()).append(f)
@@ -158,7 +172,7 @@ class McapWriter(FileWriter):
         if not chunk.data:
             return None
         line = chunk.line
-        queue = self._waiting.get(SWAP.get(line, line) if self._runner.swapped else line)
+        queue = self._waiting.get(SWAP.get(line, line) if runner.swapped else line)
         if not queue:
             return None
         end = offset + len(chunk.data)
@@ -173,7 +187,9 @@ class McapWriter(FileWriter):
         """The metadata records the recording learns as it goes: a logic capture's
         line reports, under the lines its bytes are recorded on."""
         runner = self._runner
-        reports = runner.physical if runner is not None else None
+        if runner is None:
+            return {}
+        reports = runner.physical
         if not reports:
             return {}
         return {LINES_RECORD: lines_record(reports, runner.swapped)}

@@ -35,13 +35,11 @@ import os
 import stat
 import time
 from collections.abc import Callable
-from typing import BinaryIO
+from typing import IO, Any, Self
 
-import mcap.writer
-import zstandard
 from mcap.data_stream import RecordBuilder
 from mcap.records import DataEnd, Footer
-from mcap.writer import MCAP0_MAGIC, CompressionType, IndexType, Writer
+from mcap.writer import MCAP0_MAGIC, IndexType
 
 from dissectors.event import Event
 
@@ -52,58 +50,21 @@ from ..lines import Chunk
 from ..outfile import reason, show
 from ..output import dumps
 from ..words import counted
+from .mcap_internals import chunk_writer
 
 # The recording's layout (docs/foxglove.md, "Size"): chunks of 1 MiB compressed
-# with zstd at level 9, with every index. Level 9 makes the chunks a fifth
-# smaller than the writer's default level (3) for about 4 µs more per event
-# (a sixth of what recording an event costs). The message indexes (16 bytes a message, uncompressed) are a third of the
-# file, but they stay: the Foxglove app's indexed reader takes a chunk's
-# messages from them (a chunk without them shows nothing), and readers that
-# seek by time (the app, the official Go library) need the chunk index.
+# with zstd at level 9 (mcap_internals.ZSTD_LEVEL), with every index. Level 9
+# makes the chunks a fifth smaller than the writer's default level (3) for about
+# 4 µs more per event (a sixth of what recording an event costs). The message
+# indexes (16 bytes a message, uncompressed) are a third of the file, but they
+# stay: the Foxglove app's indexed reader takes a chunk's messages from them (a
+# chunk without them shows nothing), and readers that seek by time (the app,
+# the official Go library) need the chunk index. A chunk that zstd does not
+# make smaller is stored as it is (mcap_internals.py).
 CHUNK_SIZE = 1 << 20
-ZSTD_LEVEL = 9
 INDEXES = IndexType.ALL
 
-
-class _Zstd:
-    """zstd at ``ZSTD_LEVEL`` for the MCAP writer, which compresses chunks with
-    ``zstandard.compress`` at the library's default level and takes no level."""
-
-    @staticmethod
-    def compress(data: bytes) -> bytes:
-        # a compressor per chunk: a recording may be written from another thread (the TUI's)
-        return zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(data)
-
-
-mcap.writer.zstandard = _Zstd
-
-SMALL_CHUNK = 4096   # bytes: a chunk this small is compressed only if that makes it smaller
 RECORDS_EVERY = 10.0   # seconds between a live recording's writes of its changing metadata records
-
-
-class _Writer(Writer):
-    """The MCAP writer, storing a chunk that zstd does not make smaller as it is
-    (the format names each chunk's compression, "" for none). A live tap closes
-    a chunk every second, and at a quiet moment that chunk holds a message or
-    two, which zstd's frame makes larger: readers take it either way, but
-    checkers flag it as inefficient. Only small chunks are tried twice; the
-    writer's chunk builder and compression setting are private, so a writer
-    without them is left to compress every chunk."""
-
-    def _Writer__finalize_chunk(self) -> None:
-        builder = getattr(self, "_Writer__chunk_builder", None)
-        buffer = getattr(getattr(builder, "record_writer", None), "_buffer", None)
-        if buffer is None or not builder.num_messages or builder.count > SMALL_CHUNK \
-                or getattr(self, "_Writer__compression", None) != CompressionType.ZSTD:
-            return super()._Writer__finalize_chunk()
-        data = buffer.getvalue()
-        if len(_Zstd.compress(data)) < len(data):
-            return super()._Writer__finalize_chunk()
-        self._Writer__compression = CompressionType.NONE
-        try:
-            return super()._Writer__finalize_chunk()
-        finally:
-            self._Writer__compression = CompressionType.ZSTD
 
 
 def _tail() -> bytes:
@@ -120,7 +81,7 @@ class _Output:
     cut short. A path is opened unbuffered (no buffer left to fail again at
     close); an open file (convert's temporary file) is written through."""
 
-    def __init__(self, path: str, file: BinaryIO | None) -> None:
+    def __init__(self, path: str, file: IO[bytes] | None) -> None:
         self.file = file
         self.fd = file.fileno() if file is not None else os.open(
             path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o666)
@@ -190,7 +151,7 @@ class McapRecorder:
 
     def __init__(self, path: str, *, metadata: dict[str, str], start_time: float | None = None,
                  flush_interval: float | None = None, clock: Callable[[], float] = time.monotonic,
-                 lines: tuple[str, ...] = ("A", "B"), file: BinaryIO | None = None,
+                 lines: tuple[str, ...] = ("A", "B"), file: IO[bytes] | None = None,
                  on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None,
                  lean: bool = False, records: Callable[[], dict[str, dict[str, str]]] | None = None) -> None:
         self.path = path
@@ -223,8 +184,7 @@ class McapRecorder:
 
     def _start(self, metadata: dict[str, str], start_time: float | None, lines: tuple[str, ...],
                chunked: bool = True) -> None:
-        self._writer = _Writer(self._out, compression=CompressionType.ZSTD, chunk_size=CHUNK_SIZE,
-                              index_types=INDEXES, use_chunking=chunked)
+        self._writer = chunk_writer(self._out, chunk_size=CHUNK_SIZE, index_types=INDEXES, use_chunking=chunked)
         self._writer.start(profile=S.PROFILE, library="gimbalscope")
         self._messages = Messages(self._emit, start_time=start_time, wire_byte_time=self.wire_byte_time,
                                   lean=self.lean)
@@ -323,10 +283,10 @@ class McapRecorder:
         killed now, and what a failed write leaves (the count its stop line gives)."""
         return self._kept
 
-    def __enter__(self) -> McapRecorder:
+    def __enter__(self) -> Self:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     # ------------------------------------------------------------- internals
@@ -480,7 +440,7 @@ class RotatingRecorder:
 
     def __init__(self, path: str, *, max_bytes: int | None = None, max_seconds: float | None = None,
                  clock: Callable[[], float] = time.monotonic,
-                 on_error: Callable[[str], None] | None = None, **kw) -> None:
+                 on_error: Callable[[str], None] | None = None, **kw: Any) -> None:
         self.path = path
         self.max_bytes, self.max_seconds, self.clock = max_bytes, max_seconds, clock
         self.on_error = on_error
@@ -563,9 +523,10 @@ class RotatingRecorder:
         """What a finished recording says: how many messages, in which files."""
         return f"recorded {counted(self.messages, 'message')} to {', '.join(map(show, self.paths))}"
 
-    def close(self) -> None:
+    def close(self, metadata: dict[str, str] | None = None) -> None:
+        """Finish the current part; ``metadata`` as ``McapRecorder.close`` takes it, into that part."""
         cur = self.current
         if cur is not None:
-            cur.close()   # still current: a failure here is reported against it
+            cur.close(metadata)   # still current: a failure here is reported against it
             self.messages += cur.messages
         self.current = None

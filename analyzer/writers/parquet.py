@@ -18,6 +18,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+from typing import Any
 
 import pyarrow.parquet as pq
 
@@ -30,7 +31,7 @@ from ..formats import parquet_schema as S
 from ..formats.parquet_rows import EventBatches, TransactionBatches, day_of, findings_batch, partitions
 from ..info import CaptureInfo
 from ..outfile import show
-from ..runner import Listener
+from ..runner import Listener, TapRunner
 from .base import wrote
 from .dataset_folder import folder_of
 
@@ -57,7 +58,7 @@ def _real(path: str) -> str:
 class ParquetDatasetWriter(Listener):
     """The writer of a dataset folder ``path`` (the registry's folder entry)."""
 
-    def __init__(self, path: str, info: CaptureInfo, file=None, *, capture: str | None = None,
+    def __init__(self, path: str, info: CaptureInfo, *, capture: str | None = None,
                  site: str | None = None, key: str | None = None) -> None:
         self.root = path
         self.folder = folder_of(path)
@@ -65,7 +66,8 @@ class ParquetDatasetWriter(Listener):
         self.capture = capture if capture is not None else "+".join(info.inputs)
         self.site = site
         self.key = key or capture_key(info.inputs)
-        self.events = self.transactions = None
+        # the rows waiting for their row group: events and transactions, from the first event
+        self._batches: tuple[EventBatches, TransactionBatches] | None = None
         self._txns = TransactionRows()
         self._writers: dict[tuple[str, str], pq.ParquetWriter] = {}
         self.doctor: WiringDoctor | None = None
@@ -75,7 +77,7 @@ class ParquetDatasetWriter(Listener):
         self.committed = False
 
     # ------------------------------------------------------------ the runner's calls
-    def on_start(self, runner) -> None:
+    def on_start(self, runner: TapRunner) -> None:
         info = runner.info
         self.doctor = WiringDoctor(runner.lines, runner.ack_timeout,
                                    Invocation(info.inputs, info.live, info.command, False, baud=info.baud))
@@ -84,12 +86,14 @@ class ParquetDatasetWriter(Listener):
     def on_events(self, events: list[Event]) -> None:
         if not events:
             return
-        if self.events is None:
+        if self._batches is None:
             origin = events[0].origin
             start = origin.start_time if origin is not None else self.info.start_time
-            self.events = EventBatches(self.capture, self.site, start)
-            self.transactions = TransactionBatches(self.capture, self.site, start)
-        add, txn_add, doctor_add = self.events.add, self.transactions.add, self.doctor.add
+            self._batches = (EventBatches(self.capture, self.site, start),
+                             TransactionBatches(self.capture, self.site, start))
+        rows, txn_rows = self._batches
+        assert self.doctor is not None   # made on_start, before any event
+        add, txn_add, doctor_add = rows.add, txn_rows.add, self.doctor.add
         txns = self._txns
         for ev in events:
             add(ev)
@@ -102,44 +106,49 @@ class ParquetDatasetWriter(Listener):
             if self.first_t is None:
                 self.first_t = events[0].t
             self.last_t = max(t, self.last_t or t)
-        if len(self.events) >= ROWS_PER_GROUP:
-            self._write("events", self.events.batch())
-        if len(self.transactions) >= ROWS_PER_GROUP:
-            self._write("transactions", self.transactions.batch())
+        if len(rows) >= ROWS_PER_GROUP:
+            self._write("events", rows.batch())
+        if len(txn_rows) >= ROWS_PER_GROUP:
+            self._write("transactions", txn_rows.batch())
 
     def on_stop(self) -> None:
         """The end of the run: the last rows and the findings are written and the
         files closed. They take the place of the capture's old ones only on
         ``commit()``: the runner stops its listeners after a failure too."""
         try:
-            if self.events is not None:
-                done = self._txns.finish()
-                if done is not None:
-                    self.transactions.add(done)
-                if len(self.events):
-                    self._write("events", self.events.batch())
-                if len(self.transactions):
-                    self._write("transactions", self.transactions.batch())
-                findings = self.doctor.findings()
-                if findings:
-                    # an untimed capture's span is unknown, its start is not (t = 0)
-                    first = self.first_t if self.first_t is not None else 0.0
-                    self._write("findings", findings_batch(findings, self.capture, self.site,
-                                                           self.events.start_time, first, self.last_t))
+            if self._batches is not None:
+                self._write_last(*self._batches)
             for writer in self._writers.values():
                 writer.close()
         except BaseException:
             self.abort()
             raise
 
+    def _write_last(self, rows: EventBatches, txn_rows: TransactionBatches) -> None:
+        """The rows still waiting, and the doctor's findings."""
+        done = self._txns.finish()
+        if done is not None:
+            txn_rows.add(done)
+        if len(rows):
+            self._write("events", rows.batch())
+        if len(txn_rows):
+            self._write("transactions", txn_rows.batch())
+        assert self.doctor is not None   # made on_start, before any event
+        findings = self.doctor.findings()
+        if findings:
+            # an untimed capture's span is unknown, its start is not (t = 0)
+            first = self.first_t if self.first_t is not None else 0.0
+            self._write("findings", findings_batch(findings, self.capture, self.site,
+                                                   rows.start_time, first, self.last_t))
+
     # ------------------------------------------------------------ files
     def _file(self, table: str, day: str) -> str:
         return self.folder.file(table, f"{S.PARTITION}={day}", self.key + ".parquet")
 
-    def _write(self, table: str, batch) -> None:
+    def _write(self, table: str, batch: Any) -> None:
         # findings are dated by the capture's start (their rows carry no time of their own)
         column = "start" if table == "findings" else "ts"
-        undated = day_of(self.events.start_time if self.events is not None else self.info.start_time)
+        undated = day_of(self._batches[0].start_time if self._batches is not None else self.info.start_time)
         for day, rows in partitions(batch, column, undated):
             writer = self._writers.get((table, day))
             if writer is None:
@@ -183,7 +192,7 @@ class ParquetDatasetWriter(Listener):
         for writer in self._writers.values():
             try:
                 writer.close()
-            except Exception:
+            except Exception:   # noqa: BLE001, S110 - the export failed already: that error is the one told
                 pass
         for table, day in self._writers:
             self.folder.remove(self._file(table, day) + TMP)

@@ -45,6 +45,8 @@ class PcapngWriter(FileWriter):
 
     many_captures = True   # export may put several captures in one file
     noun = "packets"
+    file: BinaryIO   # the target's: a path's, the given file or standard output (never None)
+    info: CaptureInfo
 
     def __init__(self, path: str, info: CaptureInfo, *, file: BinaryIO | None = None, capture: int = 0,
                  flush: bool = False, atomic: bool = True) -> None:

@@ -16,20 +16,24 @@ replay into a pipe).
 
 from __future__ import annotations
 
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 from dissectors.event import Event
 
 from ..info import CaptureInfo
 from ..output import SgrCodes, text_line
-from .base import FileWriter
+from .base import EventLines
+
+if TYPE_CHECKING:   # Rich is imported only for colour
+    from rich.console import Console
 
 
-class TextWriter(FileWriter):
+class TextWriter(EventLines):
     """``write(event)`` writes one line (the printer's call, after its filter)."""
 
     noun = "lines"
     binary = False
+    file: IO[str]   # the target's: standard output or the given file (never None)
 
     def __init__(self, path: str | None = None, info: CaptureInfo | None = None, *, file: IO[str] | None = None,
                  color: bool | None = None, flush_each: bool = False) -> None:
@@ -37,7 +41,7 @@ class TextWriter(FileWriter):
             raise ValueError("the text output goes to standard output or an open text file")
         self.color = color
         self.flush_each = flush_each
-        self._console = None
+        self._console: Console | None = None
         self._codes: SgrCodes | None = None
         super().__init__(path, info, file=file)
 
@@ -49,11 +53,6 @@ class TextWriter(FileWriter):
             from rich.console import Console
             self._console = Console(file=out, highlight=False, soft_wrap=True, force_terminal=True)
             self._codes = SgrCodes(self._console)
-
-    def on_events(self, events: list[Event]) -> None:
-        write = self.write
-        for ev in events:
-            write(ev)
 
     def write(self, ev: Event) -> None:
         if self.broken:
@@ -68,7 +67,8 @@ class TextWriter(FileWriter):
                 self.file.write(start + text + end + "\n")
             else:
                 from rich.text import Text
-                self._console.print(Text(text, style=style or None))
+                assert self._console is not None   # made with the codes (begin)
+                self._console.print(Text(text, style=style))
             if self.flush_each:
                 self.file.flush()
         self.count += 1

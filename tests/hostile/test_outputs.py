@@ -219,8 +219,7 @@ def test_tui_feed_recording_onto_a_full_disk_is_said_once_and_the_capture_goes_o
     rec = small_fs / "tui.mcap"
     capture = open_live([pa, pb])
     info = CaptureInfo.of(capture, command="live")
-    recorder = McapWriter(str(rec), info, live=True)
-    recorder.recorder._flush_interval = 0.2   # reach the full disk sooner
+    recorder = McapWriter(str(rec), info, live=True, flush_interval=0.2)   # reach the full disk sooner
     batches = []
     doctor = DoctorListener(tui=True)
     runner = TapRunner(capture, [recorder, doctor], info=info)

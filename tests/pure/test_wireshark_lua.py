@@ -43,7 +43,7 @@ def test_a_derive_function_without_a_lua_version_stops_the_generator():
     def _new(values):
         values["x"] = 1
     with pytest.raises(ValueError, match="_new"):
-        lua._layout_spec(Layout((b"Q", hexnum("n", 2)), _new))
+        lua.layout_spec(Layout((b"Q", hexnum("n", 2)), _new))
 
 
 def test_every_field_and_problem_of_the_tables_is_in_the_dissector():

@@ -34,6 +34,7 @@ import os
 import pickle
 import re
 from collections.abc import Callable, Iterable, Iterator
+from typing import TYPE_CHECKING
 
 from ... import uris
 from ...errors import OutputRefused
@@ -41,27 +42,30 @@ from ...outfile import show
 from ..export import Job, Outcome, capture_name, input_size, make_dataset_folder, run_job
 from .session import SparkFailed, check, one_line, start
 
+if TYPE_CHECKING:
+    from pyspark.sql import SparkSession
+
+    from ...listeners.progress import ReadProgress
+
 # Spark's message for an aborted job: "... most recent failure: Lost task 3.0 in stage 0.0 (TID 7) ..."
 _LOST_TASK = re.compile(r"Lost task (\d+)\.\d+ in stage")
 
 
 def run_on_spark(master: str, jobs: list[Job], *, on_done: Callable[[Outcome], None] | None = None,
-                 show_progress: bool = False, spark=None) -> list[Outcome]:
+                 show_progress: bool = False, spark: SparkSession | None = None) -> list[Outcome]:
     """Export ``jobs`` on Spark (a session for ``master``, or ``spark`` when given);
     the outcomes in the jobs' order, each also to ``on_done`` as the job ends.
     Raises ``SparkFailed`` (one line) when Spark fails the job itself."""
-    own = spark is None
-    if own:
+    if spark is None:
         check(master)   # a master that cannot work is said before the output is made
     if jobs:
         check_output(jobs[0].root)
-    if own:
-        spark = start(master, "gimbalscope export", checked=True)
+    session = spark if spark is not None else start(master, "gimbalscope export", checked=True)
     try:
-        outcomes = _run(spark, master, jobs, show_progress)
+        outcomes = _run(session, master, jobs, show_progress)
     finally:
-        if own:
-            spark.stop()
+        if spark is None:   # our own
+            session.stop()
     for outcome in outcomes:
         if on_done is not None:
             on_done(outcome)
@@ -88,7 +92,7 @@ def check_output(root: str) -> None:
         raise OutputRefused(f"{root}: cannot write the dataset there: {uris.failure(e)}") from None
 
 
-def _run(spark, master: str, jobs: list[Job], show_progress: bool) -> list[Outcome]:
+def _run(spark: SparkSession, master: str, jobs: list[Job], show_progress: bool) -> list[Outcome]:
     if not jobs:
         return []
     largest_first = sorted(jobs, key=lambda job: -input_size(job))
@@ -99,7 +103,7 @@ def _run(spark, master: str, jobs: list[Job], show_progress: bool) -> list[Outco
     try:
         with _progress(spark, jobs, show_progress):
             got = dict(results.collect())
-    except Exception as e:   # Py4JJavaError, or pyspark's own exceptions for what it converts
+    except Exception as e:   # noqa: BLE001 - Py4JJavaError, or pyspark's own exceptions for what it converts
         raise SparkFailed(_job_failed(master, e, largest_first)) from None
     return [got[job.index] for job in jobs]
 
@@ -127,7 +131,7 @@ def export_partition(rows: Iterable[tuple[int, str, bytes]]) -> Iterator[tuple[i
     for index, name, blob in rows:
         try:
             outcome = run_job(pickle.loads(blob))
-        except Exception as e:   # a bug, or the executor's machine: this capture is skipped, not the export
+        except Exception as e:   # noqa: BLE001 - a bug, or the executor's machine: this capture is skipped, not the export
             outcome = Outcome(index, name, error=f"{name}: failed on a Spark executor: "
                                                  f"{type(e).__name__}: {one_line(e)}")
         yield index, outcome
@@ -137,7 +141,7 @@ class _TaskMeter:
     """The progress bar's meter (analyzer/listeners/progress.py) for a Spark job:
     the inputs' bytes, counted done as Spark's tasks end."""
 
-    def __init__(self, spark, jobs: list[Job]) -> None:
+    def __init__(self, spark: SparkSession, jobs: list[Job]) -> None:
         self.tracker = spark.sparkContext.statusTracker()
         self.bytes = sum(input_size(job) for job in jobs) or len(jobs)
         self.tasks = len(jobs)
@@ -154,6 +158,6 @@ class _TaskMeter:
         return self.bytes * self.finished // self.tasks
 
 
-def _progress(spark, jobs: list[Job], show_progress: bool):
+def _progress(spark: SparkSession, jobs: list[Job], show_progress: bool) -> ReadProgress:
     from ...listeners.progress import ReadProgress
     return ReadProgress(enabled=show_progress, meter=_TaskMeter(spark, jobs), label="exporting on Spark")

@@ -11,14 +11,19 @@ for DuckDB: scripts and notebooks on a cluster can use it too.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 from ... import uris
 from ...errors import DatasetError
 from ...formats.parquet_schema import PARTITION, TABLES
 from ..report import SPARK, Report, build
 from .session import SparkFailed, one_line
 
+if TYPE_CHECKING:
+    from pyspark.sql import SparkSession
 
-def views(spark, root: str) -> None:
+
+def views(spark: SparkSession, root: str) -> None:
     """The dataset at ``root`` (a path or a URI) as Spark's temporary views. Only
     ``*.parquet`` files are read: an export under way writes ``*.parquet.tmp``
     beside them, which Spark would otherwise take for a table's file. A table
@@ -36,7 +41,7 @@ def views(spark, root: str) -> None:
         try:
             frame = (spark.read.option("mergeSchema", "true").option("pathGlobFilter", "*.parquet")
                      .option("basePath", where).parquet(where))
-        except Exception as e:
+        except Exception as e:   # noqa: BLE001 - Py4JJavaError or pyspark's own: no files, or one line
             if not _no_files(e):
                 raise DatasetError(f"{where}: Spark cannot read it: {one_line(e)}") from None
             empty = from_arrow_schema(schema).add(StructField(PARTITION, DateType()))
@@ -55,23 +60,23 @@ class SparkRows:
     an engine. A query Spark fails (a Parquet file it cannot decode, an executor
     lost) is ``SparkFailed``: one line, not Spark's stack trace."""
 
-    def __init__(self, spark, root: str = "") -> None:
+    def __init__(self, spark: SparkSession, root: str = "") -> None:
         self.spark = spark
         self.root = root
-        self._rows: list[tuple] = []
+        self._rows: list[tuple[Any, ...]] = []
 
     def execute(self, sql: str) -> SparkRows:
         try:
             self._rows = [tuple(row) for row in self.spark.sql(sql).collect()]
-        except Exception as e:   # Py4JJavaError, or pyspark's own exceptions for what it converts
+        except Exception as e:   # noqa: BLE001 - Py4JJavaError, or pyspark's own exceptions for what it converts
             raise SparkFailed(f"{self.root or 'the dataset'}: Spark failed the report's query: {one_line(e)}") from None
         return self
 
-    def fetchall(self) -> list[tuple]:
+    def fetchall(self) -> list[tuple[Any, ...]]:
         return self._rows
 
 
-def build_on_spark(spark, root: str, period: str = "day", **kw) -> Report:
+def build_on_spark(spark: SparkSession, root: str, period: str = "day", **kw: Any) -> Report:
     """The report of the dataset at ``root``, its figures computed by ``spark``."""
     views(spark, root)
     return build(SparkRows(spark, root), period, dialect=SPARK, **kw)

@@ -27,10 +27,15 @@ import shutil
 import socket
 import sys
 import warnings
+from collections.abc import Iterator
 from importlib import resources
+from typing import TYPE_CHECKING
 from urllib.parse import urlsplit
 
 from ...errors import OutputError, UsageError
+
+if TYPE_CHECKING:
+    from pyspark.sql import SparkSession
 
 CONNECT_TIMEOUT = 5.0   # seconds to reach a master's port
 _LOCAL = re.compile(r"^local(\[(\*|\d+)(,\d+)?\])?$")
@@ -101,7 +106,7 @@ def _reach(master: str, hosts: list[tuple[str, int]]) -> None:
             why = e.strerror or str(e) or type(e).__name__
             if isinstance(e, socket.gaierror):
                 why = f"no such host ({why})"
-            elif isinstance(e, TimeoutError) or isinstance(e, socket.timeout):
+            elif isinstance(e, TimeoutError):   # socket.timeout is TimeoutError
                 why = f"no answer in {CONNECT_TIMEOUT:.0f} s"
     raise UsageError(f"--spark {master}: cannot reach the Spark master: {why}")
 
@@ -120,13 +125,13 @@ def check(master: str) -> None:
     """Everything Spark needs that can be told without starting it: pyspark (an
     ImportError: cli/main.py names the extra), a master that is one and can be
     reached, Java. Each a ``UsageError`` of one line."""
-    import pyspark  # noqa: F401
+    import pyspark  # noqa: F401 - imported for its ImportError only
 
     check_master(master)
     check_java()
 
 
-def start(master: str, app: str, *, checked: bool = False):
+def start(master: str, app: str, *, checked: bool = False) -> SparkSession:
     """A SparkSession for ``master`` (``check``-ed first, unless the caller has);
     raises ``UsageError`` with one line when Spark cannot start."""
     if not checked:
@@ -149,12 +154,12 @@ def start(master: str, app: str, *, checked: bool = False):
     try:
         with _workers_run_this_python(local):
             return builder.getOrCreate()
-    except Exception as e:   # the JVM did not start, or the master refused the application
+    except Exception as e:   # noqa: BLE001 - the JVM did not start, or the master refused the application
         raise UsageError(f"--spark {master}: Spark did not start: {one_line(e)}") from None
 
 
 @contextlib.contextmanager
-def _workers_run_this_python(local: bool):
+def _workers_run_this_python(local: bool) -> Iterator[None]:
     """For a local master, ``_PYTHON_VARIABLES`` set to this interpreter while the
     session starts: the SparkContext and the JVM launched for it read them then,
     and keep what they read. Without this, workers run PATH's ``python3`` (the
