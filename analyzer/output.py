@@ -17,6 +17,8 @@ from functools import partial
 from types import TracebackType
 from typing import TYPE_CHECKING
 
+import orjson
+
 from dissectors import summarize
 from dissectors.event import ACK, COMMAND, NAK, NIC, NOISE, RATE, RESULT, Event
 from dissectors.problems import MALFORMED
@@ -30,28 +32,13 @@ from .words import counted
 if TYPE_CHECKING:
     from rich.console import Console
 
-dumps_line: Callable[[object], bytes]   # one object's JSON and a newline
 
-try:
-    import orjson
+def dumps(obj: object) -> bytes:
+    return orjson.dumps(obj)
 
-    _NL = orjson.OPT_APPEND_NEWLINE
 
-    def dumps(obj: object) -> bytes:
-        return orjson.dumps(obj)
-
-    # a writer's per-event call: orjson itself, without a Python frame around it
-    dumps_line = partial(orjson.dumps, option=_NL)
-except ImportError:  # pragma: no cover - orjson is a dependency; keep working without it
-    import json
-
-    def dumps(obj: object) -> bytes:
-        return json.dumps(obj, ensure_ascii=False, separators=(",", ":")).encode()
-
-    def _dumps_line(obj: object) -> bytes:
-        return dumps(obj) + b"\n"
-
-    dumps_line = _dumps_line
+# one object's JSON and a newline: a writer's per-event call, orjson itself, without a Python frame around it
+dumps_line: Callable[[object], bytes] = partial(orjson.dumps, option=orjson.OPT_APPEND_NEWLINE)
 
 
 STDOUT = "standard output"

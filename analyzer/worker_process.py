@@ -9,15 +9,16 @@ decoding and doctor processes). The fleet export's pool and Spark have their own
   would copy the caller's threads mid-flight (the TUI's, a live tap's), one of
   them perhaps holding a lock; multiprocessing's spawn imports the caller's main
   script again (a user's script without a main guard would run twice) and starts
-  a resource tracker beside it. The child gets the caller's ``sys.path``, and
-  the function and its arguments, pickled, on its standard input.
+  a resource tracker beside it. The child gets the caller's ``sys.path`` (its
+  text entries, the ones imports read), and the function and its arguments,
+  pickled, on its standard input.
 - **The channel** is the child's standard output, taken over before the work
-  starts: what the work prints goes where its standard error goes, which with
-  ``quiet`` (the default) is nowhere, so nothing reaches a terminal a screen is
-  drawn on. Each message is one pickle with its length before it, so a child
-  that dies mid-message is told from one that sent something unreadable. The
-  channel carries the objects this package's own code sends, from a process it
-  started; nothing read from a file or the network is unpickled.
+  starts: what the work prints goes where its standard error goes, which is
+  nowhere, so nothing reaches a terminal a screen is drawn on. Each message is
+  one pickle with its length before it, so a child that dies mid-message is
+  told from one that sent something unreadable. The channel carries the
+  objects this package's own code sends, from a process it started; nothing
+  read from a file or the network is unpickled.
 - **Ending it**: SIGTERM is SystemExit in the child, so its ``finally`` clauses
   run (a decoding process closes its capture, and a reader process of its own
   with it); ``Worker.end`` asks so, and kills a child that does not listen. A
@@ -145,15 +146,14 @@ def _end_all() -> None:
         worker.end()
 
 
-def start(work: Callable[[*_Args, Sender], None], args: tuple[*_Args], *, quiet: bool = True) -> Worker | None:
+def start(work: Callable[[*_Args, Sender], None], args: tuple[*_Args]) -> Worker | None:
     """Run ``work(*args, sender)`` in a process of its own; None if no process
     can be had (out of processes, memory, descriptors). ``work`` is a function
     at the top of a module (the child imports it by name); ``args`` are pickled.
-    ``quiet``: the child's standard error (and what it prints) goes nowhere;
-    else to this process's standard error."""
+    The child's standard error (and what it prints) goes nowhere."""
     try:
-        process = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(sys.path)], stdin=subprocess.PIPE,
-                                   stdout=subprocess.PIPE, stderr=subprocess.DEVNULL if quiet else None)
+        process = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(_path())], stdin=subprocess.PIPE,
+                                   stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
     except OSError:
         return None
     assert process.stdin is not None and process.stdout is not None   # both are pipes
@@ -169,6 +169,13 @@ def start(work: Callable[[*_Args, Sender], None], args: tuple[*_Args], *, quiet:
         raise
     _running.add(worker)
     return worker
+
+
+def _path() -> list[str]:
+    """The caller's ``sys.path``, its text entries only: the import system skips
+    any other (bytes, a path object), so decoding one for the child would let it
+    import from a folder its caller does not, and JSON could not carry it as it is."""
+    return [entry for entry in sys.path if isinstance(entry, str)]
 
 
 def _serve() -> None:

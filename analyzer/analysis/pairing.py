@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from dissectors import apply_command, dissect_command, dissect_result, result_fits
 from dissectors.commands import DUE, OPTIONAL
@@ -152,8 +153,12 @@ class Transaction:
 
 
 def _record(cmd: Event) -> Transaction:
-    """The record pairing gave a command it numbered (it gives every one a
-    ``Transaction``; the hottest loops check this inline)."""
+    """The record pairing gave a command it numbered, checked (it gives every
+    one a ``Transaction``). What runs per event or per answer reads
+    ``cmd.transaction`` unchecked instead, narrowed for the type checker only
+    (``if TYPE_CHECKING: assert isinstance(...)``): a call and an isinstance
+    there cost a fair part of pairing's own work; the commands awaiting a result
+    are kept with their records (``Pairer._awaiting_result``)."""
     txn = cmd.transaction
     assert isinstance(txn, Transaction)
     return txn
@@ -197,7 +202,8 @@ class Pairer:
         self._held: deque[Event] = deque()
         # commands (their state is their ``transaction``'s)
         self._awaiting_ack: Event | None = None
-        self._awaiting_result: list[Event] = []
+        # the commands awaiting a result, with their records, oldest ACK first
+        self._awaiting_result: dict[Event, Transaction] = {}
         self._last_cmd: Event | None = None     # for retransmissions
         self._timed_out: Event | None = None    # no_ack by timeout: a late ACK may still come
         self._controller_groups: set[int] = set()
@@ -268,7 +274,8 @@ class Pairer:
                     if head.status is None:
                         break
                     txn = head.transaction
-                    assert isinstance(txn, Transaction)
+                    if TYPE_CHECKING:   # unchecked at run time: see _record
+                        assert isinstance(txn, Transaction)
                     txn.status = head.status   # final: the record takes it
                 append(held.popleft())
         self._number = number
@@ -290,7 +297,7 @@ class Pairer:
             self._no_ack(cmd, UNANSWERED_TIMEOUT, why)
             return
         if cmd in self._awaiting_result:
-            self._awaiting_result.remove(cmd)
+            del self._awaiting_result[cmd]
             self._no_result(cmd, NO_RESULT_TIMEOUT, why)
             if cmd.status is None:   # an optional result: the ACK settled it
                 cmd.status = OK
@@ -312,11 +319,11 @@ class Pairer:
         """End of capture: whatever still waits is ``pending``."""
         if self._provisional is not None:
             self._settle()
-        for cmd in ([self._awaiting_ack] if self._awaiting_ack else []) + self._awaiting_result:
+        for cmd in ([self._awaiting_ack] if self._awaiting_ack else []) + list(self._awaiting_result):
             if not _record(cmd).optional:
                 cmd.status = PENDING
         self._awaiting_ack = None
-        self._awaiting_result = []
+        self._awaiting_result = {}
         out = list(self._held)
         self._held.clear()
         for ev in out:
@@ -339,35 +346,39 @@ class Pairer:
             if head.kind == COMMAND:
                 if head.status is None:
                     break
-                _record(head).status = head.status
+                txn = head.transaction
+                if TYPE_CHECKING:   # unchecked at run time: see _record
+                    assert isinstance(txn, Transaction)
+                txn.status = head.status
             out.append(held.popleft())
         return out
 
     def _expire(self, t: float) -> None:
         cmd = self._awaiting_ack
         if cmd is not None:
-            deadline = _record(cmd).deadline
+            txn = cmd.transaction
+            if TYPE_CHECKING:   # unchecked at run time: see _record
+                assert isinstance(txn, Transaction)
+            deadline = txn.deadline
             if deadline is not None and t > deadline:
                 self._no_ack(cmd, UNANSWERED_TIMEOUT, f"no ACK/NAK within {self.timeouts.ack * 1000:g} ms")
                 self._timed_out = cmd
         awaiting = self._awaiting_result
         if awaiting:
-            for cmd in awaiting:
-                txn = cmd.transaction
-                assert isinstance(txn, Transaction)
+            for txn in awaiting.values():
                 deadline = txn.deadline
                 if deadline is not None and t > deadline:
                     break
             else:
-                return   # none overdue: the usual case, checked without building a list
-            keep = []
-            for cmd in awaiting:
-                deadline = _record(cmd).deadline
+                return   # none overdue: the usual case, checked without building anything
+            keep = {}
+            for cmd, txn in awaiting.items():
+                deadline = txn.deadline
                 if deadline is not None and t > deadline:
                     self._no_result(cmd, NO_RESULT_TIMEOUT,
                                     f"none within {self.timeouts.result_for(cmd):g} s of the ACK")
                 else:
-                    keep.append(cmd)
+                    keep[cmd] = txn
             self._awaiting_result = keep
 
     def _no_ack(self, cmd: Event, problem: ProblemInfo, why: str) -> None:
@@ -418,17 +429,16 @@ class Pairer:
             self._no_ack(self._awaiting_ack, UNANSWERED_SUPERSEDED, "no ACK/NAK before the next command")
         self._timed_out = None
         if self._awaiting_result:
-            keep = []
+            keep = {}
             window = self.timeouts.untimed_window
-            for cmd in self._awaiting_result:
-                txn = _record(cmd)
+            for cmd, txn in self._awaiting_result.items():
                 txn.age += 1
                 if cmd.command == ev.command and cmd.dst == ev.dst:
                     self._no_result(cmd, NO_RESULT_SENT_AGAIN, "the command was sent again before it came")
                 elif ev.t is None and txn.age > window:
                     self._no_result(cmd, NO_RESULT_TIMEOUT, f"none within the next {window} commands")
                 else:
-                    keep.append(cmd)
+                    keep[cmd] = txn
             self._awaiting_result = keep
         prev = self._last_cmd
         if prev is not None and prev.status in (ST_NAK, NO_ACK, NO_RESULT) and _repeats(prev, ev):
@@ -444,7 +454,9 @@ class Pairer:
 
     def _link(self, ev: Event, cmd: Event) -> None:
         """Make ``ev`` an answer to ``cmd``, in the event and in the record."""
-        txn = _record(cmd)
+        txn = cmd.transaction
+        if TYPE_CHECKING:   # unchecked at run time: see _record
+            assert isinstance(txn, Transaction)
         ev.txn = txn.number
         ev.request = cmd.number
         ev.transaction = txn
@@ -480,13 +492,17 @@ class Pairer:
         self._last_ack = (ev, cmd)
         due = cmd.entry.result_due if cmd.entry is not None else None
         if due == DUE or due == OPTIONAL:
-            txn = _record(cmd)
+            txn = cmd.transaction
+            if TYPE_CHECKING:   # unchecked at run time: see _record
+                assert isinstance(txn, Transaction)
             txn.optional = due == OPTIONAL
             if ev.t_end is not None:
                 txn.deadline = ev.t_end + self.timeouts.result_for(cmd)
-            self._awaiting_result.append(cmd)
-            if len(self._awaiting_result) > 64:   # a runaway controller: keep memory flat
-                old = self._awaiting_result.pop(0)
+            awaiting = self._awaiting_result
+            awaiting[cmd] = txn
+            if len(awaiting) > 64:   # a runaway controller: keep memory flat
+                old = next(iter(awaiting))
+                del awaiting[old]
                 self._no_result(old, NO_RESULT_OVERFLOW, "too many commands waiting for results")
                 if old.status is None:
                     old.status = OK
@@ -504,8 +520,7 @@ class Pairer:
         cmd.status = ST_NIC
         if self._provisional is cmd:
             self._provisional = None
-        if cmd in self._awaiting_result:
-            self._awaiting_result.remove(cmd)
+        self._awaiting_result.pop(cmd, None)
         self._last_ack = None
 
     def _result(self, ev: Event) -> None:
@@ -547,6 +562,6 @@ class Pairer:
             self._awaiting_ack = None
             cmd.add_problem(UNANSWERED_NO_ACK, "no ACK seen, but the result arrived")
         else:
-            self._awaiting_result.remove(cmd)
+            del self._awaiting_result[cmd]
         if cmd.status is None:
             cmd.status = OK

@@ -15,16 +15,17 @@ One definition, two drivers. The figures are worked out in one place,
 an array a property, with numpy). Columns because the TUI's store holds a day as
 columns (analyzer/tui/store.py), and rebuilding a million events to count them
 one by one would take seconds where the arrays take a fraction of one. Events as
-they come (``gimbalscope stats``, a live tap: ``StatsListener``) are gathered
-into batches of a few thousand and turned into the same columns
-(``EventColumns.of``), so numpy's cost a call is spread over thousands of
-events; the TUI's store hands its columns over as one batch
+they come (``Stats.add`` and ``add_events``: ``gimbalscope stats``, a live tap, a
+script) wait in a list until there are ``BATCH`` of them, then are turned into the
+same columns (``EventColumns.of``) and counted, so numpy's cost a call is spread
+over thousands of events; the TUI's store hands its columns over as one batch
 (analyzer/tui/store_stats.py). Each batch is counted straight into the running
 figures, and every figure adds up across batches (counts and latency buckets
 add, the first time is the first batch's, the last the last's), so a capture
 counted in batches of any size has the same statistics as counted whole
-(tests/pure/test_store_stats.py). ``Stats.add``, one event, is a batch of one:
-for a handful of events, not a stream.
+(tests/pure/test_store_stats.py). Reading a figure (an attribute or
+``to_dict()``) counts the waiting events first (``flush``): it is always of
+every event added.
 """
 
 from __future__ import annotations
@@ -60,6 +61,7 @@ from dissectors.problems import Problem
 _LOG_STEP = math.log(1.01)
 _CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))
 KIND_ORDER = (COMMAND, ACK, NAK, NIC, RESULT, NOISE)   # the order reports list kinds in
+BATCH = 2048   # events counted at a time by ``Stats.add``: numpy's cost a call spread over them
 
 
 def categories(ev: Event) -> list[str]:
@@ -249,102 +251,206 @@ class EventColumns:
 
 # ------------------------------------------------------------------ the figures
 class Stats:
+    """The statistics of the events added so far. Events added one by one or a
+    few at a time wait in a list and are counted ``BATCH`` at a time; reading a
+    figure counts those waiting first (``flush``)."""
+
     def __init__(self) -> None:
-        self.events = 0
-        self.kinds: Counter[str] = Counter()
-        self.problems: Counter[str] = Counter()
-        self.bytes: Counter[str] = Counter()
-        self.noise_bytes = 0
-        self.noise_kinds: Counter[str] = Counter()   # noise events by what they are (their problem)
-        self.checksum_errors = 0     # events with a checksum problem (frames and broken frames)
-        self.broken_frames = 0       # of which: noise events, a frame broken beyond reading
-        self.orphans = 0
-        self.rate_changes: list[dict[str, Any]] = []   # the link's rate changes (docs/time.md)
-        self.first_t: float | None = None
-        self.last_t: float | None = None
-        self.by_command: dict[str, Counts] = {}
-        self.by_device: dict[str, Counts] = {}
+        self._pending: list[Event] = []   # added, not counted yet
+        self._events = 0
+        self._kinds: Counter[str] = Counter()
+        self._problems: Counter[str] = Counter()
+        self._bytes: Counter[str] = Counter()
+        self._noise_bytes = 0
+        self._noise_kinds: Counter[str] = Counter()
+        self._checksum_errors = 0
+        self._broken_frames = 0
+        self._orphans = 0
+        self._rate_changes: list[dict[str, Any]] = []
+        self._first_t: float | None = None
+        self._last_t: float | None = None
+        self._by_command: dict[str, Counts] = {}
+        self._by_device: dict[str, Counts] = {}
 
     def add(self, ev: Event) -> None:
-        """Count one event: a batch of one (feed a stream in batches: ``StatsListener``)."""
-        self.add_events((ev,))
+        """Count one event, the next in wire order."""
+        pending = self._pending
+        pending.append(ev)
+        if len(pending) >= BATCH:
+            self.flush()
 
     def add_events(self, events: Sequence[Event]) -> None:
         """Count ``events``, the next in wire order."""
-        self.add_columns(EventColumns.of(events))
+        pending = self._pending
+        if not pending and len(events) >= BATCH:
+            self._count(EventColumns.of(events))
+            return
+        pending.extend(events)
+        if len(pending) >= BATCH:
+            self.flush()
 
     def add_columns(self, batch: EventColumns) -> None:
+        """Count the events of ``batch``, the next in wire order."""
+        self.flush()
+        self._count(batch)
+
+    def flush(self) -> None:
+        """Count the events waiting to be (every figure read does it first)."""
+        if self._pending:
+            pending, self._pending = self._pending, []
+            self._count(EventColumns.of(pending))
+
+    # the figures, each of every event added
+    @property
+    def events(self) -> int:
+        self.flush()
+        return self._events
+
+    @property
+    def kinds(self) -> Counter[str]:
+        self.flush()
+        return self._kinds
+
+    @property
+    def problems(self) -> Counter[str]:
+        """Events per problem category."""
+        self.flush()
+        return self._problems
+
+    @property
+    def bytes(self) -> Counter[str]:
+        """Bytes per line."""
+        self.flush()
+        return self._bytes
+
+    @property
+    def noise_bytes(self) -> int:
+        self.flush()
+        return self._noise_bytes
+
+    @property
+    def noise_kinds(self) -> Counter[str]:
+        """Noise events by what they are (their problem)."""
+        self.flush()
+        return self._noise_kinds
+
+    @property
+    def checksum_errors(self) -> int:
+        """Events with a checksum problem (frames and broken frames)."""
+        self.flush()
+        return self._checksum_errors
+
+    @property
+    def broken_frames(self) -> int:
+        """Of the checksum errors: noise events, a frame broken beyond reading."""
+        self.flush()
+        return self._broken_frames
+
+    @property
+    def orphans(self) -> int:
+        self.flush()
+        return self._orphans
+
+    @property
+    def rate_changes(self) -> list[dict[str, Any]]:
+        """The link's rate changes (docs/time.md)."""
+        self.flush()
+        return self._rate_changes
+
+    @property
+    def first_t(self) -> float | None:
+        self.flush()
+        return self._first_t
+
+    @property
+    def last_t(self) -> float | None:
+        self.flush()
+        return self._last_t
+
+    @property
+    def by_command(self) -> dict[str, Counts]:
+        self.flush()
+        return self._by_command
+
+    @property
+    def by_device(self) -> dict[str, Counts]:
+        self.flush()
+        return self._by_device
+
+    def _count(self, batch: EventColumns) -> None:
         """Count the events of ``batch``, the next in wire order: the definition
         of every figure."""
         n = len(batch)
         if not n:
             return
-        self.events += n
+        self._events += n
         kind = batch.kind
-        _add_up(self.kinds, kind)
-        _add_up(self.bytes, batch.line, batch.size)
+        _add_up(self._kinds, kind)
+        _add_up(self._bytes, batch.line, batch.size)
         self._times(batch)
         noise = kind.among(NOISE)
-        self._problems(batch, noise)
-        self.noise_bytes += int(batch.size[noise].sum())
-        self.rate_changes.extend(batch.rate_changes)
+        self._count_problems(batch, noise)
+        self._noise_bytes += int(batch.size[noise].sum())
+        self._rate_changes.extend(batch.rate_changes)
         counted = ~(noise | kind.among(RATE))   # a rate change and noise are in no table
-        self.orphans += int(np.count_nonzero(counted & ~batch.linked & ~kind.among(COMMAND)))
+        self._orphans += int(np.count_nonzero(counted & ~batch.linked & ~kind.among(COMMAND)))
         linked = counted & batch.linked   # an answer counts for its command's id and device
         if linked.any():
-            _tables(batch, linked, self.by_command, batch.command)
-            _tables(batch, linked, self.by_device, batch.device)
+            _tables(batch, linked, self._by_command, batch.command)
+            _tables(batch, linked, self._by_device, batch.device)
 
     def _times(self, batch: EventColumns) -> None:
         timed = np.flatnonzero(batch.timed)
         if not len(timed):
             return
-        if self.first_t is None:
-            self.first_t = float(batch.t[timed[0]])
+        if self._first_t is None:
+            self._first_t = float(batch.t[timed[0]])
         last = timed[-1]
         end = float(batch.t_end[last])
-        self.last_t = float(batch.t[last]) if math.isnan(end) else end
+        self._last_t = float(batch.t[last]) if math.isnan(end) else end
 
-    def _problems(self, batch: EventColumns, noise: np.ndarray) -> None:
+    def _count_problems(self, batch: EventColumns, noise: np.ndarray) -> None:
         """Events per problem category, checksum errors, broken frames, and the
         noise events by what they are (their first problem's category)."""
         noise_kind: dict[int, str] = {}
         for row, problems in batch.problems:
             cats = problem_categories(problems)
-            self.problems.update(cats)
+            self._problems.update(cats)
             checksum = any(cat in _CHECKSUM_PROBLEMS for cat in cats)
-            self.checksum_errors += checksum
+            self._checksum_errors += checksum
             if noise[row]:
                 noise_kind[row] = cats[0] if cats else P_NOISE
-                self.broken_frames += checksum
+                self._broken_frames += checksum
         for row in np.flatnonzero(noise).tolist():
-            self.noise_kinds[noise_kind.get(row, P_NOISE)] += 1
+            self._noise_kinds[noise_kind.get(row, P_NOISE)] += 1
 
     def to_dict(self) -> dict[str, Any]:
+        """Every figure, as ``stats --format json`` prints them."""
+        self.flush()
         total = Counts()
-        for c in self.by_command.values():
+        for c in self._by_command.values():
             total.commands += c.commands
             total.status.update(c.status)
             total.retransmissions += c.retransmissions
-        first, last = self.first_t, self.last_t
+        first, last = self._first_t, self._last_t
         return {
-            "events": self.events,
+            "events": self._events,
             "duration": (last - first) if first is not None and last is not None else None,
-            "bytes": dict(sorted(self.bytes.items())),
-            "kinds": {k: self.kinds.get(k, 0) for k in KIND_ORDER},
+            "bytes": dict(sorted(self._bytes.items())),
+            "kinds": {k: self._kinds.get(k, 0) for k in KIND_ORDER},
             "commands": total.commands,
             "status": {s: total.status.get(s, 0) for s in STATUSES},
             "timeouts": total.status.get(NO_ACK, 0) + total.status.get(NO_RESULT, 0),
             "retransmissions": total.retransmissions,
-            "checksum_errors": self.checksum_errors,
-            "broken_frames": self.broken_frames,
-            "noise": {"events": self.kinds.get(NOISE, 0), "bytes": self.noise_bytes,
-                      "by_problem": dict(self.noise_kinds.most_common())},
-            "orphans": self.orphans,
-            "rate_changes": self.rate_changes,
-            "problems": dict(self.problems.most_common()),
-            "by_command": {k: v.to_dict() for k, v in sorted(self.by_command.items())},
-            "by_device": {k: v.to_dict() for k, v in sorted(self.by_device.items())},
+            "checksum_errors": self._checksum_errors,
+            "broken_frames": self._broken_frames,
+            "noise": {"events": self._kinds.get(NOISE, 0), "bytes": self._noise_bytes,
+                      "by_problem": dict(self._noise_kinds.most_common())},
+            "orphans": self._orphans,
+            "rate_changes": self._rate_changes,
+            "problems": dict(self._problems.most_common()),
+            "by_command": {k: v.to_dict() for k, v in sorted(self._by_command.items())},
+            "by_device": {k: v.to_dict() for k, v in sorted(self._by_device.items())},
         }
 
 

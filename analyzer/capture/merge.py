@@ -34,7 +34,7 @@ SWAP = {"A": "B", "B": "A"}   # the other line: a tap whose ports were given the
 _SKEW_KINDS = frozenset((COMMAND, ACK, NAK, NOISE))
 
 
-class Capture(Protocol):
+class CaptureToMerge(Protocol):
     """What the merge reads and sets of the capture it merges (analyzer/capture/capture.py)."""
     source: Source
     line_settings: dict[str, LineSettings]
@@ -54,7 +54,7 @@ class Capture(Protocol):
     def warn(self, msg: str) -> None: ...
 
 
-def merged(cap: Capture) -> Iterator[list[Event]]:
+def merged(cap: CaptureToMerge) -> Iterator[list[Event]]:
     """The events of ``cap``'s timed lines in wire order, a batch per release.
 
     (This loop runs once per chunk: the common case, a chunk's events with no skew
@@ -76,11 +76,14 @@ def merged(cap: Capture) -> Iterator[list[Event]]:
     for chunk in cap.source.chunks():
         data = chunk.data
         t = chunk.t
-        if t is None:                 # an idle tick without time (a timed source times every byte)
-            continue
         if not data:                  # an idle tick: time passed
+            if t is None:             # without a time: nothing to mark
+                continue
             merge.idle(deframers, t)
         else:
+            # a timed source times every byte: bytes without a time are a broken
+            # source, which fails here rather than being dropped unseen (and unrecorded)
+            assert t is not None
             if cap.swap_lines:   # read a chunk: the TUI's swap key sets it while a live tap runs
                 # its own type: a live tap's backlog stays undecoded on the other line too
                 chunk = type(chunk)(SWAP[chunk.line], data, t)
@@ -123,7 +126,7 @@ class Merge:
     They arrive nearly in time order, so the sort is a merge of a few runs:
     cheaper than a heap operation per event."""
 
-    def __init__(self, capture: Capture, skew: bool) -> None:
+    def __init__(self, capture: CaptureToMerge, skew: bool) -> None:
         self.capture = capture
         self.held: list[Event] = []
         self.estimator = SkewEstimator() if skew else None

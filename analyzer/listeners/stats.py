@@ -20,37 +20,15 @@ if TYPE_CHECKING:
 
 
 class StatsListener(Listener):
-    """Counts every event ``keep`` accepts (all without a filter), in batches of
-    at least ``BATCH`` events (analyzer/analysis/stats.py: the statistics are
-    worked out over columns, and numpy's cost a call is spread over a batch)."""
-
-    BATCH = 2048
+    """Counts every event ``keep`` accepts (all without a filter) into ``stats``."""
 
     def __init__(self, keep: Callable[[Event], bool] | None = None) -> None:
-        self._stats = Stats()
-        self._pending: list[Event] = []   # events not counted yet (a live tap's reads are a few)
+        self.stats = Stats()   # of every event counted so far, whenever read
         self.keep = keep
 
     def on_events(self, events: list[Event]) -> None:
         keep = self.keep
-        if keep is not None:
-            events = [ev for ev in events if keep(ev)]
-        pending = self._pending
-        if not pending and len(events) >= self.BATCH:
-            self._stats.add_events(events)
-            return
-        pending.extend(events)
-        if len(pending) >= self.BATCH:
-            self._stats.add_events(pending)
-            self._pending = []
-
-    @property
-    def stats(self) -> Stats:
-        """The statistics of every event counted so far."""
-        if self._pending:
-            self._stats.add_events(self._pending)
-            self._pending = []
-        return self._stats
+        self.stats.add_events(events if keep is None else [ev for ev in events if keep(ev)])
 
 
 # what a noise event is, by its problem category (the deframer's: docs/decoding.md)

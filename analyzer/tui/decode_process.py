@@ -102,7 +102,10 @@ def _decode(inputs: tuple[str, ...], options: Options, command: str | None, send
         feed = Feed(runner, BatchSender(sender), None)   # the doctor is in a process of its own
         runner.add_listener(feed)
         feed.run()
-    except Exception as e:   # noqa: BLE001 - whatever it is, the screen hears of it, in one line
+    # KeyboardInterrupt too: a Ctrl-C that reaches this process (it shares the
+    # terminal's process group) is said to the screen as what stopped it
+    # ("KeyboardInterrupt: "), not left for it to hear as an end without a word
+    except (Exception, KeyboardInterrupt) as e:   # noqa: BLE001 - whatever it is, the screen hears of it, in one line
         sender.send(FeedBatch([], [], [], done=True, error=f"{type(e).__name__}: {e}"))
 
 
@@ -191,6 +194,7 @@ class ProcessFeed(ScreenFeed):
                 break
             self._pass_on(batch)
         messages.close()
+        self._end()   # it has said its last word: reaped now, not left a zombie until the screen closes
         # the doctor's word after the load ended: one more last batch
         again = partial(self._pass_on, dataclasses.replace(batch, chunk=None, warnings=[], error=None))
         if self.doctor_process is None:

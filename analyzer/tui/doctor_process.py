@@ -69,7 +69,10 @@ def _examine(inputs: tuple[str, ...], options: Options, command: str | None, sen
         pass
     try:
         sender.send(("findings", findings_of(inputs, options, command)))
-    except Exception as e:   # noqa: BLE001 - whatever it is, the screen hears of it, in one line
+    # KeyboardInterrupt too: a Ctrl-C that reaches this process (it shares the
+    # terminal's process group) is said to the screen as what stopped it
+    # ("KeyboardInterrupt: "), not left for it to hear as an end without a word
+    except (Exception, KeyboardInterrupt) as e:   # noqa: BLE001 - whatever it is, the screen hears of it, in one line
         sender.send(("error", f"{type(e).__name__}: {e}"))
 
 
@@ -155,6 +158,7 @@ class DoctorProcess:
             message = ("error", f"its word could not be read: {type(e).__name__}: {e}")
         finally:
             worker.messages.close()
+            worker.end()   # it has said its last word: reaped now, not left a zombie until the screen closes
         what, value = message
         if what == "findings":
             self.tell(value)

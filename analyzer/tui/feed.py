@@ -83,8 +83,8 @@ class FeedBatch:
         come: its findings, or why it failed (a warning on screen)."""
         if word is None:
             return
-        if word.error is not None:
-            self.warnings = [*self.warnings, f"the wiring doctor stopped: {word.error}"]
+        if word.warning is not None:
+            self.warnings = [*self.warnings, word.warning]
             self.doctor_error = word.error
         else:
             self.findings = word.findings

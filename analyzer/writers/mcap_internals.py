@@ -16,18 +16,21 @@ offers no public hook for (it has none as of 1.6).
   other, reading the chunk's bytes from ``Writer.__chunk_builder``. Only chunks
   of at most ``SMALL_CHUNK`` bytes are tried twice.
 
-``CHANGED`` says what of these internals the installed mcap no longer has (None
-while it has them all); tests/pure/test_mcap_internals.py fails, naming mcap's
-version, when it is not None, or when the recordings it writes lose either
-thing. A recording goes on all the same: with internals changed, nothing is put
-in mcap's place, and ``chunk_writer`` gives mcap's own writer (its own zstd
-level, every chunk compressed).
+The two are checked apart, so that a new mcap reshaping one keeps the other:
+``LEVEL_CHANGED`` and ``STORE_CHANGED`` say what of each one's internals the
+installed mcap no longer has (None while it has them all).
+tests/pure/test_mcap_internals.py fails, naming mcap's version, when either is
+not None, or when the recordings it writes lose either thing. A recording goes
+on all the same: without the level's internals nothing is put in mcap's place
+(chunks at mcap's own zstd level), and without the others ``chunk_writer``
+gives mcap's own writer (every chunk compressed).
 """
 
 from __future__ import annotations
 
 import inspect
 import io
+from types import FunctionType
 from typing import IO, TYPE_CHECKING, Protocol, cast
 
 import mcap
@@ -62,14 +65,34 @@ class _Zstd:
         return zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(data)
 
 
-def _changed() -> str | None:
-    """``CHANGED`` (module doc)."""
-    missing = []
+def _finalize_chunk() -> FunctionType | None:
+    """mcap's ``Writer.__finalize_chunk(self)``, None if it no longer has one of that shape."""
     finalize = vars(Writer).get("_Writer__finalize_chunk")
-    if finalize is None or list(inspect.signature(finalize).parameters) != ["self"]:
+    if not isinstance(finalize, FunctionType) or list(inspect.signature(finalize).parameters) != ["self"]:
+        return None
+    return finalize
+
+
+def _level_changed() -> str | None:
+    """``LEVEL_CHANGED`` (module doc): the zstd level needs the writer to
+    compress a chunk with its module's ``zstandard.compress``."""
+    finalize = _finalize_chunk()
+    if finalize is None:
+        missing = "Writer.__finalize_chunk(self)"
+    elif not (hasattr(mcap.writer, "zstandard")
+              and {"zstandard", "compress"} <= set(finalize.__code__.co_names)):
+        missing = "zstandard.compress, called by Writer.__finalize_chunk"
+    else:
+        return None
+    return _changed_message([missing])
+
+
+def _store_changed() -> str | None:
+    """``STORE_CHANGED`` (module doc): storing a chunk as it is needs the
+    method that closes a chunk, its compression setting and its builder."""
+    missing = []
+    if _finalize_chunk() is None:
         missing.append("Writer.__finalize_chunk(self)")
-    elif not (hasattr(mcap.writer, "zstandard") and {"zstandard", "compress"} <= set(finalize.__code__.co_names)):
-        missing.append("zstandard.compress, called by Writer.__finalize_chunk")
     probe = vars(Writer(io.BytesIO()))
     if not isinstance(probe.get("_Writer__compression"), CompressionType):
         missing.append("Writer.__compression")
@@ -78,14 +101,17 @@ def _changed() -> str | None:
     if not (hasattr(builder, "num_messages") and hasattr(builder, "count")
             and isinstance(getattr(records, "_buffer", None), io.BytesIO)):
         missing.append("Writer.__chunk_builder (num_messages, count, record_writer._buffer)")
-    if not missing:
-        return None
+    return _changed_message(missing) if missing else None
+
+
+def _changed_message(missing: list[str]) -> str:
     return (f"mcap {mcap.__version__} no longer has the writer internals analyzer/writers/mcap_internals.py "
             f"adapts: {', '.join(missing)}")
 
 
-CHANGED = _changed()
-if CHANGED is None:
+LEVEL_CHANGED = _level_changed()
+STORE_CHANGED = _store_changed()
+if LEVEL_CHANGED is None:
     mcap.writer.zstandard = _Zstd   # type: ignore[assignment]  # in the module's place: compress() is all it calls
 
 
@@ -118,7 +144,7 @@ class _StoresIncompressibleChunks(Writer):
 def chunk_writer(output: Output, *, chunk_size: int, index_types: IndexType, use_chunking: bool) -> Writer:
     """mcap's writer into ``output``, compressing with zstd at ``ZSTD_LEVEL`` and
     storing a chunk that zstd does not make smaller as it is (module doc)."""
-    kind = _StoresIncompressibleChunks if CHANGED is None else Writer
+    kind = _StoresIncompressibleChunks if STORE_CHANGED is None else Writer
     # the writer calls only write, tell and flush on a stream it is given (not a path)
     return kind(cast(IO[bytes], output), compression=CompressionType.ZSTD, chunk_size=chunk_size,
                 index_types=index_types, use_chunking=use_chunking)

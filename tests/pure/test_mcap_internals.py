@@ -5,6 +5,9 @@ mcap_internals.py to the new version (or pin mcap below it in pyproject.toml).""
 
 import io
 import random
+import subprocess
+import sys
+import textwrap
 
 import mcap
 import zstandard
@@ -12,7 +15,8 @@ from mcap.records import Chunk
 from mcap.stream_reader import StreamReader
 from mcap.writer import IndexType
 
-from analyzer.writers.mcap_internals import CHANGED, SMALL_CHUNK, ZSTD_LEVEL, chunk_writer
+from analyzer.writers.mcap_internals import LEVEL_CHANGED, SMALL_CHUNK, STORE_CHANGED, ZSTD_LEVEL, chunk_writer
+from tests.conftest import ROOT
 
 MCAP = f"mcap {mcap.__version__}"
 
@@ -34,7 +38,7 @@ def chunks(*contents: bytes) -> list[Chunk]:
 
 
 def test_the_installed_mcap_has_the_internals_the_adapter_relies_on():
-    assert CHANGED is None, CHANGED
+    assert (LEVEL_CHANGED, STORE_CHANGED) == (None, None), f"{LEVEL_CHANGED}; {STORE_CHANGED}"
 
 
 def test_a_small_chunk_that_zstd_would_make_larger_is_stored_as_it_is():
@@ -51,3 +55,34 @@ def test_chunks_are_compressed_at_the_adapters_zstd_level():
     raw = zstandard.ZstdDecompressor().decompress(first.data, max_output_size=first.uncompressed_size)
     assert first.data == zstandard.ZstdCompressor(level=ZSTD_LEVEL).compress(raw), \
         f"{MCAP}: the writer no longer compresses with the adapter's compressor (level {ZSTD_LEVEL})"
+
+
+# A new mcap whose chunk builder is reshaped (here: its buffer no longer a BytesIO),
+# the rest as it is; in a process of its own, where the adapter is imported after.
+RESHAPED_BUILDER = textwrap.dedent("""
+    import io
+    import mcap.data_stream
+
+    class Buffer:
+        def __init__(self):
+            self.bytes = io.BytesIO()
+
+        def __getattr__(self, name):
+            return getattr(self.bytes, name)
+
+    def reshaped_init(self):
+        self._buffer = Buffer()
+
+    mcap.data_stream.RecordBuilder.__init__ = reshaped_init
+
+    from analyzer.writers import mcap_internals
+    from tests.pure.test_mcap_internals import test_chunks_are_compressed_at_the_adapters_zstd_level
+    assert mcap_internals.STORE_CHANGED is not None and mcap_internals.LEVEL_CHANGED is None
+    test_chunks_are_compressed_at_the_adapters_zstd_level()
+""")
+
+
+def test_a_reshaped_chunk_builder_keeps_the_zstd_level():
+    done = subprocess.run([sys.executable, "-c", RESHAPED_BUILDER], check=False, cwd=ROOT,
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

@@ -3,7 +3,8 @@ and two drivers: events counted as they come, in batches (``gimbalscope stats``)
 and the TUI store's columns (analyzer/tui/store_stats.py, ``stats_of``).
 
 The figures are right by hand on a small capture built by hand; a capture counted
-in batches of any size has the statistics of its events counted as one batch; and
+in batches of any size, or one event at a time, has the statistics of its events
+counted as one batch, whenever they are read; and
 the store's columns (of every event, of the first part, of a filtered view's rows)
 give the statistics of the same events: every count, every latency bucket, on the
 sample captures and hostile lines. The device map (``devices_of``) likewise: right
@@ -15,7 +16,7 @@ import pytest
 
 import analyzer
 from analyzer.analysis.filter import compile_filter
-from analyzer.analysis.stats import Stats
+from analyzer.analysis.stats import BATCH, EventColumns, Stats
 from analyzer.listeners import StatsListener
 from analyzer.simulation.traffic import generate
 from analyzer.tui.store import EventStore
@@ -128,6 +129,44 @@ def test_batches_of_any_size_count_as_one(which, tmp_path):
         if k % 1300 == 0:
             assert listener.stats.events == k + len(events[k:k + 13])   # the figures so far, whenever read
     assert listener.stats.to_dict() == whole
+
+
+@pytest.mark.parametrize("which", CAPTURES)
+def test_added_one_by_one_or_in_any_batches_and_read_whenever(which, tmp_path):
+    """``add`` and ``add_events`` gather events into batches of ``BATCH``, and a
+    figure read counts those waiting first: one by one, in batches of any size,
+    read in the middle or not, the figures are those of the events as one batch."""
+    once = capture(which, tmp_path)
+    events = once * (3 * BATCH // len(once) + 1)   # more than a few batches
+    whole = counted(events)
+    one_by_one = Stats()
+    for ev in events:
+        one_by_one.add(ev)
+    assert one_by_one.to_dict() == whole
+    for size in (1, 13, BATCH - 1, BATCH, BATCH + 1, 2 * BATCH + 7):
+        assert counted(events, size) == whole, size
+    # read after 13 events, then more: one by one, a few at a time, a big batch, columns
+    s = Stats()
+    for ev in events[:13]:
+        s.add(ev)
+    early = s.to_dict()
+    assert early == counted(events[:13]) and s.events == 13
+    cut = [13, 20, BATCH + 5, BATCH + 9, len(events) - 40]
+    for ev in events[cut[0]:cut[1]]:
+        s.add(ev)
+    assert s.events == 20 and sum(s.kinds.values()) == 20   # every figure read sees the events waiting
+    assert {k: c.to_dict() for k, c in sorted(s.by_command.items())} == counted(events[:20])["by_command"]
+    s.add_events(events[cut[1]:cut[2]])
+    for k in range(cut[2], cut[3]):
+        s.add_events(events[k:k + 1])
+    s.add_events(events[cut[3]:cut[4]])
+    s.add(events[cut[4]])
+    s.add_columns(EventColumns.of(events[cut[4] + 1:]))   # counted after the one waiting
+    assert s.to_dict() == whole
+    one = Stats()
+    one.add_columns(EventColumns.of(events))
+    assert (s.events, s.first_t, s.last_t, s.by_device.keys()) == (one.events, one.first_t, one.last_t,
+                                                                   one.by_device.keys())
 
 
 @pytest.mark.parametrize("which", CAPTURES)

@@ -5,6 +5,7 @@ in order; what it prints reaches no terminal; SIGTERM ends it through its
 from __future__ import annotations
 
 import os
+import sys
 import time
 
 import pytest
@@ -64,6 +65,20 @@ def test_a_killed_child_is_an_eof():
         worker.messages.recv()
     worker.end()
     worker.messages.close()
+
+
+def path_of_child(sender: worker_process.Sender) -> None:
+    sender.send(list(sys.path))
+
+
+def test_a_path_entry_that_is_not_text_is_left_out_as_imports_leave_it_out(monkeypatch, tmp_path):
+    monkeypatch.setattr(sys, "path", [*sys.path, tmp_path / "a path object", os.fsencode(tmp_path / "bytes")])
+    worker = worker_process.start(path_of_child, ())
+    assert worker is not None
+    child_path = worker.messages.recv()
+    worker.end()
+    worker.messages.close()
+    assert child_path == [entry for entry in sys.path if isinstance(entry, str)]
 
 
 def test_a_channel_without_a_process():

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import asyncio
 import json
+import os
 
 import pytest
 
@@ -120,6 +121,16 @@ def test_quitting_while_loading_ends_the_decoding_process(tmp_path):
     process = drive(app, lambda a: a.model.shown > 0 and not a.model.done, lambda a: a.feed.process)
     assert not process.is_alive()
     assert app.feed.notes == []   # a decoding ended on purpose is no news after the screen has closed
+
+
+def test_processes_that_have_said_their_last_word_are_reaped_before_the_screen_closes():
+    def unreaped(app) -> list[int]:
+        """Looked at before ``stop_feed`` ends them: a child not reaped is still listed (a zombie)."""
+        pids = (app.feed.process.pid, app.feed.doctor_process.process.pid)
+        return [pid for pid in pids if os.path.exists(f"/proc/{pid}")]
+
+    app = make_app(analyzer.open(CTL, DEV), mode="view")
+    assert drive(app, lambda a: a.model.done and a.model.findings, unreaped) == []
 
 
 def receiving(sent) -> list:

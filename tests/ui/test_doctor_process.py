@@ -11,7 +11,8 @@ import os
 
 import analyzer
 from analyzer.tui.decode_process import ProcessFeed
-from analyzer.tui.doctor_process import DoctorProcess, readable_by_another_process
+from analyzer.tui.doctor_process import DoctorProcess, DoctorWord, readable_by_another_process
+from analyzer.tui.feed import FeedBatch
 from analyzer.tui.run import make_app, stop_feed
 from tests.conftest import CTL, DEV, SOCAT_LOG, run_cli
 from tests.ui.test_pilot import settle
@@ -55,3 +56,13 @@ def test_what_cannot_be_read_twice_keeps_the_doctor_in_the_capture_thread(tmp_pa
     assert readable((SOCAT_LOG,)) and readable((CTL, DEV))
     assert not readable((str(fifo),)) and not readable(("-",)) and not readable(())
     assert not readable((str(tmp_path / "gone.log"),))
+
+
+def test_a_doctor_that_failed_is_a_warning_in_the_next_batch():
+    batch = FeedBatch([], [], [], warnings=["earlier"])
+    batch.hear(DoctorWord(None, "its process ended without a word"))
+    assert batch.warnings == ["earlier", "the wiring doctor stopped: its process ended without a word"]
+    assert batch.doctor_error == "its process ended without a word" and batch.findings is None
+    found = FeedBatch([], [], [])
+    found.hear(DoctorWord([]))
+    assert found.warnings == [] and found.findings == [] and found.doctor_error is None

@@ -19,6 +19,7 @@ from dissectors.event import Event
 
 from ...analysis.filter import Predicate, compile_filter
 from ..store import ERROR, EventStore
+from ..store_filter import Columns, matching
 from ..sweep import IsCancelled, ReportProgress
 
 
@@ -51,7 +52,6 @@ class FilterView:
         decide which match (``store_filter``), as for ``prepare``."""
         if self.pred is None or self.view is None or stop <= start:
             return
-        from ..store_filter import matching
         found = matching(self.pred, store, start, stop)
         flags = store.flags
         self.view.extend(found)
@@ -77,7 +77,6 @@ class FilterView:
         pred = compile_filter(text) if text else None
         if pred is None:
             return PreparedFilter(text, None, shown, None)
-        from ..store_filter import matching  # numpy: loaded when a filter first runs, not with the screen
         return PreparedFilter(text, pred, shown,
                               matching(pred, store, 0, shown, progress=progress, cancelled=cancelled))
 
@@ -94,7 +93,6 @@ class FilterView:
         if upto > shown:   # a replay went back meanwhile
             view = array("i", view[:bisect_left(view, shown)])
             upto = shown
-        from ..store_filter import matching
         view.extend(matching(pred, store, upto, shown))
         self.view = view
         self.errors = error_rows(store, view, shown)
@@ -109,7 +107,6 @@ def error_rows(store: EventStore, view: array, shown: int) -> int:
     from the store's flags column (copies: the arrays go on growing)."""
     import numpy as np
 
-    from ..store_filter import Columns
     if not len(view):
         return 0
     errors = Columns(store, 0, shown).flag(ERROR)

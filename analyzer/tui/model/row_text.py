@@ -15,15 +15,15 @@ from ..store import EventStore
 TIME_MODES = ("absolute", "relative", "delta")
 
 
-class Rows(Protocol):
-    """What a row's text reads of the model (capture.py)."""
+class ShownRows(Protocol):
+    """The rows shown, as a row's text reads them of the model (capture.py)."""
     store: EventStore
 
     def row(self, i: int) -> Event | None: ...
 
 
 class RowText:
-    def __init__(self, model: Rows) -> None:
+    def __init__(self, model: ShownRows) -> None:
         self.model = model
         self.time_mode = "absolute"
 

@@ -10,10 +10,13 @@ from bisect import bisect_right
 from collections.abc import Iterable
 from typing import Protocol
 
+import numpy as np
+
 from dissectors.event import Event
 
 from ...analysis.stats import Stats, checksum_problem
 from ..store import EventStore
+from ..store_stats import devices_of, stats_of
 from .devices import DeviceInfo
 from .filter import FilterView
 
@@ -60,9 +63,6 @@ class Totals:
         view = m.filter.view
         key = (m.shown, id(view), None if view is None else len(view))
         if self._stats is None or self._stats[0] != key:
-            import numpy as np
-
-            from ..store_stats import stats_of  # numpy: loaded when first asked, not with the screen
             rows = None if view is None else np.frombuffer(view.tobytes(), dtype=np.int32)
             self._stats = (key, stats_of(m.store, m.shown, rows))
         return self._stats[1]
@@ -72,6 +72,5 @@ class Totals:
         """The device map of the shown events."""
         m = self.model
         if self._devices is None or self._devices[0] != m.shown:
-            from ..store_stats import devices_of  # numpy: loaded when first asked, not with the screen
             self._devices = (m.shown, devices_of(m.store, m.shown))
         return self._devices[1]
