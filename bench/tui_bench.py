@@ -46,6 +46,7 @@ import analyzer
 from analyzer.capture import open_live
 from analyzer.info import CaptureInfo
 from analyzer.runner import TapRunner
+from analyzer.tui.decode_process import ProcessFeed
 from analyzer.tui.run import SWITCH, make_app, stop_feed
 from analyzer.tui.widgets import EventList
 from analyzer.writers.mcap import McapWriter
@@ -87,8 +88,8 @@ def watch_decoding(app, figures: dict) -> None:
     ends (the screen's own peak is the process's above)."""
     def watch():
         while not app.model.done:
-            process = getattr(app.feed, "process", None)
-            if process is not None and process.pid:
+            process = app.feed.process if isinstance(app.feed, ProcessFeed) else None
+            if process is not None:
                 try:
                     figures["rss_decoding"] = vm_hwm_mb(process.pid)
                 except (OSError, StopIteration):   # ended

@@ -45,7 +45,7 @@ class Child:
     @staticmethod
     def _read(pipe, lines: list[str]) -> None:
         for line in pipe:
-            lines.append(line)
+            lines.append(line)   # noqa: PERF402 - one at a time: the waiting test sees each line as it comes
 
     def wait_said(self, text: str, what: str = "") -> None:
         """Until a line of standard error holds ``text``; the child ending first fails."""

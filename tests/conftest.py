@@ -27,7 +27,7 @@ def run_cli(*args, input=None, timeout=60, env=None):
     exe = shutil.which("gimbalscope")
     cmd = [exe] if exe else [sys.executable, "-m", "analyzer"]
     return subprocess.run(cmd + [str(a) for a in args], capture_output=True, text=True, input=input,
-                          timeout=timeout, cwd=ROOT, env=env)
+                          timeout=timeout, cwd=ROOT, env=env, check=False)
 
 
 def drain(master: int) -> bytes:
@@ -53,7 +53,7 @@ def socat_bin():
 
 
 # Property tests: 300 examples each by default; HYPOTHESIS_PROFILE=deep for 5000.
-from hypothesis import settings  # noqa: E402
+from hypothesis import settings
 
 settings.register_profile("default", max_examples=300, deadline=None)
 settings.register_profile("deep", max_examples=5000, deadline=None)

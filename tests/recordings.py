@@ -29,9 +29,8 @@ def _messages(path: Path):
     with open(path, "rb") as f:
         try:
             reader = make_reader(f)
-            for item in reader.iter_messages(log_time_order=False):
-                yield item
-        except Exception:   # a file damaged on purpose: checked as far as it reads
+            yield from reader.iter_messages(log_time_order=False)
+        except Exception:  # noqa: BLE001 - a file damaged on purpose: checked as far as it reads
             return
 
 

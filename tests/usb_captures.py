@@ -18,14 +18,14 @@ BT = 10 / 9600            # seconds a byte at 9600 8N1
 START = 1_790_000_000     # epoch seconds of the capture's first packet
 ISO, INTR, CTRL, BULK = 0, 1, 2, 3
 
-FT232R = dict(vid=0x0403, pid=0x6001, bcd=0x0600, ports=[(0xFF, [(0x81, BULK, 64), (0x02, BULK, 64)])])
-FT2232H = dict(vid=0x0403, pid=0x6010, bcd=0x0700, ports=[(0xFF, [(0x81, BULK, 512), (0x02, BULK, 512)]),
-                                                          (0xFF, [(0x83, BULK, 512), (0x04, BULK, 512)])])
-CP2102 = dict(vid=0x10C4, pid=0xEA60, bcd=0x0100, ports=[(0xFF, [(0x81, BULK, 64), (0x01, BULK, 64)])])
-CH340 = dict(vid=0x1A86, pid=0x7523, bcd=0x0254,
-             ports=[(0xFF, [(0x82, BULK, 32), (0x02, BULK, 32), (0x81, INTR, 8)])])
-MOUSE = dict(vid=0x046D, pid=0xC077, bcd=0x7200, ports=[(0x03, [(0x81, INTR, 4)])])
-STICK = dict(vid=0x0781, pid=0x5567, bcd=0x0100, ports=[(0x08, [(0x81, BULK, 512), (0x02, BULK, 512)])])
+FT232R = {"vid": 0x0403, "pid": 0x6001, "bcd": 0x0600, "ports": [(0xFF, [(0x81, BULK, 64), (0x02, BULK, 64)])]}
+FT2232H = {"vid": 0x0403, "pid": 0x6010, "bcd": 0x0700, "ports": [(0xFF, [(0x81, BULK, 512), (0x02, BULK, 512)]),
+                                                                  (0xFF, [(0x83, BULK, 512), (0x04, BULK, 512)])]}
+CP2102 = {"vid": 0x10C4, "pid": 0xEA60, "bcd": 0x0100, "ports": [(0xFF, [(0x81, BULK, 64), (0x01, BULK, 64)])]}
+CH340 = {"vid": 0x1A86, "pid": 0x7523, "bcd": 0x0254,
+         "ports": [(0xFF, [(0x82, BULK, 32), (0x02, BULK, 32), (0x81, INTR, 8)])]}
+MOUSE = {"vid": 0x046D, "pid": 0xC077, "bcd": 0x7200, "ports": [(0x03, [(0x81, INTR, 4)])]}
+STICK = {"vid": 0x0781, "pid": 0x5567, "bcd": 0x0100, "ports": [(0x08, [(0x81, BULK, 512), (0x02, BULK, 512)])]}
 
 FTDI_IDLE = b"\x01\x60"       # FT232R modem status (full-speed bit), line status THRE|TEMT
 FTDI_HS_IDLE = b"\x02\x60"    # FT2232H: the high-speed bit
@@ -174,9 +174,8 @@ class UsbCapture:
             f.write(block(0x0A0D0D0A, struct.pack(endian + "IHHq", 0x1A2B3C4D, 1, 0, -1)))
             tsresol = struct.pack(endian + "HH", 9, 1) + b"\x09\0\0\0" + struct.pack(endian + "HH", 0, 0)
             f.write(block(1, struct.pack(endian + "HHI", link_type, 0, 262144) + tsresol))
-            for ns, data in self.packets(link_type, endian):
-                f.write(block(6, struct.pack(endian + "IIIII", 0, ns >> 32, ns & 0xFFFFFFFF, len(data), len(data))
-                              + data))
+            f.writelines(block(6, struct.pack(endian + "IIIII", 0, ns >> 32, ns & 0xFFFFFFFF, len(data), len(data)) + data)
+                         for ns, data in self.packets(link_type, endian))
 
 
 def ftdi_packets(data: bytes, status: bytes = FTDI_IDLE, size: int = 64) -> bytes:

@@ -32,13 +32,13 @@ def uart_levels(chars: list[tuple[float, int]], samplerate: float, baud: float, 
     of ``chars`` sent from its start time at ``baud`` (a sender whose clock is off
     is a baud that is not the nominal one); ``breaks``: (from, seconds) held at
     the active level; ``glitches``: times of pulses ``glitch_len`` bits long."""
-    n = int(round(duration * samplerate))
+    n = round(duration * samplerate)
     level = np.ones(n, dtype=np.uint8)
     bit = samplerate / baud
     for t, value in chars:
         s = t * samplerate
         for k, b in enumerate(frame_bits(value, data_bits, parity, stop_bits)):
-            a, z = int(round(s + k * bit)), int(round(s + (k + 1) * bit))
+            a, z = round(s + k * bit), round(s + (k + 1) * bit)
             level[a:z] = b
     for t, secs in breaks:
         level[int(t * samplerate):int((t + secs) * samplerate)] = 0

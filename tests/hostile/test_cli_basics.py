@@ -78,7 +78,7 @@ def test_every_subcommand_help_exits_0_and_prints_usage():
     for name, parser in subcommands().items():
         try:
             code, out, err = parse(parser, ["--help"])
-        except Exception as e:   # argparse formats help lazily: a bad %-code raises here
+        except Exception as e:  # noqa: BLE001 - argparse formats help lazily: a bad %-code raises anything here
             broken[name] = repr(e)
             continue
         if code != 0 or not out.startswith(f"usage: gimbalscope {name}") or err:
@@ -229,7 +229,7 @@ def test_license_is_present_and_declared():
 
 def test_python_dash_m_analyzer_works_and_is_documented():
     r = subprocess.run([sys.executable, "-m", "analyzer", "--version"], capture_output=True, text=True, cwd=ROOT,
-                       timeout=HANG_GUARD)
+                       timeout=HANG_GUARD, check=False)
     assert r.returncode == 0 and r.stdout.startswith("gimbalscope ")
     with open(os.path.join(ROOT, "README.md"), encoding="utf-8") as f:
         assert "python3 -m analyzer" in f.read()
@@ -252,7 +252,7 @@ def test_ci_run_without_go_is_one_clear_line(tmp_path):
     shutil.copy(os.path.join(ROOT, ".ci", "run"), checkout / ".ci" / "run")
     env = {"PATH": f"{stubs}:/usr/bin:/bin", "HOME": str(tmp_path)}
     r = subprocess.run(["bash", str(checkout / ".ci" / "run")], capture_output=True, text=True, env=env,
-                       timeout=HANG_GUARD)
+                       timeout=HANG_GUARD, check=False)
     assert r.returncode != 0
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "go not found" in lines[0] and "1.21" in lines[0], r.stderr

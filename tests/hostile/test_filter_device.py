@@ -14,7 +14,8 @@ import os
 import sys
 
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 import analyzer
 from analyzer.analysis.filter import FilterError, compile_filter
@@ -185,7 +186,7 @@ def test_device_selects_a_gimbals_commands_and_all_its_answers(tap):
 
 
 def test_cli_device_filter_gives_the_acks_too(tap):
-    path, expected = tap
+    path, _expected = tap
     r = run_cli("decode", path, "--format", "jsonl", "--filter", 'device == "1.1.3"')
     assert r.returncode == 0, r.stderr
     rows = [json.loads(line) for line in r.stdout.splitlines()]

@@ -7,6 +7,7 @@ at most 4 KiB."""
 from __future__ import annotations
 
 import base64
+import itertools
 import json
 import os
 import re
@@ -43,13 +44,10 @@ def vm(pid: int, key: str) -> float:
 def start_tap(tmp_path, *ports):
     """``gimbalscope live PORTS --format jsonl --record`` with stdout and stderr in
     files (a pipe nobody reads would stall it)."""
-    out = open(tmp_path / "out.jsonl", "w")
-    err = open(tmp_path / "err.txt", "w")
     rec = tmp_path / "flood.mcap"
-    proc = subprocess.Popen([sys.executable, "-m", "analyzer", "live", *ports, "--format", "jsonl",
-                             "--record", str(rec)], stdout=out, stderr=err, cwd=ROOT)
-    out.close()
-    err.close()
+    with open(tmp_path / "out.jsonl", "w") as out, open(tmp_path / "err.txt", "w") as err:
+        proc = subprocess.Popen([sys.executable, "-m", "analyzer", "live", *ports, "--format", "jsonl",
+                                 "--record", str(rec)], stdout=out, stderr=err, cwd=ROOT)
     said = tmp_path / "err.txt"
     wait_for(lambda: LISTENING in said.read_text() or proc.poll() is not None, "the tap to listen")
     assert proc.poll() is None, said.read_text()
@@ -125,7 +123,7 @@ def assert_tiles(events: list[dict], line: str, skipped: int, total: int) -> Non
     mine = sorted((e for e in events if e["line"] == line), key=lambda e: e["offset"])
     decoded = sum(len(e["raw"]) // 2 for e in mine)
     assert decoded + skipped == total, (decoded, skipped, total)
-    for a, b in zip(mine, mine[1:]):
+    for a, b in itertools.pairwise(mine):
         assert a["offset"] + len(a["raw"]) // 2 <= b["offset"]   # no byte in two events
     assert all(len(e["raw"]) // 2 <= NOISE_PIECE for e in mine if e["kind"] == "noise")
 

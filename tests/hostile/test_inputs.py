@@ -36,7 +36,7 @@ def cli(*args, stdin: bytes | None = None, tmpdir=None) -> subprocess.CompletedP
     env = dict(os.environ, TMPDIR=str(tmpdir)) if tmpdir else None
     return subprocess.run(cmd + [str(a) for a in args], input=stdin,
                           stdin=None if stdin is not None else subprocess.DEVNULL,
-                          capture_output=True, timeout=120, cwd=ROOT, env=env)
+                          capture_output=True, timeout=120, cwd=ROOT, env=env, check=False)
 
 
 def jsonl(*args, stdin: bytes | None = None, tmpdir=None) -> tuple[list[dict], list[str]]:
@@ -351,7 +351,8 @@ def test_a_terminal_is_refused_not_waited_on():
         one_line_error(cli("decode", name), name, "terminal")
         exe = shutil.which("gimbalscope")
         cmd = [exe] if exe else [sys.executable, "-m", "analyzer"]
-        out = subprocess.run(cmd + ["decode", "-"], stdin=slave, capture_output=True, timeout=120, cwd=ROOT)
+        out = subprocess.run(cmd + ["decode", "-"], stdin=slave, capture_output=True, timeout=120, cwd=ROOT,
+                             check=False)
         one_line_error(out, "standard input", "terminal")
     finally:
         os.close(master)

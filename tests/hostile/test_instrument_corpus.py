@@ -40,14 +40,23 @@ import subprocess
 import warnings
 import zipfile
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from tests.conftest import frame, run_cli
 from tests.forked_cli import run_many
-from tests.integration.test_logic_formats import (RATE, conversation, edges, sigrok_vcd, write_binary,
-                                                  write_digital_csv, write_table, write_vcd)
+from tests.integration.test_logic_formats import (
+    RATE,
+    conversation,
+    edges,
+    sigrok_vcd,
+    write_binary,
+    write_digital_csv,
+    write_table,
+    write_vcd,
+)
 from tests.integration.test_logic_sigrok import session
 from tests.integration.test_usb_captures import WRITERS, ftdi_conversation
 from tests.usb_captures import FT232R, UsbCapture
@@ -433,7 +442,7 @@ def saleae_file(version: int, levels: np.ndarray, rate: float, *, kind: int = 0,
 
 
 def binary_mutants(seeds: dict, rng: random.Random) -> list[Mutant]:
-    a, b = conversation()
+    a, _b = conversation()
     whole = {v: seeds[f"saleae binary v{v}"] for v in (0, 1)}
     # the fields this test writes are the helper's, where it writes them
     assert all(saleae_file(v, a, RATE) == whole[v][0] for v in (0, 1))
@@ -448,25 +457,25 @@ def binary_mutants(seeds: dict, rng: random.Random) -> list[Mutant]:
         return t
 
     out = [two(what, saleae_file(1, a, RATE, **kw)) for what, kw in [
-        ("version 2", dict(version_field=2)), ("version -1", dict(version_field=-1)),
-        ("analog", dict(kind=1)), ("type 7", dict(kind=7))]]
+        ("version 2", {"version_field": 2}), ("version -1", {"version_field": -1}),
+        ("analog", {"kind": 1}), ("type 7", {"kind": 7})]]
     for v in (0, 1):
         out += [two(what, saleae_file(v, a, RATE, **kw), v) for what, kw in [
-            ("0 transitions", dict(count=0)), ("-1 transitions", dict(count=-1)),
-            ("2**62 transitions", dict(count=2 ** 62)), ("one transition more than written", dict(count=ta.size + 1)),
-            ("a NaN time", dict(times=times_with(5, float("nan")))),
-            ("an infinite time", dict(times=times_with(5, float("inf")))),
-            ("a time of 1e300", dict(times=times_with(5, 1e300))),
-            ("a time going back", dict(times=times_with(5, ta[2]))),
-            ("every time the same", dict(times=np.full(ta.size, 0.01))),
-            ("a begin time of NaN", dict(begin=float("nan"))), ("an end time of NaN", dict(end=float("nan"))),
-            ("the end before the begin", dict(begin=0.05, end=-0.05)), ("an end of 1e300", dict(end=1e300)),
-            ("a begin of -1e300", dict(begin=-1e300)), ("an initial state of 2**32-1", dict(state=0xFFFFFFFF)),
+            ("0 transitions", {"count": 0}), ("-1 transitions", {"count": -1}),
+            ("2**62 transitions", {"count": 2 ** 62}), ("one transition more than written", {"count": ta.size + 1}),
+            ("a NaN time", {"times": times_with(5, float("nan"))}),
+            ("an infinite time", {"times": times_with(5, float("inf"))}),
+            ("a time of 1e300", {"times": times_with(5, 1e300)}),
+            ("a time going back", {"times": times_with(5, ta[2])}),
+            ("every time the same", {"times": np.full(ta.size, 0.01)}),
+            ("a begin time of NaN", {"begin": float("nan")}), ("an end time of NaN", {"end": float("nan")}),
+            ("the end before the begin", {"begin": 0.05, "end": -0.05}), ("an end of 1e300", {"end": 1e300}),
+            ("a begin of -1e300", {"begin": -1e300}), ("an initial state of 2**32-1", {"state": 0xFFFFFFFF}),
         ]]
     out += [two(what, saleae_file(1, a, RATE, **kw)) for what, kw in [
-        ("0 chunks", dict(chunks=0)), ("-1 chunks", dict(chunks=-1)), ("2**62 chunks", dict(chunks=2 ** 62)),
-        ("2 chunks, one written", dict(chunks=2)),
-        *[(f"a sample rate of {r!r}", dict(sample_rate=r))
+        ("0 chunks", {"chunks": 0}), ("-1 chunks", {"chunks": -1}), ("2**62 chunks", {"chunks": 2 ** 62}),
+        ("2 chunks, one written", {"chunks": 2}),
+        *[(f"a sample rate of {r!r}", {"sample_rate": r})
           for r in (0.0, -1.0, float("nan"), float("inf"), 1e300, 1e-300, 1.0, 1e12)],
     ]]
     second = saleae_file(1, a, RATE, begin=0.07, end=0.09, times=ta + 0.07)
@@ -627,19 +636,19 @@ def seeds(tmp_path_factory) -> dict:
     if HAS_SIGROK:
         # sigrok-cli stamps the zip's members and the VCD with the time it ran: fixed
         # here, so the corpus is the same bytes every run
-        sr = open(session(d, *conversation()), "rb").read()
+        sr = Path(session(d, *conversation())).read_bytes()
         for name in zipfile.ZipFile(io.BytesIO(sr)).namelist():
             sr = patch_member(sr, name, 10, 12, "<I", DOS_DATE_TIME)
         out["sigrok"] = sr
         out["vcd (sigrok-cli)"] = re.sub(r"\$date .*? \$end", "$date Mon Jan  5 10:00:00 2026 $end",
-                                         open(sigrok_vcd(d)).read())
-    out["vcd"] = open(write_vcd(d / "sim.vcd", "1 ns", 1e-9)).read()
-    out["saleae csv"] = open(write_digital_csv(d / "digital.csv")).read()
-    out["saleae table"] = open(write_table(d / "table.csv")).read()
+                                         Path(sigrok_vcd(d)).read_text())
+    out["vcd"] = Path(write_vcd(d / "sim.vcd", "1 ns", 1e-9)).read_text()
+    out["saleae csv"] = Path(write_digital_csv(d / "digital.csv")).read_text()
+    out["saleae table"] = Path(write_table(d / "table.csv")).read_text()
     for v in (0, 1):
         folder = d / f"v{v}"
         folder.mkdir()
-        out[f"saleae binary v{v}"] = tuple(open(p, "rb").read() for p in write_binary(folder, v))
+        out[f"saleae binary v{v}"] = tuple(Path(p).read_bytes() for p in write_binary(folder, v))
     c = UsbCapture(bus=3)
     c.enumerate(0.100, 7, **FT232R)
     ftdi_conversation(c, answer_status=b"\x01\x68")     # a framing error reported on the answer
@@ -780,8 +789,8 @@ def test_the_forked_runs_are_the_console_command_s_runs(seeds, tmp_path):
         real = run_cli(*job["argv"])
         forked = results[job["id"]]
         assert forked["code"] == real.returncode, job["id"]
-        assert open(job["stdout"]).read() == real.stdout, job["id"]
-        assert open(job["stderr"]).read() == real.stderr, job["id"]
+        assert Path(job["stdout"]).read_text() == real.stdout, job["id"]
+        assert Path(job["stderr"]).read_text() == real.stderr, job["id"]
         codes.add(real.returncode)
     assert {0, 2} <= codes
 

@@ -23,8 +23,8 @@ from mcap.stream_reader import breakup_chunk
 from mcap.writer import Writer
 
 from analyzer.capture import Capture
-from analyzer.writers.mcap_recorder import McapRecorder
 from analyzer.sources.base import Chunk as RawChunk
+from analyzer.writers.mcap_recorder import McapRecorder
 from tests.conftest import frame, run_cli
 from tests.integration.test_mcap import doctor, go_read
 
@@ -291,8 +291,8 @@ def test_messages_that_are_not_ours_are_counted_and_the_rest_decodes(tmp_path):
     assert out.stderr.count(f"{len(FOREIGN)} messages on {RAW_AB} were not gimbalscope raw chunks") == 1
     # and, written by hand without our metadata record, the one line that says the defaults are used
     others = [line for line in out.stderr.strip().splitlines() if "were not gimbalscope raw chunks" not in line]
-    assert others == [f"gimbalscope: warning: {mixed}: it has no gimbalscope metadata record: decoding with "
-                      "the options given and the defaults (9600 8N1)"]
+    assert others == [(f"gimbalscope: warning: {mixed}: it has no gimbalscope metadata record: decoding with "
+                       "the options given and the defaults (9600 8N1)")]
 
 
 def test_a_raw_topic_with_nothing_of_ours_is_one_line(tmp_path):
@@ -323,7 +323,7 @@ def test_a_recording_of_our_raw_channels_without_messages_is_an_empty_capture(tm
 def test_a_cut_single_chunk_recording_is_reported_as_cut_with_the_offset(tmp_path):
     our_recording(tmp_path / "whole.mcap")
     whole = (tmp_path / "whole.mcap").read_bytes()
-    (offset, length, _counts), = chunks_in(whole)
+    (offset, _length, _counts), = chunks_in(whole)
     cut = tmp_path / "cut.mcap"
     cut.write_bytes(whole[:offset + 40])   # inside the chunk's header: nothing of it reads
     out = run_cli("decode", cut)

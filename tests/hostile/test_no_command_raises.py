@@ -15,14 +15,17 @@ import contextlib
 import gzip
 import io
 import lzma
+import math
 import os
 import shutil
+import struct
 import tempfile
+from pathlib import Path
 
 import orjson
 import pytest
-import struct
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from analyzer.cli.main import main
 from tests.conftest import ROOT
@@ -53,11 +56,11 @@ def run(argv: list[str]) -> tuple[int, str]:
 @pytest.fixture(scope="module")
 def corpus_dir():
     d = tempfile.mkdtemp(prefix="gimbal-hostile-")
-    bases = {name: open(os.path.join(CAPTURES, name), "rb").read() for name in SAMPLES}
+    bases = {name: Path(CAPTURES, name).read_bytes() for name in SAMPLES}
     rec = os.path.join(d, "base.mcap")
     code, err = run(["convert", os.path.join(CAPTURES, "demo-socat.log"), "-o", rec])
     assert code == 0, err
-    bases["base.mcap"] = open(rec, "rb").read()
+    bases["base.mcap"] = Path(rec).read_bytes()
     yield d, bases
     shutil.rmtree(d, ignore_errors=True)
 
@@ -93,7 +96,7 @@ foreign_payload = st.one_of(
     st.binary(max_size=40),
     st.dictionaries(st.sampled_from(("line", "offset", "t", "data", "x")), odd_values, max_size=5)
     .map(lambda d: orjson.dumps(d, option=orjson.OPT_NON_STR_KEYS) if all(
-        not isinstance(v, float) or v == v and abs(v) != float("inf") for v in d.values()) else b"{}"))
+        not isinstance(v, float) or math.isfinite(v) for v in d.values()) else b"{}"))
 
 
 def foreign_recording(payloads: list[bytes], topic: str) -> bytes:
@@ -144,7 +147,7 @@ def hostile_file(draw):
         topic = draw(st.sampled_from(("/serial/A/raw", "/serial/B/raw", "/serial/AB/raw")))
         return "x.mcap", [], foreign_recording(draw(st.lists(foreign_payload, max_size=5)), topic)
     if kind == "lines":
-        base = open(os.path.join(CAPTURES, "demo-socat.log"), "rb").read()
+        base = Path(CAPTURES, "demo-socat.log").read_bytes()
         edits = draw(st.lists(st.tuples(st.integers(0, 1 << 16), st.integers(0, 99)), min_size=1, max_size=3))
         return "x.log", [], damage_lines(base, edits)
     return draw(st.sampled_from(("x.bin", "x.log", "x.mcap"))), [], draw(st.binary(max_size=2048))

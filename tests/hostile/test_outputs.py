@@ -16,7 +16,8 @@ import tty
 import pytest
 
 import analyzer
-from tests.child import LISTENING, PATIENCE as WAIT, wait_for
+from tests.child import LISTENING, wait_for
+from tests.child import PATIENCE as WAIT
 from tests.conftest import ROOT, frame, run_cli
 
 SAMPLES = os.path.join(ROOT, "captures")
@@ -43,7 +44,7 @@ def one_line(out, code, *fragments):
 def run_bytes(*args, timeout=60):
     """Run the command with ``bytes`` arguments (file names as the OS gives them)."""
     argv = [os.fsencode(a) for a in CMD] + [a if isinstance(a, bytes) else os.fsencode(str(a)) for a in args]
-    return subprocess.run(argv, capture_output=True, timeout=timeout, cwd=ROOT)
+    return subprocess.run(argv, capture_output=True, timeout=timeout, cwd=ROOT, check=False)
 
 
 # ------------------------------------------------------------ a full filesystem
@@ -54,7 +55,7 @@ def small_fs(tmp_path):
     where.mkdir()
     try:
         r = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(where)],
-                           capture_output=True, text=True, timeout=30)
+                           capture_output=True, text=True, timeout=30, check=False)
     except (OSError, subprocess.TimeoutExpired) as e:
         pytest.skip(f"cannot mount a tmpfs: {e}")
     if r.returncode != 0:
@@ -62,8 +63,8 @@ def small_fs(tmp_path):
     try:
         yield where
     finally:
-        if subprocess.run(["umount", str(where)], capture_output=True, timeout=30).returncode != 0:
-            subprocess.run(["umount", "-l", str(where)], capture_output=True, timeout=30)
+        if subprocess.run(["umount", str(where)], capture_output=True, timeout=30, check=False).returncode != 0:
+            subprocess.run(["umount", "-l", str(where)], capture_output=True, timeout=30, check=False)
 
 
 def fill(folder) -> None:
@@ -145,8 +146,8 @@ def events_on_disk(path) -> int:
 
 
 def test_live_recording_onto_a_full_disk_stops_it_and_the_tap_goes_on(small_fs):
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
     rec = small_fs / "live.mcap"
     proc = subprocess.Popen(CMD + ["live", pa, pb, "--format", "jsonl", "--record", str(rec)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)
@@ -168,7 +169,7 @@ def test_live_recording_onto_a_full_disk_stops_it_and_the_tap_goes_on(small_fs):
         while True:
             one_round(ma, mb)
             rounds += 1
-            wait_for(lambda: len(out.lines) == 3 * rounds, "the round's events")
+            wait_for(lambda rounds=rounds: len(out.lines) == 3 * rounds, "the round's events")
             if held:
                 break
             held = events_on_disk(rec) >= 3
@@ -214,8 +215,8 @@ def test_tui_feed_recording_onto_a_full_disk_is_said_once_and_the_capture_goes_o
     from analyzer.tui.feed import Feed
     from analyzer.writers.mcap import McapWriter
 
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
+    ma, _sa, pa = pty_pair()
+    mb, _sb, pb = pty_pair()
     rec = small_fs / "tui.mcap"
     capture = open_live([pa, pb])
     info = CaptureInfo.of(capture, command="live")
@@ -245,7 +246,7 @@ def test_tui_feed_recording_onto_a_full_disk_is_said_once_and_the_capture_goes_o
         while recorder.recorder.kept < first:
             one_round(ma, mb)   # a chunk is closed by a message that comes after the interval
             rounds += 1
-            wait_for(lambda: events() >= 3 * rounds, "the round's events")
+            wait_for(lambda rounds=rounds: events() >= 3 * rounds, "the round's events")
             assert rounds < 400, "the recording never flushed"
         fill(small_fs)
         deadline = time.monotonic() + WAIT
@@ -272,7 +273,7 @@ def test_tui_feed_recording_onto_a_full_disk_is_said_once_and_the_capture_goes_o
 
 
 def test_live_recording_on_a_full_disk_from_the_start_is_one_line(small_fs):
-    ma, sa, pa = pty_pair()
+    _ma, _sa, pa = pty_pair()
     fill(small_fs)
     out = run_cli("live", pa, "--record", small_fs / "x.mcap", timeout=WAIT)
     one_line(out, 1, f"{small_fs / 'x.mcap'}: cannot write: no space left on device")
@@ -284,13 +285,14 @@ def test_live_recording_on_a_full_disk_from_the_start_is_one_line(small_fs):
                                   ["decode", SOCAT_LOG, "--color", "always"], ["stats", SOCAT_LOG]])
 def test_stdout_on_a_full_disk_is_one_line(args):
     with open("/dev/full", "w") as full:
-        out = subprocess.run(CMD + args, stdout=full, stderr=subprocess.PIPE, text=True, timeout=60, cwd=ROOT)
+        out = subprocess.run(CMD + args, stdout=full, stderr=subprocess.PIPE, text=True, timeout=60, cwd=ROOT,
+                             check=False)
     one_line(out, 1, "standard output: cannot write: no space left on device")
 
 
 def test_closed_stdout_is_one_line():
     cmd = " ".join(CMD) + f" decode {SOCAT_LOG} >&-"
-    out = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=60, cwd=ROOT)
+    out = subprocess.run(["bash", "-c", cmd], capture_output=True, text=True, timeout=60, cwd=ROOT, check=False)
     one_line(out, 1, "standard output is closed")
 
 
@@ -334,13 +336,13 @@ def test_convert_output_folder_problems_are_one_line(tmp_path, where, fragment):
 @pytest.mark.parametrize("where,fragment", [("missing/x.mcap", "no such folder"), ("adir", "is a directory")])
 def test_live_record_folder_problems_are_refused_before_the_tap(tmp_path, where, fragment):
     (tmp_path / "adir").mkdir()
-    ma, sa, pa = pty_pair()
+    _ma, _sa, pa = pty_pair()
     one_line(run_cli("live", pa, "--record", tmp_path / where, timeout=WAIT), 2, fragment)
 
 
 def test_live_record_onto_a_port_is_refused(tmp_path):
-    ma, sa, pa = pty_pair()
-    mb, sb, pb = pty_pair()
+    _ma, _sa, pa = pty_pair()
+    _mb, _sb, pb = pty_pair()
     one_line(run_cli("live", pa, pb, "--record", pb, timeout=WAIT), 2, f"{pb}: is the port {pb}")
 
 
@@ -392,7 +394,7 @@ def test_non_utf8_input_and_output_names(tmp_path):
 
 # ------------------------------------------------------------ success is no warning
 def test_a_finished_recording_is_a_status_line_not_a_warning(tmp_path):
-    ma, sa, pa = pty_pair()
+    ma, _sa, pa = pty_pair()
     rec = tmp_path / "ok.mcap"
     proc = subprocess.Popen(CMD + ["live", pa, "--format", "jsonl", "--record", str(rec)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=ROOT)

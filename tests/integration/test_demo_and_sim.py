@@ -10,7 +10,6 @@ import sys
 import time
 import tty
 
-
 from tests.conftest import ROOT, frame, run_cli
 
 PATIENCE = 30.0   # seconds to wait for the simulator: generous, the machine may be busy

@@ -201,7 +201,7 @@ def test_a_capture_across_midnight_is_split_by_day(tmp_path):
     log = tmp_path / "midnight.log"
     f1 = frame((1, 1, 1), 0, "HO")
     f2 = frame((1, 1, 2), 0, "HO")
-    hexed = lambda bs: " " + " ".join(f"{x:02x}" for x in bs)  # noqa: E731
+    hexed = lambda bs: " " + " ".join(f"{x:02x}" for x in bs)
     log.write_text(f"> 2026/03/01 23:59:59.900000000  length={len(f1)} from=0 to={len(f1) - 1}\n{hexed(f1)}\n--\n"
                    f"> 2026/03/02 00:00:00.500000000  length={len(f2)} from={len(f1)} to={len(f1) + len(f2) - 1}\n"
                    f"{hexed(f2)}\n--\n")
@@ -217,7 +217,7 @@ def test_a_capture_across_midnight_is_split_by_day(tmp_path):
 
 def test_events_carry_source_and_absolute_time(tmp_path):
     a, b = hand_capture(tmp_path)
-    cap = analyzer.open(a, b, start_time=dt.datetime(2026, 3, 1, 12, tzinfo=dt.timezone.utc).timestamp())
+    cap = analyzer.open(a, b, start_time=dt.datetime(2026, 3, 1, 12, tzinfo=dt.UTC).timestamp())
     events = list(cap)
     assert {ev.source for ev in events} == {f"{a}+{b}"}
     assert all(ev.ts is None for ev in events)   # raw dumps: no byte times
@@ -229,7 +229,7 @@ def test_events_carry_source_and_absolute_time(tmp_path):
     assert ev.source == str(log)
     # socat stamps a read when its last byte is in: the frame's first byte came 9 bytes of
     # 10 bits (8N1) at 9600 baud before it (docs/time.md)
-    first_byte = dt.datetime(2026, 3, 1, 12, 0, 1, 250000, tzinfo=dt.timezone.utc) - dt.timedelta(seconds=9 * 10 / 9600)
+    first_byte = dt.datetime(2026, 3, 1, 12, 0, 1, 250000, tzinfo=dt.UTC) - dt.timedelta(seconds=9 * 10 / 9600)
     assert abs(ev.datetime - first_byte) < dt.timedelta(microseconds=1)
     assert ev.ts == pytest.approx(first_byte.timestamp(), abs=1e-6)
 

@@ -36,7 +36,7 @@ def without(modules: tuple[str, ...], *args: str) -> subprocess.CompletedProcess
             "from analyzer.cli.main import main\n"
             "sys.exit(main(sys.argv[1:]))\n")
     return subprocess.run([sys.executable, "-c", code, *args], capture_output=True, text=True, cwd=ROOT,
-                          timeout=120)
+                          timeout=120, check=False)
 
 
 def project() -> dict:
@@ -107,7 +107,7 @@ def test_a_fleet_command_without_the_extra_says_what_to_install(tmp_path, missin
 def test_to_arrow_without_the_extra_names_it():
     code = ("import sys\nsys.modules['pyarrow'] = None\nimport analyzer\n"
             f"analyzer.open({SOCAT_LOG!r}).to_arrow()\n")
-    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=60)
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=ROOT, timeout=60, check=False)
     assert r.returncode == 1
     assert r.stderr.strip().splitlines()[-1].startswith("ImportError: to_arrow() needs pyarrow")
     assert HINT in r.stderr

@@ -11,14 +11,14 @@ from tests.conftest import BUS, run_cli
 
 @pytest.mark.parametrize("command,expr,line", [
     ("decode", "status == nak",
-     "gimbalscope: error: --filter column 11: unknown name 'nak'; text goes in quotes: "
-     "did you mean status == \"nak\"? in: status == >>>nak"),
+     ("gimbalscope: error: --filter column 11: unknown name 'nak'; text goes in quotes: "
+      "did you mean status == \"nak\"? in: status == >>>nak")),
     ("decode", 'status = "nak"',
-     "gimbalscope: error: --filter column 8: unexpected character '='; did you mean status == \"nak\"? "
-     "in: status >>>= \"nak\""),
+     ("gimbalscope: error: --filter column 8: unexpected character '='; did you mean status == \"nak\"? "
+      "in: status >>>= \"nak\"")),
     ("stats", "azimuth > 10",
-     "gimbalscope: error: --filter column 1: unknown name 'azimuth'; the unit is part of the name: "
-     "did you mean azimuth_deg > 10? in: >>>azimuth > 10"),
+     ("gimbalscope: error: --filter column 1: unknown name 'azimuth'; the unit is part of the name: "
+      "did you mean azimuth_deg > 10? in: >>>azimuth > 10")),
 ])
 def test_a_bad_filter_is_one_line_with_its_fix(command, expr, line):
     r = run_cli(command, BUS, "-Y", expr)

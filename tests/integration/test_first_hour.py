@@ -145,16 +145,16 @@ def test_options_that_do_not_apply_to_the_input_are_named(tmp_path):
     socat = run_cli("decode", SOCAT_LOG, "--channels", "A=TX,B=RX")
     assert socat.returncode == 0
     assert [line for line in socat.stderr.splitlines() if "ignored" in line] == [
-        f"gimbalscope: warning: {SOCAT_LOG}: --channels ignored: read "
-        "as socat -x -v log, which takes no --channels (it is for sigrok session, VCD, Saleae CSV export, Saleae "
-        "binary export or logic sample stream)"]
+        (f"gimbalscope: warning: {SOCAT_LOG}: --channels ignored: read "
+         "as socat -x -v log, which takes no --channels (it is for sigrok session, VCD, Saleae CSV export, Saleae "
+         "binary export or logic sample stream)")]
     # given where they apply: no word
     quiet = run_cli("decode", sr, "--channels", "A=0")
     assert "ignored" not in quiet.stderr
 
 
 def test_channels_on_a_usb_capture_are_named(tmp_path):
-    from tests.usb_captures import FTDI_IDLE, FT232R, UsbCapture, ftdi_packets
+    from tests.usb_captures import FT232R, FTDI_IDLE, UsbCapture, ftdi_packets
     c = UsbCapture(bus=1)
     c.enumerate(0.1, 7, **FT232R)
     c.bulk_out(1.000, 7, 2, COMMAND)

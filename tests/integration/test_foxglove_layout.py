@@ -234,7 +234,7 @@ def test_lean_recording_has_its_reads_panel_and_no_events_table(tmp_path):
     check_layout(layout_of(cut), DEMO_ADDRESSES, ["A", "B"], lean=True)
 
 
-def test_recording_without_summary_is_scanned(demo_recording, tmp_path):
+def test_recording_without_summary_is_walked(demo_recording, tmp_path):
     cut = without_summary(demo_recording, tmp_path / "killed.mcap")
     assert layout_of(cut) == layout_of(demo_recording)
 

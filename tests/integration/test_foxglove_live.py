@@ -136,7 +136,7 @@ class Client:
         while True:
             refused, n = len(self.refused), len(self.statuses)
             self.ws.send(json.dumps({"op": "getParameters", "parameterNames": [], "id": "sync"}))
-            wait_for(lambda: any(PARAMETERS in m["message"] for m in self.statuses[n:]), "the server's answer")
+            wait_for(lambda n=n: any(PARAMETERS in m["message"] for m in self.statuses[n:]), "the server's answer")
             if len(self.refused) == refused:
                 return
 
@@ -251,8 +251,8 @@ def test_a_busy_port_is_one_line_before_the_tap_starts(tmp_path):
         out = run_cli("live", pa, pb, "--no-tui", "--record", tmp_path / "rec.mcap",
                       "--foxglove", f"127.0.0.1:{port}", timeout=PATIENCE)
     assert out.returncode == 2
-    assert out.stderr.splitlines() == [f"gimbalscope: error: --foxglove 127.0.0.1:{port}: cannot serve: "
-                                       "address already in use"]
+    assert out.stderr.splitlines() == [(f"gimbalscope: error: --foxglove 127.0.0.1:{port}: cannot serve: "
+                                        "address already in use")]
     assert out.stdout == "" and not (tmp_path / "rec.mcap").exists()
 
 
@@ -277,9 +277,9 @@ def test_an_input_taken_as_the_address_is_said_as_such(tmp_path):
         out = run_cli("replay", "--foxglove", value, timeout=PATIENCE)
         assert out.returncode == 2, value
         lines = out.stderr.splitlines()
-        assert lines == [f"gimbalscope: error: argument --foxglove: '{value}' was taken as the server's address, "
-                         f"and looks like an input: give --foxglove after the inputs ({value} --foxglove), or its "
-                         f"address as --foxglove=HOST:PORT (see: gimbalscope replay --help)"], out.stderr
+        assert lines == [(f"gimbalscope: error: argument --foxglove: '{value}' was taken as the server's address, "
+                          f"and looks like an input: give --foxglove after the inputs ({value} --foxglove), or its "
+                          f"address as --foxglove=HOST:PORT (see: gimbalscope replay --help)")], out.stderr
 
 
 def test_demo_serves():

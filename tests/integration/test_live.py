@@ -34,7 +34,7 @@ def start_live(*args):
 def recording_tap(tmp_path, name="live.mcap"):
     """Two pty pairs, ``gimbalscope live`` on their slave ends recording to ``name``:
     (line A master, line B master, A path, B path, recording, process)."""
-    ma, sa, pa = pty_pair()
+    ma, _sa, pa = pty_pair()
     mb, sb, pb = pty_pair()
     rec = tmp_path / name
     return ma, mb, sb, pa, pb, rec, start_live(pa, pb, "--format", "jsonl", "--record", rec)
@@ -69,7 +69,7 @@ def stop(tap):
 
 
 def test_live_equals_decode_of_recording_and_of_the_same_bytes(tmp_path):
-    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "live.mcap")
+    ma, mb, _sb, _pa, _pb, rec, proc = recording_tap(tmp_path, "live.mcap")
     a, b = conversation(ma, mb)
     time.sleep(0.7)
     code, out, err = stop(proc)
@@ -96,7 +96,7 @@ def test_live_equals_decode_of_recording_and_of_the_same_bytes(tmp_path):
 
 
 def test_port_vanishing_mid_capture_keeps_everything(tmp_path):
-    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "live.mcap")
+    ma, mb, sb, _pa, pb, rec, proc = recording_tap(tmp_path, "live.mcap")
     conversation(ma, mb, rounds=1)
     time.sleep(0.3)
     os.close(mb)          # the device-side adapter is unplugged
@@ -120,7 +120,7 @@ def test_port_vanishing_mid_capture_keeps_everything(tmp_path):
 
 
 def test_sigkill_during_record_leaves_a_file_that_reads_and_recovers(tmp_path):
-    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "killed.mcap")
+    ma, mb, _sb, pa, pb, rec, proc = recording_tap(tmp_path, "killed.mcap")
     conversation(ma, mb, rounds=3)
     time.sleep(1.5)       # the recorder flushes about once a second
     conversation(ma, mb, rounds=1)
@@ -152,7 +152,7 @@ def test_not_a_serial_port(tmp_path):
 
 
 def test_busy_port():
-    ma, sa, pa = pty_pair()
+    _ma, _sa, pa = pty_pair()
     holder = serial.Serial(pa, 9600, exclusive=True)
     try:
         one_line(run_cli("live", pa), f"{pa}: busy")
@@ -176,7 +176,7 @@ def drifted_round(ma, mb, cmd):
 
 
 def test_skewed_adapters_are_detected_and_corrected(tmp_path):
-    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "skew.mcap")
+    ma, mb, _sb, _pa, _pb, rec, proc = recording_tap(tmp_path, "skew.mcap")
     for _ in range(6):
         drifted_round(ma, mb, frame((1, 1, 1), 0, "HO"))
         time.sleep(0.15)
@@ -205,7 +205,7 @@ def test_skew_correction_switching_on_partway_decodes_as_it_was_shown_live(tmp_p
     that point; every event (times and latencies included) must decode from the
     recording exactly as the live tap printed it, and the ACKs of before and after
     are not read as one device slowing down."""
-    ma, mb, sb, pa, pb, rec, proc = recording_tap(tmp_path, "drift.mcap")
+    ma, mb, _sb, _pa, _pb, rec, proc = recording_tap(tmp_path, "drift.mcap")
     cmd = frame((1, 1, 1), 0, "HO")
     for k in range(14):
         if k < 6:                       # in step: ACK 8 ms after the command

@@ -34,7 +34,7 @@ def recipe(page: str) -> list[list[str]]:
     ``gimbalscope sim`` line and a ``gimbalscope live`` line, comments dropped."""
     with open(os.path.join(ROOT, page), encoding="utf-8") as f:
         text = f.read()
-    for block in re.findall(r"^```\n(.*?)^```", text, re.S | re.M):
+    for block in re.findall(r"^```\n(.*?)^```", text, re.DOTALL | re.MULTILINE):
         commands = [shlex.split(line, comments=True) for line in block.splitlines()]
         commands = [c for c in commands if c]
         if any(c[:2] == ["gimbalscope", "sim"] for c in commands) and \
@@ -97,7 +97,7 @@ def test_live_shows_the_simulators_conversation_as_the_readme_says():
         assert {r["device"] for r in rows if r["kind"] == "command"} == {"1.1.1"}
         code, _, err = tap.stop()
         assert code == 0 and "Traceback" not in err, err
-        code, out, err = sim.stop()
+        code, _out, err = sim.stop()
         assert code == 0 and "Traceback" not in err, err
     finally:
         for child in (tap, sim):

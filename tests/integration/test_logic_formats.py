@@ -16,6 +16,7 @@ import json
 import shutil
 import struct
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -130,15 +131,15 @@ def write_vcd(path, timescale: str, unit: float, cut_after: int | None = None) -
     changes: dict[int, list[str]] = {}
     for ident, lv in (("!", a), ("rx_", b)):
         for s in edges(lv):
-            changes.setdefault(int(round(s / RATE / unit)), []).append(f"{lv[s]}{ident}")
+            changes.setdefault(round(s / RATE / unit), []).append(f"{lv[s]}{ident}")
     text = [f"$date today $end\n$version a simulator $end\n$timescale {timescale} $end\n",
             "$scope module top $end\n$var wire 8 # data [7:0] $end\n$var real 64 % volts $end\n",
             "$scope module uart $end\n$var wire 1 ! tx $end\n$var reg 1 rx_ rx $end\n$upscope $end\n",
             "$upscope $end\n$enddefinitions $end\n#0\n$dumpvars\nx!\nzrx_\nb0 #\nr0 %\n$end\n",
-            f"#{int(round(0.001 / unit))}\n1!\n1rx_\n$comment the bus wakes up $end\nb10100101 #\n"]
+            f"#{round(0.001 / unit)}\n1!\n1rx_\n$comment the bus wakes up $end\nb10100101 #\n"]
     for t in sorted(changes):
         text.append(f"#{t}\n" + "\n".join(changes[t]) + "\n")
-    text.append(f"#{int(round(DURATION / unit))}\n")
+    text.append(f"#{round(DURATION / unit)}\n")
     body = "".join(text)
     if cut_after is not None:
         body = body[:cut_after]
@@ -168,33 +169,33 @@ def test_vcd_channels_are_chosen_by_name_and_a_wrong_name_lists_them(tmp_path):
     assert our_bytes(path, channels={"A": "rx", "B": "tx"}) == {"A": ACK + RESULT, "B": COMMAND}
     run = run_cli("decode", path, "--channels", "A=TXD,B=rx")
     assert run.returncode == 2 and run.stdout == ""
-    assert run.stderr.strip().splitlines() == [f"gimbalscope: error: {path}: no channel 'TXD'; the channels are "
-                                               "tx (0), rx (1)"]
+    assert run.stderr.strip().splitlines() == [(f"gimbalscope: error: {path}: no channel 'TXD'; the channels are "
+                                                "tx (0), rx (1)")]
 
 
 def test_a_vcd_cut_in_the_middle_is_read_up_to_there_and_said(tmp_path):
-    whole = open(write_vcd(tmp_path / "whole.vcd", "1 ns", 1e-9)).read()
+    whole = Path(write_vcd(tmp_path / "whole.vcd", "1 ns", 1e-9)).read_text()
     # cut inside the result, mid-line: the command and the ACK are whole
-    at = whole.index(f"#{int(round((RESULT_AT + 5 * CHAR) * RATE)) * 1000}") + 6
+    at = whole.index(f"#{round((RESULT_AT + 5 * CHAR) * RATE) * 1000}") + 6
     path = write_vcd(tmp_path / "cut.vcd", "1 ns", 1e-9, cut_after=at)
     rows, stderr = decode_jsonl(path)
     assert [r["kind"] for r in rows[:2]] == ["command", "ack"] and rows[0]["command"] == "P?"
     line = whole[:at].count("\n") + 1
     # after the note on the variables left out, one line
-    assert stderr.strip().splitlines()[1:] == [f"gimbalscope: warning: {path}: ends in the middle of line {line} "
-                                               "(cut short?): read up to there"]
+    assert stderr.strip().splitlines()[1:] == [(f"gimbalscope: warning: {path}: ends in the middle of line {line} "
+                                                "(cut short?): read up to there")]
 
 
 def test_a_damaged_vcd_line_is_said_with_its_number(tmp_path):
-    text = open(write_vcd(tmp_path / "whole.vcd", "1 ns", 1e-9)).read().splitlines(keepends=True)
-    at = next(i for i, ln in enumerate(text) if ln.startswith(f"#{int(round(ACK_AT * 1e9))}"))
+    text = Path(write_vcd(tmp_path / "whole.vcd", "1 ns", 1e-9)).read_text().splitlines(keepends=True)
+    at = next(i for i, ln in enumerate(text) if ln.startswith(f"#{round(ACK_AT * 1e9)}"))
     text.insert(at, "garbage\n")
     path = tmp_path / "bad.vcd"
     path.write_text("".join(text))
     rows, stderr = decode_jsonl(str(path))
     assert [r["kind"] for r in rows] == ["command"]
-    assert stderr.strip().splitlines()[1:] == [f"gimbalscope: warning: {path}: line {at + 1}: cannot read 'garbage': "
-                                               "read up to there"]
+    assert stderr.strip().splitlines()[1:] == [(f"gimbalscope: warning: {path}: line {at + 1}: cannot read 'garbage': "
+                                                "read up to there")]
 
 
 def test_a_vcd_header_cut_short_is_one_line(tmp_path):
@@ -232,7 +233,7 @@ def test_a_saleae_digital_csv_keeps_its_times(tmp_path):
 
 def test_a_damaged_digital_csv_row_is_said_and_what_came_before_decoded(tmp_path):
     path = write_digital_csv(tmp_path / "digital.csv", damage_at=RESULT_AT)
-    lines = open(path).read().splitlines()
+    lines = Path(path).read_text().splitlines()
     bad = next(i for i, ln in enumerate(lines) if ";" in ln) + 1
     rows, stderr = decode_jsonl(path, args=("--baud", "9600"))   # line B's one byte shows no rate
     assert [r["kind"] for r in rows] == ["command", "ack"]
@@ -281,18 +282,18 @@ def test_a_table_analyzer_not_in_the_file_lists_them(tmp_path):
     path = write_table(tmp_path / "table.csv")
     run = run_cli("decode", path, "--channels", "A=UART,B=Async Serial [RX]")
     assert run.returncode == 2
-    assert run.stderr.strip().splitlines() == [f"gimbalscope: error: {path}: no analyzer 'UART' in the table; the "
-                                               "analyzers are Async Serial [TX], Async Serial [RX]"]
+    assert run.stderr.strip().splitlines() == [(f"gimbalscope: error: {path}: no analyzer 'UART' in the table; the "
+                                                "analyzers are Async Serial [TX], Async Serial [RX]")]
 
 
 def test_a_damaged_table_row_is_said_and_what_came_before_decoded(tmp_path):
     path = write_table(tmp_path / "table.csv", damage=True)
-    bad = open(path).read().splitlines().index('0.02x,"Async Serial [RX]",0xZZ,"data",0.0009,,') + 1
+    bad = Path(path).read_text().splitlines().index('0.02x,"Async Serial [RX]",0xZZ,"data",0.0009,,') + 1
     rows, stderr = decode_jsonl(path)
     assert [r["kind"] for r in rows] == ["command", "ack"]
     assert stderr.strip().splitlines() == [
-        f"gimbalscope: warning: {path}: line {bad}: cannot read '0.02x,Async Serial [RX],0xZZ,data,0.0009,,' (a data "
-        "table row: name,type,start_time,duration,data): read up to there"]
+        (f"gimbalscope: warning: {path}: line {bad}: cannot read '0.02x,Async Serial [RX],0xZZ,data,0.0009,,' (a data "
+         "table row: name,type,start_time,duration,data): read up to there")]
 
 
 # ------------------------------------------------------------------ Saleae binary export
@@ -333,8 +334,8 @@ def test_a_saleae_binary_export_cut_short_is_said(tmp_path):
     paths = write_binary(tmp_path, 1, cut=True)
     rows, stderr = decode_jsonl(*paths, args=("--baud", "9600"))
     assert [r["kind"] for r in rows] == ["command", "ack"]
-    assert stderr.strip().splitlines() == [f"gimbalscope: warning: {paths[1]}: cut short: 4 of its 70 transitions "
-                                           "read: read up to there"]
+    assert stderr.strip().splitlines() == [(f"gimbalscope: warning: {paths[1]}: cut short: 4 of its 70 transitions "
+                                            "read: read up to there")]
 
 
 def test_a_csv_that_is_no_saleae_export_is_one_line(tmp_path):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -196,7 +197,7 @@ def test_too_few_samples_a_bit_is_an_error_naming_the_rate_needed(tmp_path):
 def test_a_session_cut_short_reads_what_came_before(tmp_path):
     a, b = conversation()
     path = session(tmp_path, a, b)
-    data = open(path, "rb").read()
+    data = Path(path).read_bytes()
     cut = tmp_path / "cut.sr"
     cut.write_bytes(data[:len(data) - 40])      # the central directory gone
     r = run_cli("decode", str(cut), "--format", "jsonl")

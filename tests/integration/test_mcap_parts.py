@@ -11,8 +11,9 @@ import base64
 import dataclasses
 import json
 import random
+from collections.abc import Iterator
 from itertools import chain
-from typing import Iterator
+from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
@@ -140,18 +141,17 @@ def test_a_command_answered_in_the_next_part_pairs(tmp_path):
     # where a part ends depends on its size limit and on when events reach the
     # recorder: record at several limits, and check every answer read in the part
     # after its command's (there must be some)
+    def part_of(spans: list, ev) -> int:
+        return next(k for k, s in enumerate(spans) if s[ev.line][0] <= ev.offset < s[ev.line][1])
+
     across = []
     for k, limit in enumerate(range(3_000, 12_000, 1_000)):
         parts, _info = record(tmp_path / f"rec{k}.mcap", [SOCAT_LOG], rotate_bytes=limit)
         spans = [raw_spans(p) for p in parts]
-
-        def part_of(ev) -> int:
-            return next(k for k, s in enumerate(spans) if s[ev.line][0] <= ev.offset < s[ev.line][1])
-
         events = list(analyzer.open(*shuffled(parts)))
         by_number = {ev.number: ev for ev in events}
         across += [(by_number[ev.request], ev) for ev in events
-                   if ev.request is not None and part_of(ev) == part_of(by_number[ev.request]) + 1]
+                   if ev.request is not None and part_of(spans, ev) == part_of(spans, by_number[ev.request]) + 1]
     assert across, "no transaction spans a part boundary in these recordings"
     for command, answer in across:
         assert command.kind == "command" and command.status == "ok"
@@ -296,7 +296,7 @@ def test_metadata_is_the_record_the_writer_wrote(tmp_path):
     assert src.metadata == info.metadata() and src.metadata_problem is None
     # a killed tap's file (no summary): the record is found by walking from the start
     cut = tmp_path / "killed.mcap"
-    cut.write_bytes(open(paths[0], "rb").read()[:-300])
+    cut.write_bytes(Path(paths[0]).read_bytes()[:-300])
     assert McapSource(str(cut)).metadata == info.metadata()
     parts, parts_info = record(tmp_path / "rec.mcap", [SOCAT_LOG], rotate_bytes=20_000)
     for number, part in enumerate(parts, 1):

@@ -8,6 +8,7 @@ import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -54,7 +55,7 @@ def test_a_bar_of_the_bytes_read_shows_on_a_terminal_and_is_gone_at_the_end(cmd)
 
 def test_a_compressed_input_counts_its_compressed_bytes(tmp_path):
     packed = tmp_path / "tap.log.gz"
-    packed.write_bytes(gzip.compress(open(SOCAT, "rb").read()))
+    packed.write_bytes(gzip.compress(Path(SOCAT).read_bytes()))
     code, terminal, _ = run_on_terminal("stats", packed)
     size = packed.stat().st_size
     assert code == 0 and f"{kb(size)}/{kb(size)} kB" in terminal
@@ -62,7 +63,7 @@ def test_a_compressed_input_counts_its_compressed_bytes(tmp_path):
 
 def test_no_bar_on_a_pipe():
     r = subprocess.run(command() + ["stats", SOCAT], cwd=ROOT, capture_output=True, text=True,
-                       env={**os.environ, **NOW}, timeout=60)
+                       env={**os.environ, **NOW}, timeout=60, check=False)
     assert r.returncode == 0 and r.stderr == ""
 
 
@@ -93,7 +94,7 @@ def test_no_bar_for_a_short_run_at_the_usual_delay():
 
 def test_quiet_silences_warnings_only(tmp_path):
     damaged = tmp_path / "tap.log"
-    damaged.write_bytes(open(SOCAT, "rb").read() + b"this is no socat line\n")
+    damaged.write_bytes(Path(SOCAT).read_bytes() + b"this is no socat line\n")
     loud = run_cli("decode", damaged)
     assert loud.returncode == 0 and "gimbalscope: warning:" in loud.stderr
     for cmd in ("decode", "stats", "doctor"):

@@ -17,6 +17,7 @@ import re
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -99,10 +100,10 @@ def query(root, sql, fmt="csv"):
 
 def readme_queries() -> dict[str, str]:
     """The README's queries ("### Queries": a "#### title" and an sql block each)."""
-    text = open(os.path.join(ROOT, "README.md"), encoding="utf-8").read()
+    text = Path(ROOT, "README.md").read_text(encoding="utf-8")
     part = text.split("### Queries\n", 1)[1]
     part = re.split(r"\n##?#? ", part, maxsplit=1)[0]
-    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)}
+    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.DOTALL)}
 
 
 def test_the_readme_has_the_four_queries():

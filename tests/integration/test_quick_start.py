@@ -15,11 +15,9 @@ import shutil
 import subprocess
 import sys
 
-import pytest
-
 from tests.conftest import ROOT
 
-QUICK_START = re.compile(r"## Quick start\n.*?```\n(.*?)\n```", re.S)
+QUICK_START = re.compile(r"## Quick start\n.*?```\n(.*?)\n```", re.DOTALL)
 STOCK = "/usr/bin/python3"
 
 
@@ -34,7 +32,7 @@ def quick_start_line() -> str:
 def stock_python_dir() -> str:
     """A folder whose python3 is the machine's own (with its venv module), else this one's."""
     if os.path.exists(STOCK) and subprocess.run([STOCK, "-c", "import ensurepip, venv"],
-                                                capture_output=True).returncode == 0:
+                                                capture_output=True, check=False).returncode == 0:
         return os.path.dirname(STOCK)
     return os.path.dirname(os.path.realpath(sys.executable))
 
@@ -59,24 +57,25 @@ def test_the_quick_start_line_works_as_written_and_installs_no_fleet_stack(tmp_p
     run = line + " --seconds 2"
     env = {"PATH": f"{stock_python_dir()}:/usr/bin:/bin", "HOME": os.environ.get("HOME", str(tmp_path)),
            "PIP_DISABLE_PIP_VERSION_CHECK": "1"}
-    r = subprocess.run(["bash", "-c", run], cwd=clone, capture_output=True, text=True, env=env, timeout=600)
+    r = subprocess.run(["bash", "-c", run], cwd=clone, capture_output=True, text=True, env=env, timeout=600,
+                       check=False)
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     assert "command P?" in r.stdout and "ack" in r.stdout     # the demo's decoded traffic
     venv_python = os.path.join(clone, ".venv", "bin", "python")
     for name in ("pyarrow", "duckdb", "matplotlib"):
-        missing = subprocess.run([venv_python, "-c", f"import {name}"], capture_output=True)
+        missing = subprocess.run([venv_python, "-c", f"import {name}"], capture_output=True, check=False)
         assert missing.returncode != 0, f"the base install pulled in {name}"
     export = subprocess.run([os.path.join(clone, ".venv", "bin", "gimbalscope"), "export",
                              "captures/demo-socat.log", "-o", "fleet"], cwd=clone, capture_output=True, text=True,
-                            env=env, timeout=120)
+                            env=env, timeout=120, check=False)
     assert export.returncode == 2
     assert export.stderr.strip().splitlines() == [
-        "gimbalscope: error: export needs pyarrow, which is not installed: it comes with the fleet extra: "
-        f"{clone}/.venv/bin/pip install -e '{clone}[fleet]'"]
+        ("gimbalscope: error: export needs pyarrow, which is not installed: it comes with the fleet extra: "
+         f"{clone}/.venv/bin/pip install -e '{clone}[fleet]'")]
     # the base install writes Wireshark's pcapng with the same command, as the README says
     pcapng = subprocess.run([os.path.join(clone, ".venv", "bin", "gimbalscope"), "export",
                              "captures/demo-socat.log", "-o", "demo.pcapng"], cwd=clone, capture_output=True,
-                            text=True, env=env, timeout=120)
+                            text=True, env=env, timeout=120, check=False)
     assert pcapng.returncode == 0, pcapng.stderr
     with open(os.path.join(clone, "demo.pcapng"), "rb") as f:
         assert f.read(4) == b"\x0a\x0d\x0d\x0a"   # a pcapng section header block

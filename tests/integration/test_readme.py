@@ -18,7 +18,7 @@ def blocks(page: str, *, skipped: bool = False) -> list[str]:
     with open(os.path.join(ROOT, page), encoding="utf-8") as f:
         text = f.read()
     found = []
-    for m in re.finditer(r"^(?:(<!-- not run -->)[ \t]*\n)?```python[^\n]*\n(.*?)^```", text, re.S | re.M):
+    for m in re.finditer(r"^(?:(<!-- not run -->)[ \t]*\n)?```python[^\n]*\n(.*?)^```", text, re.DOTALL | re.MULTILINE):
         if bool(m.group(1)) == skipped:
             found.append(m.group(2))
     return found
@@ -34,7 +34,7 @@ def examples():
 def test_python_example_runs(page, code, monkeypatch, capsys):
     monkeypatch.chdir(ROOT)
     namespace: dict = {}
-    exec(compile(code, page, "exec"), namespace)   # our own documentation
+    exec(compile(code, page, "exec"), namespace)   # noqa: S102 - our own documentation's examples
     assert capsys.readouterr().out.strip(), "each example prints something"
 
 
@@ -51,6 +51,6 @@ def test_fragments_not_run_are_rare():
     marked = sum(len(blocks(page, skipped=True)) for page in PAGES)
     for page in PAGES:
         with open(os.path.join(ROOT, page), encoding="utf-8") as f:
-            total = len(re.findall(r"^```python", f.read(), re.M))
+            total = len(re.findall(r"^```python", f.read(), re.MULTILINE))
         assert total == len(blocks(page)) + len(blocks(page, skipped=True)), page
     assert marked <= 3

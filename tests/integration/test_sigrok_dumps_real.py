@@ -193,7 +193,7 @@ def our_read(file: str, channels: tuple[tuple[str, str], ...]) -> Read:
             if ev.raw:
                 out.setdefault(ev.line, bytearray()).extend(ev.raw)
         return Read({line: bytes(b) for line, b in out.items()}, dict(cap.source.physical))
-    except Exception as e:       # said in each test of the file, not as an error of the fixture
+    except Exception as e:  # noqa: BLE001 - said in each test of the file, not as an error of the fixture
         return Read({}, {}, e)
 
 

@@ -165,7 +165,7 @@ def test_a_tap_left_at_the_old_rate_reads_garbage_after_the_change():
 
 def test_a_gimbal_that_ignores_the_change_answers_nothing_after_it():
     gimbal = GimbalModel((1, 1, 1), faults=Faults(ignore_rate=True))
-    with installation([gimbal]) as (bus, ctl, tap):
+    with installation([gimbal]) as (bus, ctl, _tap):
         assert send_all(ctl, ("P?",)) == ["ok"]
         assert ctl.set_rate((1, 1, 1), 115200) == "ok"      # ACKed ...
         assert ctl.baud == 115200

@@ -16,12 +16,14 @@ import socket
 import struct
 import subprocess
 import sys
+from pathlib import Path
 
 import pyarrow.parquet as pq
 import pytest
 
 from analyzer.capture import Options
-from analyzer.dataset.export import Job, export as local_export
+from analyzer.dataset.export import Job
+from analyzer.dataset.export import export as local_export
 from analyzer.dataset.inputs import captures_of
 from analyzer.dataset.query import connect
 from analyzer.dataset.report import build, to_dict
@@ -73,7 +75,7 @@ def in_parts(tmp_path_factory):
     parts, _ = record(folder / "rec.mcap", [SOCAT_LOG], rotate_bytes=20_000)
     assert len(parts) >= 3
     log = folder / "site.log"
-    log.write_bytes(open(SOCAT_LOG, "rb").read())
+    log.write_bytes(Path(SOCAT_LOG).read_bytes())
     return folder, parts
 
 
@@ -127,9 +129,9 @@ def test_exporting_again_on_spark_replaces_its_own_files_only(spark, tmp_path):
     assert got[0].error is None
     after = {p: os.stat(out / p).st_ino for p in dataset(out)}
     assert set(after) == set(before)
-    for path in before:
+    for path, inode in before.items():
         replaced = "demo-socat.log" in path
-        assert (after[path] != before[path]) == replaced, path
+        assert (after[path] != inode) == replaced, path
 
 
 def test_a_capture_that_fails_is_skipped_and_the_others_written(spark, tmp_path):
@@ -168,7 +170,7 @@ def python_without_pyarrow(tmp_path_factory):
     bare = tmp_path_factory.mktemp("bare-python")
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(bare)], check=True)
     python = bare / "bin" / "python3"
-    r = subprocess.run([python, "-c", "import pyarrow"], capture_output=True, text=True, cwd=bare)
+    r = subprocess.run([python, "-c", "import pyarrow"], capture_output=True, text=True, cwd=bare, check=False)
     assert r.returncode != 0 and "No module named 'pyarrow'" in r.stderr, r.stderr
     return python
 
@@ -186,7 +188,7 @@ def outside_the_venv(args, python3, **env):
     gone = ("VIRTUAL_ENV", "PYSPARK_PYTHON", "PYSPARK_DRIVER_PYTHON", "SPARK_CONF_DIR", "PYTHONPATH")
     env = {**{k: v for k, v in os.environ.items() if k not in gone}, "PATH": os.pathsep.join(path), **env}
     return subprocess.run(cmd + [str(a) for a in args], capture_output=True, text=True, timeout=600, cwd=ROOT,
-                          env=env)
+                          env=env, check=False)
 
 
 def not_ours(stderr: str) -> list[str]:
@@ -214,7 +216,7 @@ def test_pyspark_python_set_elsewhere_and_a_capture_its_task_finds_cut_short(pyt
     # the driver's listing and only its task finds it cut short: one line, the other capture written, exit 1
     _, parts = in_parts
     killed = tmp_path / "killed.mcap"
-    whole = open(parts[0], "rb").read()
+    whole = Path(parts[0]).read_bytes()
     killed.write_bytes(whole[:len(whole) // 2])
     local, on_spark = tmp_path / "local", tmp_path / "spark"
     local_export(jobs_of([SOCAT_LOG], local), 1)
@@ -252,11 +254,11 @@ def test_a_file_spark_cannot_decode_fails_the_report_in_one_line(spark, tmp_path
     out = tmp_path / "fleet"
     local_export(jobs_of([SOCAT_LOG], out), 1)
     [damaged] = [os.path.join(d, f) for d, _, files in os.walk(out / "transactions") for f in files]
-    data = bytearray(open(damaged, "rb").read())
+    data = bytearray(Path(damaged).read_bytes())
     # the footer (the schema, read when the views are made) whole; the pages before it, garbage from the disk
     footer = struct.unpack("<I", data[-8:-4])[0]
     data[4:len(data) - 8 - footer] = b"\xff" * (len(data) - 12 - footer)
-    open(damaged, "wb").write(data)
+    Path(damaged).write_bytes(data)
     with pytest.raises(SparkFailed) as failed:
         build_on_spark(spark, str(out))
     said = str(failed.value)
@@ -276,10 +278,10 @@ def test_the_command_line_report_on_spark(tmp_path):
 
 def spark_queries() -> dict[str, str]:
     """docs/spark.md's queries ("### The fleet queries in Spark SQL")."""
-    text = open(SPARK_DOC, encoding="utf-8").read()
+    text = Path(SPARK_DOC).read_text(encoding="utf-8")
     part = text.split("### The fleet queries in Spark SQL\n", 1)[1]
     part = re.split(r"\n##?#? ", part, maxsplit=1)[0]
-    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.S)}
+    return {m.group(1).strip(): m.group(2) for m in re.finditer(r"####\s*(.+?)\n.*?```sql\n(.*?)```", part, re.DOTALL)}
 
 
 def test_the_spark_sql_queries_give_duckdbs_answers(spark, tmp_path):

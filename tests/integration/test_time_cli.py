@@ -7,6 +7,7 @@ from __future__ import annotations
 import calendar
 import datetime
 import os
+from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
@@ -85,8 +86,8 @@ def test_garbled_metadata_falls_back_to_the_defaults_with_one_warning(log_115200
     r = run_cli("stats", bad)
     assert r.returncode == 0, r.stderr
     warned = [line for line in r.stderr.splitlines() if "metadata" in line]
-    assert warned == [f"gimbalscope: warning: {bad}: the gimbalscope metadata is garbled (baud='fast'): "
-                      "decoding with the options given and the defaults (9600 8N1)"]
+    assert warned == [(f"gimbalscope: warning: {bad}: the gimbalscope metadata is garbled (baud='fast'): "
+                       "decoding with the options given and the defaults (9600 8N1)")]
     # decoded at the default 9600, as the good recording is with --baud 9600
     assert r.stdout.splitlines()[:3] == stats_lines(good, "--baud", "9600")[0]
 
@@ -109,8 +110,8 @@ def test_raw_dumps_are_recorded_at_their_start_time(tmp_path):
 
 def test_without_a_start_time_a_dump_ends_at_its_modification_time(tmp_path):
     a, b = tmp_path / "ctl.bin", tmp_path / "dev.bin"
-    a.write_bytes(open(CTL, "rb").read())
-    b.write_bytes(open(DEV, "rb").read())
+    a.write_bytes(Path(CTL).read_bytes())
+    b.write_bytes(Path(DEV).read_bytes())
     mtime = 1_790_000_000
     for p in (a, b):
         os.utime(p, (mtime, mtime))

@@ -16,8 +16,19 @@ from analyzer.sources.base import ReadSettings
 from analyzer.sources.files import Input
 from analyzer.sources.registry import source_for
 from tests.conftest import frame, run_cli
-from tests.usb_captures import (BT, CH340, CP2102, FT232R, FT2232H, FTDI_HS_IDLE, FTDI_IDLE, MOUSE, STICK, UsbCapture,
-                                ftdi_packets)
+from tests.usb_captures import (
+    BT,
+    CH340,
+    CP2102,
+    FT232R,
+    FT2232H,
+    FTDI_HS_IDLE,
+    FTDI_IDLE,
+    MOUSE,
+    STICK,
+    UsbCapture,
+    ftdi_packets,
+)
 
 CTL, DEV = 0, 1
 ACK = b"\x06"
@@ -359,7 +370,7 @@ def _tsharks(path):
     adapter: line A) and RX (line B) payloads, joined in packet order."""
     out = subprocess.run(["tshark", "-r", str(path), "-Y", "ftdi-ft", "-T", "fields",
                           "-e", "ftdi-ft.if_a_tx_payload", "-e", "ftdi-ft.if_a_rx_payload"],
-                         capture_output=True, text=True, timeout=120)
+                         capture_output=True, text=True, timeout=120, check=False)
     assert out.returncode == 0, out.stderr
     lines = {"A": b"", "B": b""}
     for row in out.stdout.splitlines():
@@ -409,8 +420,8 @@ def test_damaged_captures_raise_nothing_but_capture_errors(tmp_path):
     c.enumerate(0.100, 7, **FT232R)
     ftdi_conversation(c, answer_status=b"\x01\x68")
     forms = {}
-    for form in WRITERS:
-        WRITERS[form](c, tmp_path / "whole")
+    for form, write in WRITERS.items():
+        write(c, tmp_path / "whole")
         forms[form] = (tmp_path / "whole").read_bytes()
     path = tmp_path / "damaged"
     for k in range(240):

@@ -6,7 +6,6 @@ import json
 import math
 import os
 import shutil
-import signal
 import subprocess
 import sys
 import time
@@ -39,7 +38,7 @@ def plugin(tmp_path_factory, tshark):
 
 def run_tshark(tshark, plugin, *args, env=None):
     r = subprocess.run([tshark, "-X", f"lua_script:{plugin}", *map(str, args)], capture_output=True,
-                       text=True, timeout=PATIENCE, env=env)
+                       text=True, timeout=PATIENCE, env=env, check=False)
     assert r.returncode == 0, r.stderr
     assert "Lua" not in r.stderr or "error" not in r.stderr.lower(), r.stderr
     return r.stdout
@@ -312,23 +311,23 @@ def installed(tmp_path, tshark):
     home = tmp_path / "home"
     home.mkdir()
     r = subprocess.run([sys.executable, "-m", "analyzer", "wireshark", "install"], capture_output=True, text=True,
-                       env=home_env(home), cwd=ROOT, timeout=PATIENCE)
+                       env=home_env(home), cwd=ROOT, timeout=PATIENCE, check=False)
     assert r.returncode == 0, r.stderr
     return home
 
 
 def test_install_puts_the_plugin_where_tshark_loads_it(installed, tshark):
     env = home_env(installed)
-    protocols = subprocess.run([tshark, "-G", "protocols"], capture_output=True, text=True, env=env).stdout
+    protocols = subprocess.run([tshark, "-G", "protocols"], capture_output=True, text=True, env=env, check=False).stdout
     assert any(line.split("\t")[2:3] == ["gimbal"] for line in protocols.splitlines())
-    interfaces = subprocess.run([tshark, "-D"], capture_output=True, text=True, env=env).stdout
+    interfaces = subprocess.run([tshark, "-D"], capture_output=True, text=True, env=env, check=False).stdout
     assert "gimbalscope (Gimbal serial bus, one or two serial ports)" in interfaces
 
 
 def test_install_needs_no_wireshark(tmp_path):
     env = dict(home_env(tmp_path), PATH=os.path.dirname(sys.executable))   # no tshark on it
     r = subprocess.run([sys.executable, "-m", "analyzer", "wireshark", "install"], capture_output=True,
-                       text=True, env=env, cwd=ROOT, timeout=PATIENCE)
+                       text=True, env=env, cwd=ROOT, timeout=PATIENCE, check=False)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / ".local/lib/wireshark/plugins/gimbal.lua").exists()
     assert os.access(tmp_path / ".config/wireshark/extcap/gimbalscope-extcap", os.X_OK)
@@ -344,7 +343,7 @@ def test_install_into_a_file_is_one_line(tmp_path):
 def extcap(installed, *args):
     exe = installed / ".config/wireshark/extcap/gimbalscope-extcap"
     return subprocess.run([str(exe), *args], capture_output=True, text=True, timeout=PATIENCE,
-                          env=home_env(installed))
+                          env=home_env(installed), check=False)
 
 
 def test_extcap_speaks_the_protocol(installed):
@@ -363,7 +362,8 @@ def tshark_live(tshark, installed, tmp_path, *options, seconds=3):
     args = [tshark, "-i", "gimbalscope", "-a", f"duration:{seconds}", "-w", str(out)]
     for o in options:
         args += ["-o", o]
-    r = subprocess.run(args, capture_output=True, text=True, timeout=PATIENCE + seconds, env=home_env(installed))
+    r = subprocess.run(args, capture_output=True, text=True, timeout=PATIENCE + seconds, env=home_env(installed),
+                       check=False)
     return r, out
 
 
@@ -413,7 +413,7 @@ def test_a_live_tshark_capture_from_the_simulator_decodes(installed, tshark, tmp
     env = home_env(installed)
     rows = subprocess.run([tshark, "-r", str(out), "-T", "fields", "-e", "gimbal.kind", "-e", "gimbal.line",
                            "-e", "gimbal.command", "-e", "gimbal.checksum_ok"],
-                          capture_output=True, text=True, env=env).stdout.splitlines()
+                          capture_output=True, text=True, env=env, check=False).stdout.splitlines()
     kinds = [row.split("\t")[0] for row in rows]
     assert kinds.count("command") >= 5 and kinds.count("ack") >= 5
     assert {row.split("\t")[1] for row in rows} == {"A", "B"}
@@ -432,7 +432,7 @@ def test_a_live_tshark_capture_from_the_simulator_decodes(installed, tshark, tmp
 def test_a_bad_extcap_configuration_reaches_tshark_as_one_line(installed, tshark, tmp_path, options, said):
     # the extcap program's error ends the capture at once; the duration is only a
     # bound, long enough for a busy machine to start the program and have it say why
-    r, out = tshark_live(tshark, installed, tmp_path, *options, seconds=PATIENCE)
+    r, _out = tshark_live(tshark, installed, tmp_path, *options, seconds=PATIENCE)
     assert r.returncode != 0
     assert said in r.stderr and "Traceback" not in r.stderr
 
@@ -486,10 +486,10 @@ def test_a_pcapng_through_a_pipe(tmp_path):
     exe = shutil.which("gimbalscope") or sys.executable
     args = [exe] if exe != sys.executable else [exe, "-m", "analyzer"]
     piped = subprocess.run(args + ["decode", "-", "--format", "jsonl"], input=timed.read_bytes(),
-                           capture_output=True, cwd=ROOT, timeout=PATIENCE)
+                           capture_output=True, cwd=ROOT, timeout=PATIENCE, check=False)
     assert piped.returncode == 0 and len(piped.stdout.splitlines()) == len(jsonl(SOCAT_LOG))
     # an untimed capture of two lines is read line by line: a pipe cannot be
     refused = subprocess.run(args + ["decode", "-"], input=untimed.read_bytes(), capture_output=True, cwd=ROOT,
-                             timeout=PATIENCE)
+                             timeout=PATIENCE, check=False)
     err = refused.stderr.decode()
     assert refused.returncode == 2 and "not through a pipe" in err and "Traceback" not in err

@@ -68,7 +68,7 @@ def test_a_garbled_line_b_is_a_wrong_baud_rate(tmp_path):
     said = warnings(r.stderr, WRONG_BAUD)
     assert r.returncode == 0 and len(said) == 1, r.stderr
     assert "2,000 bytes, 0% in valid frames or answers" in said[0]
-    assert f"--baud RATE" in said[0]
+    assert "--baud RATE" in said[0]
     assert not warnings(r.stderr, NOT_PROTOCOL)
 
 
@@ -94,8 +94,8 @@ def test_a_file_of_another_format_is_named_as_such(tmp_path, head, what):
     r = run_cli("decode", f)
     assert r.returncode == 0
     said = warnings(r.stderr, "starts like")
-    assert said == [f"gimbalscope: warning: {f}: starts like {what}, not a serial capture; "
-                    "decoded as raw bytes all the same"]
+    assert said == [(f"gimbalscope: warning: {f}: starts like {what}, not a serial capture; "
+                     "decoded as raw bytes all the same")]
     assert len(warnings(r.stderr, NOT_PROTOCOL)) == 1
 
 

@@ -2,7 +2,8 @@
 behaviour on broken input (resync, repair, silence, noise)."""
 
 import pytest
-from hypothesis import example, given, settings, strategies as st
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 
 from dissectors import Deframer
 from dissectors.deframer import COMPILED, NOISE_PIECE

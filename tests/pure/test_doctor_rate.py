@@ -93,18 +93,18 @@ def uart_read(messages: list[tuple[float, bytes]], sent: int, read: int) -> list
             bursts[-1].append(span)
         else:
             bursts.append([span])
+
+    def level(burst: list, t: float) -> int:
+        for start, end, bits in burst:
+            if start <= t < end:
+                return bits[int((t - start) * sent)]
+        return 1
+
     out = []
     step = 1 / (read * OVERSAMPLE)
     for burst in bursts:
         t0, t1 = burst[0][0] - 2 / read, burst[-1][1] + 24 / read
-
-        def level(t: float) -> int:
-            for start, end, bits in burst:
-                if start <= t < end:
-                    return bits[int((t - start) * sent)]
-            return 1
-
-        samples = [level(t0 + i * step) for i in range(int((t1 - t0) / step))]
+        samples = [level(burst, t0 + i * step) for i in range(int((t1 - t0) / step))]
         got = bytearray()
         last = t0
         i, n = 1, len(samples)
@@ -153,7 +153,7 @@ def socat_log(chunks: list[tuple[str, float, bytes]]) -> str:
     start = 1_795_000_000
     for line, t, data in sorted(chunks, key=lambda c: c[1]):
         sec = int(start + t)
-        usec = int(round((start + t - sec) * 1e6))
+        usec = round((start + t - sec) * 1e6)
         if usec == 1_000_000:
             sec, usec = sec + 1, 0
         first = offsets[line]

@@ -15,7 +15,8 @@ from dataclasses import replace
 from os.path import commonprefix
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings, strategies as st
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from analyzer.analysis import findings
 from analyzer.analysis.doctor import waveform_findings
@@ -242,7 +243,7 @@ def contended_line() -> np.ndarray:
     first = [(t + k * EVERY / RATE, 0x55) for k in range(CONTENDED)]
     second = [(at + 40 / RATE, 0xFF) for at, _v in first]
     line = uart_levels(clean + first, RATE, 10_000, duration) & uart_levels(second, RATE, 10_000, duration)
-    at = int(round((t + CONTENDED * EVERY / RATE) * RATE))
+    at = round((t + CONTENDED * EVERY / RATE) * RATE)
     for _ in range(GLITCHES):
         line[at:at + 10] = 0
         at += 1000

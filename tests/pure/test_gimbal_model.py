@@ -1,8 +1,8 @@
 """The simulated gimbal answers as the spec says (values worked out from the tables)."""
 
+from analyzer.simulation.gimbal import Faults, GimbalModel
 from dissectors import Deframer
 from dissectors.event import Event
-from analyzer.simulation.gimbal import Faults, GimbalModel
 from tests.conftest import frame
 
 
@@ -39,7 +39,7 @@ def test_position_query_and_go_to_at_the_set_rate():
 
 def test_result_address_is_swapped_per_table3():
     g = GimbalModel((5, 1, 12))
-    _, payload, (dst, src), _ = answers(g, "P?", dst=(5, 1, 12), src=2)
+    _, _payload, (dst, src), _ = answers(g, "P?", dst=(5, 1, 12), src=2)
     assert dst == (2, 1, 12) and src == 5
 
 

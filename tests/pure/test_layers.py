@@ -19,9 +19,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 # Bottom first. A module belongs to the entry naming it or its nearest package.
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("the protocol: frames, fields, commands, events", ("dissectors",)),
-    ("foundations: version, extras, docs, errors, lines, output files, capture info, styles, words, templates, URIs",
+    (("foundations: version, extras, docs, errors, lines, output files, capture info, styles, words, templates, URIs,"
+      " work in another process"),
      ("analyzer.version", "analyzer.extras", "analyzer.docs", "analyzer.errors", "analyzer.lines", "analyzer.outfile",
-      "analyzer.info", "analyzer.styles", "analyzer.words", "analyzer.templates", "analyzer.uris")),
+      "analyzer.info", "analyzer.styles", "analyzer.words", "analyzer.templates", "analyzer.uris",
+      "analyzer.worker_process")),
     ("analysis of events, the physical layer (the software UART), and the simulator",
      ("analyzer.analysis", "analyzer.physical", "analyzer.simulation")),
     ("formats that readers and writers share", ("analyzer.formats", "analyzer.output")),

@@ -18,8 +18,8 @@ import pytest
 import analyzer
 from analyzer.analysis.positions import PositionTracker
 from analyzer.formats import mcap_schemas as S
-from analyzer.output import dumps
 from analyzer.formats.mcap_messages import Messages, event_message
+from analyzer.output import dumps
 from dissectors.commands import field_types
 from dissectors.dissect import dissect_command
 from tests.conftest import frame
@@ -162,6 +162,7 @@ def test_bad_checksums_and_wildcards_move_nothing(tmp_path):
 @pytest.mark.parametrize("lines", [1, 2])
 def test_a_recording_has_one_position_topic_per_device(tmp_path, lines):
     from mcap.reader import make_reader
+
     from tests.conftest import run_cli
 
     exchanges = [go_to(1, "0FA0", "FC18"), where_is(2, "0000", "0000"), where_is(1, "07D0", "FE0C")]

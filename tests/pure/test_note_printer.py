@@ -2,7 +2,7 @@
 in their numbers are said three times in full, then counted in one line."""
 
 from analyzer.listeners.printer import NotePrinter, warning_kind
-from analyzer.runner import DOCTOR, INFO, Note, RECORDING
+from analyzer.runner import DOCTOR, INFO, RECORDING, Note
 
 
 def said(capsys, printer: NotePrinter, notes) -> list[str]:
@@ -26,12 +26,12 @@ def test_a_warning_repeated_627_times_is_three_lines_and_a_count(capsys):
         "gimbalscope: warning: line B reads about 10.1 ms ahead of line A (adapter delays differ)",
         "gimbalscope: warning: line B reads about 10.2 ms ahead of line A (adapter delays differ)",
         # 627 - 3 said in full
-        "gimbalscope: warning: … and 624 more like this: "
-        "line B reads about 10.0 ms ahead of line A (adapter delays differ)",
+        ("gimbalscope: warning: … and 624 more like this: "
+         "line B reads about 10.0 ms ahead of line A (adapter delays differ)"),
     ]
 
 
-def test_each_kind_is_counted_apart(capsys):
+def test_each_kind_is_counted_separately(capsys):
     gap = [Note(f"tap.log:{n}: stray line skipped") for n in (12, 40, 41, 90, 95)]      # 5 of one kind
     lines = said(capsys, NotePrinter(), [skew(1.0), *gap, skew(2.0), skew(3.0), skew(4.0), skew(5.0)])
     assert lines[:7] == [
@@ -42,8 +42,8 @@ def test_each_kind_is_counted_apart(capsys):
         "gimbalscope: warning: line B reads about 2.0 ms ahead of line A (adapter delays differ)",
         "gimbalscope: warning: line B reads about 3.0 ms ahead of line A (adapter delays differ)",
         # the 4th and 5th skew lines and the 4th and 5th stray lines are held back
-        "gimbalscope: warning: … and 2 more like this: "
-        "line B reads about 1.0 ms ahead of line A (adapter delays differ)",
+        ("gimbalscope: warning: … and 2 more like this: "
+         "line B reads about 1.0 ms ahead of line A (adapter delays differ)"),
     ]
     assert lines[7:] == ["gimbalscope: warning: … and 2 more like this: tap.log:12: stray line skipped"]
 

@@ -8,11 +8,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from analyzer.analysis.doctor import WiringDoctor, _Device, _waveform_findings
+from analyzer.analysis.doctor import DeviceTally, WiringDoctor, waveform_findings
 from analyzer.analysis.findings import (
     CLOCK_OFF,
     CONTROLLER_IX_TIMEOUT,
     CONTROLLER_NO_RETRY,
+    DEAD_LINK,
     DEVICE_MAP,
     FRAMING_ERRORS,
     LINE_INVERTED,
@@ -25,7 +26,7 @@ from analyzer.output import summary
 from analyzer.physical.edges import PackedSamples
 from analyzer.physical.report import LineReport
 from analyzer.sources.base import ReadSettings
-from analyzer.sources.mcapscan import Damaged, _chunk_parts
+from analyzer.sources.mcapwalk import Damaged, chunk_parts
 from analyzer.sources.sampled import SampledSource
 from tests.conftest import ROOT
 from tests.pure.test_doctor import findings_of, polls
@@ -92,7 +93,7 @@ def test_no_message_pluralises_by_hand():
 # ------------------------------------------------------------------ the waveform's findings
 def _waveform(**counts) -> dict:
     r = LineReport("A", "0", samplerate=1e6, **counts)
-    return {f.code: f for f in _waveform_findings("A", r)}
+    return {f.code: f for f in waveform_findings("A", r)}
 
 
 def test_a_line_of_one_character_counts_it_in_the_singular():
@@ -107,7 +108,7 @@ def test_the_clock_is_measured_over_characters_said_once():
     assert found[CLOCK_OFF].detail.startswith("nominal 9600 bit/s, measured over 402 characters; UARTs")
 
 
-def test_breaks_alone_are_counted_apart_from_the_characters():
+def test_breaks_alone_are_counted_separately_from_the_characters():
     found = _waveform(characters=402, breaks=40_298, first_error=None)
     assert found[FRAMING_ERRORS].title == "line A: 40,298 breaks"
     found = _waveform(characters=20, framing_errors=2, parity_errors=1, breaks=3, parity="E")
@@ -138,25 +139,26 @@ def test_swapped_lines_count_one_command_frame_and_one_answer():
 
 def test_the_controller_and_a_dead_link_count_ones_in_the_singular():
     doctor = WiringDoctor()
+    controller = doctor.controller
     for n in range(3):
-        doctor.never_retried.add(n)
-    doctor.retried = 1
-    doctor.ix_given_up.add(7)
-    found = {f.code: f for f in doctor._controller()}
+        controller.never_retried.add(n)
+    controller.retried = 1
+    controller.ix_given_up.add(7)
+    found = {f.code: f for f in controller.findings(p95=0.0)}
     assert found[CONTROLLER_NO_RETRY].detail == "3 commands NAK'd or unanswered were not sent again (1 was)"
     assert found[CONTROLLER_IX_TIMEOUT].detail.startswith("1 IX command was sent again before its result came;")
     doctor.commands = 5
     doctor.signs.lines["B"].bytes = 1
-    assert doctor._dead_link().detail == "5 commands, no ACK or NAK; line B carries 1 byte but no answer to a command"
+    found = {f.code: f for f in doctor.findings()}
+    assert found[DEAD_LINK].detail == "5 commands, no ACK or NAK; line B carries 1 byte but no answer to a command"
 
 
 def test_a_device_silent_after_a_rate_change_answered_once():
     doctor = WiringDoctor()
-    dev = doctor.devices["1.1.1"] = _Device()
+    dev = doctor.devices["1.1.1"] = DeviceTally()
     dev.commands_since_rate, dev.answers = 3, 1
     doctor.rate_change = (SimpleNamespace(fields={"baud": 19200, "previous_baud": 9600}, number=5), 4, "1.1.1")
-    (f,) = doctor._silent_after_rate()
-    assert f.code == SILENT_AFTER_RATE
+    (f,) = [f for f in doctor.findings() if f.code == SILENT_AFTER_RATE]
     # rates as the spec writes them (no thousands separator), like the title's
     assert f.detail == "3 commands to 1.1.1 since the rate change, no ACK or NAK; it answered 1 time at 9600 bps before"
 
@@ -171,7 +173,7 @@ def test_a_header_cut_after_one_byte_and_a_noise_byte_are_one_byte():
 
 def test_a_chunk_header_of_one_byte_is_one_byte():
     try:
-        _chunk_parts(b"x", False)
+        chunk_parts(b"x", False)
     except Damaged as e:
         assert str(e) == "its header is cut short (1 byte)"
     else:
@@ -185,5 +187,5 @@ def test_a_line_of_one_edge_says_so_in_the_singular():
                            "one.bin (logic samples)")
     said: list[str] = []
     source.report_to(said.append)
-    assert list(c for c in source.chunks() if c.data) == []
+    assert [c for c in source.chunks() if c.data] == []
     assert said == ["one.bin: line AB (D0): no bit rate in its 1 edge; give it with --baud"]

@@ -6,8 +6,8 @@ import os
 
 import pytest
 
-from analyzer.sources.meter import ReadMeter, READS
 from analyzer.sources.files import Input, open_input
+from analyzer.sources.meter import READS, ReadMeter
 
 
 @pytest.fixture

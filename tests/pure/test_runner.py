@@ -11,9 +11,9 @@ import pytest
 import analyzer
 from analyzer import writers
 from analyzer.info import CaptureInfo
+from analyzer.outfile import OutputRefused
 from analyzer.runner import CAPTURE, INFO, RUNNER, WARNING, Listener, Note, TapRunner
 from analyzer.writers import open_writer, writer_class
-from analyzer.outfile import OutputRefused
 from tests.conftest import ROOT, frame
 
 ACK = b"\x06"

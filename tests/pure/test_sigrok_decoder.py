@@ -42,7 +42,7 @@ def pd():
     sys.modules["sigrokdecode"] = srd
     try:
         module = types.ModuleType("gimbal_pd")
-        exec(compile(pd_source(), "pd.py", "exec"), module.__dict__)
+        exec(compile(pd_source(), "pd.py", "exec"), module.__dict__)   # noqa: S102 - our own decoder, as sigrok loads it
     finally:
         if saved is None:
             del sys.modules["sigrokdecode"]

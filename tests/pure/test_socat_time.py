@@ -4,8 +4,9 @@ log is opened, and a byte time that changes mid-log.
 
 Expected times are worked out here from the stamps with datetime and zoneinfo."""
 
+import itertools
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from zoneinfo import ZoneInfo
 
 import pytest
@@ -62,7 +63,7 @@ def test_utc_gives_the_absolute_start_before_any_chunk_is_read(tmp_path):
     log = socat_log([(">", "2026/11/21 08:35:52", 321418, COMMAND),
                      ("<", "2026/11/21 08:35:52", 371708, ACK)])
     src = SocatLogSource(write(tmp_path, log), BT, tz="UTC")
-    start = first_byte(datetime(2026, 11, 21, 8, 35, 52, tzinfo=timezone.utc), 321418, 9)
+    start = first_byte(datetime(2026, 11, 21, 8, 35, 52, tzinfo=UTC), 321418, 9)
     assert src.start_time == pytest.approx(start, abs=1e-6)
     chunks, warnings = read(src)
     assert chunks[0].t == 0.0
@@ -76,7 +77,7 @@ def test_the_opener_passes_the_zone_and_one_clock_stamps_both_lines(tmp_path):
     src = open_socat_log([Input(write(tmp_path, log))], ReadSettings(BT, tz="Asia/Tokyo"))
     # Tokyo is UTC+9 all year: noon there is 03:00 UTC
     assert src.start_time == pytest.approx(
-        datetime(2026, 7, 1, 3, 0, 0, tzinfo=timezone.utc).timestamp() - 9 * BT, abs=1e-6)
+        datetime(2026, 7, 1, 3, 0, 0, tzinfo=UTC).timestamp() - 9 * BT, abs=1e-6)
     assert src.clocks == 1
     src.close()
 
@@ -102,7 +103,7 @@ def test_start_time_is_learnt_from_the_first_chunk_when_the_head_does_not_tell(t
     chunks, _ = read(src)
     assert chunks[0].t == 0.0
     assert src.start_time == pytest.approx(
-        first_byte(datetime(2026, 11, 21, 8, 35, 52, tzinfo=timezone.utc), 321418, 9), abs=1e-6)
+        first_byte(datetime(2026, 11, 21, 8, 35, 52, tzinfo=UTC), 321418, 9), abs=1e-6)
 
 
 def test_an_unknown_zone_is_refused_when_opening(tmp_path):
@@ -147,11 +148,11 @@ def check_fall_back(src, zone_text):
     chunks, warnings = read(src)
     ts = [c.t for c in chunks]
     assert ts == pytest.approx(fall_back_times(), abs=1e-6)
-    assert all(b >= a for a, b in zip(ts, ts[1:]))
+    assert all(b >= a for a, b in itertools.pairwise(ts))
     # the retransmission is 0.2 s after the ACK's stamp, less their back-dating
     assert ts[2] - ts[1] == pytest.approx(0.2 - 9 * BT + BT, abs=1e-6)
-    assert warnings == [f"{src.name}:{header_line(2)}: the clock steps back 1 h at 2026/10/25 03:00:00 "
-                        f"(summer time ends in {zone_text}): read as the repeated hour"]
+    assert warnings == [(f"{src.name}:{header_line(2)}: the clock steps back 1 h at 2026/10/25 03:00:00 "
+                         f"(summer time ends in {zone_text}): read as the repeated hour")]
 
 
 def test_fall_back_in_a_named_zone_is_read_as_the_repeated_hour(tmp_path):
@@ -197,14 +198,14 @@ def test_a_clock_set_back_is_said_once_and_times_follow_on(tmp_path):
     src = SocatLogSource(write(tmp_path, log), BT, tz="UTC")
     chunks, warnings = read(src)
     ts = [c.t for c in chunks]
-    assert all(b >= a for a, b in zip(ts, ts[1:]))
+    assert all(b >= a for a, b in itertools.pairwise(ts))
     # the stepped stamp follows on from the one before it ...
     assert ts[3] == pytest.approx(ts[2], abs=1e-9)
     # ... and the spacing after the step is kept
     assert ts[4] - ts[3] == pytest.approx((0.65 - BT) - (0.6 - 9 * BT), abs=1e-9)
     assert ts[5] - ts[3] == pytest.approx(1.0, abs=1e-9)
-    assert warnings == [f"{src.name}:{header_line(3)}: the clock steps back 9.9 s at 2026/11/21 08:39:50: "
-                        f"read as following on from the time before"]
+    assert warnings == [(f"{src.name}:{header_line(3)}: the clock steps back 9.9 s at 2026/11/21 08:39:50: "
+                         f"read as following on from the time before")]
 
 
 def test_several_steps_back_are_counted(tmp_path):
@@ -217,9 +218,9 @@ def test_several_steps_back_are_counted(tmp_path):
     src = SocatLogSource(write(tmp_path, log), BT, tz="UTC")
     chunks, warnings = read(src)
     assert [c.t for c in chunks] == pytest.approx([0.0, 0.0, 5.0, 5.0], abs=1e-9)
-    assert warnings == [f"{src.name}: 2 steps back of the clock, later times moved forward to follow on "
-                        f"(first at line {header_line(1)}: the clock steps back 10.0 s "
-                        f"at 2026/11/21 08:39:50: read as following on from the time before)"]
+    assert warnings == [(f"{src.name}: 2 steps back of the clock, later times moved forward to follow on "
+                         f"(first at line {header_line(1)}: the clock steps back 10.0 s "
+                         f"at 2026/11/21 08:39:50: read as following on from the time before)")]
 
 
 def test_jitter_between_the_directions_is_left_alone(tmp_path):

@@ -53,7 +53,7 @@ def test_hex_only_log_without_text_column(tmp_path):
     log = "\n".join(line[:49].rstrip() if line.startswith(" ") else line
                     for line in LOG.splitlines() if line != "--") + "\n"
     chunks = list(SocatLogSource(write(tmp_path, log), BT).chunks())
-    assert [c.data.hex() for c in chunks][0] == "f80101010002503f94"
+    assert chunks[0].data.hex() == "f80101010002503f94"
     assert len(chunks) == 3
 
 

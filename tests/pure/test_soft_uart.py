@@ -35,7 +35,7 @@ def test_a_top_bit_that_agrees_with_even_parity_on_sixteen_characters_is_parity(
     # the low seven. 'H' = 0x48 (two ones: parity 0 -> 0x48), 'e' = 0x65 (four: 0x65),
     # 'l' = 0x6C (four), 'o' = 0x6F (six), ' ' = 0x20 (one: parity 1 -> 0xA0), ...
     text = b"Hello World!\r\nHi"
-    as_7e1 = [c | (bin(c).count("1") % 2) << 7 for c in text]
+    as_7e1 = [c | (c.bit_count() % 2) << 7 for c in text]
     assert as_7e1[:5] == [0x48, 0x65, 0x6C, 0x6C, 0x6F] and as_7e1[5] == 0xA0
     wider = [v | 0x100 for v in as_7e1]             # nine bits: the ninth is the stop bit, 1
     verdict = tell_format([Reading(9, wider, 0, []), Reading(8, as_7e1, 0, []),

@@ -6,8 +6,21 @@ import pytest
 from analyzer.analysis import doctor
 from analyzer.output import style_of
 from analyzer.styles import (
-    LEGEND, ROW_CHECKSUM, ROW_COMMAND, ROW_NAK, ROW_NIC, ROW_NOISE, ROW_PLAIN, ROW_PROBLEM,
-    ROW_RETRANSMISSION, ROW_SLOW, ROW_STYLE, ROW_UNANSWERED, ROW_WAITING, SEVERITY_STYLE, TIMELINE_STYLE,
+    LEGEND,
+    ROW_CHECKSUM,
+    ROW_COMMAND,
+    ROW_NAK,
+    ROW_NIC,
+    ROW_NOISE,
+    ROW_PLAIN,
+    ROW_PROBLEM,
+    ROW_RETRANSMISSION,
+    ROW_SLOW,
+    ROW_STYLE,
+    ROW_UNANSWERED,
+    ROW_WAITING,
+    SEVERITY_STYLE,
+    TIMELINE_STYLE,
     row_class,
 )
 from dissectors import problems

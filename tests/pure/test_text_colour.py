@@ -7,7 +7,7 @@ import io
 import pytest
 
 from analyzer.output import text_line
-from analyzer.styles import ROW_STYLE, ROW_CHECKSUM, ROW_NOISE, ROW_RETRANSMISSION
+from analyzer.styles import ROW_CHECKSUM, ROW_NOISE, ROW_RETRANSMISSION, ROW_STYLE
 from analyzer.writers.text import TextWriter
 from dissectors.event import COMMAND, NOISE, Event
 

@@ -5,12 +5,12 @@ computed by hand: 10 bits a character at 8N1."""
 
 from __future__ import annotations
 
-from typing import Iterator
+from collections.abc import Iterator
 
 import pytest
 
-from analyzer.capture import Capture, Options
 from analyzer.analysis.rate import RateFollower
+from analyzer.capture import Capture, Options
 from analyzer.sources import Chunk, Source
 from dissectors import Deframer
 from dissectors.event import ACK, COMMAND, RATE, RESULT

@@ -7,14 +7,32 @@ import io
 import struct
 
 import pytest
-from hypothesis import given, strategies as st
+from hypothesis import given
+from hypothesis import strategies as st
 
 from analyzer.errors import CaptureError
 from analyzer.formats import usb
-from analyzer.formats.usbserial import (BREAK, FRAMING, OVERRUN, PARITY, Cp210xIn, FtdiIn, ftdi_max_packet,
-                                        looks_like_ftdi_status)
-from tests.usb_captures import (BULK, CP2102, CTRL, FT232R, FT2232H, START, UsbCapture, config_descriptor,
-                                device_descriptor)
+from analyzer.formats.usbserial import (
+    BREAK,
+    FRAMING,
+    OVERRUN,
+    PARITY,
+    Cp210xIn,
+    FtdiIn,
+    ftdi_max_packet,
+    looks_like_ftdi_status,
+)
+from tests.usb_captures import (
+    BULK,
+    CP2102,
+    CTRL,
+    FT232R,
+    FT2232H,
+    START,
+    UsbCapture,
+    config_descriptor,
+    device_descriptor,
+)
 
 
 def _capture():

@@ -7,8 +7,8 @@ import struct
 
 import pytest
 
-from analyzer.wireshark import lua
 from analyzer.formats import pdu
+from analyzer.wireshark import lua
 from dissectors import problems as P
 from dissectors.commands import field_types
 from dissectors.event import Event
@@ -49,7 +49,7 @@ def test_a_derive_function_without_a_lua_version_stops_the_generator():
 def test_every_field_and_problem_of_the_tables_is_in_the_dissector():
     text = lua.generate()
     for name in field_types():
-        assert f'ProtoField.' in text and f'"{lua.abbr(name)}"' in text
+        assert 'ProtoField.' in text and f'"{lua.abbr(name)}"' in text
     assert '"gimbal.field_status"' in text   # AW's status: the event's status keeps its name
     for info in P.TABLE:
         assert f'"gimbal.expert.{info.name.lower()}"' in text

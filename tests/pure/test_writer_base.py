@@ -56,10 +56,9 @@ def test_a_path_appears_only_when_the_run_ends_well(tmp_path):
 def test_a_failed_run_leaves_no_file_and_the_old_one_intact(tmp_path):
     out = tmp_path / "out.txt"
     out.write_bytes(b"old\n")
-    with pytest.raises(RuntimeError):
-        with Lines(str(out)) as w:
-            w.write("new")
-            raise RuntimeError("reading failed")
+    with pytest.raises(RuntimeError), Lines(str(out)) as w:
+        w.write("new")
+        raise RuntimeError("reading failed")
     assert out.read_bytes() == b"old\n"
     assert leftovers(tmp_path) == ["out.txt"]
 
@@ -84,12 +83,11 @@ def test_in_place_is_there_from_the_start_and_kept_after_a_failure(tmp_path):
     out = tmp_path / "live.jsonl"
     ev = Event("A", 0, NOISE, b"\x00")
     ev.number = 1
-    with pytest.raises(RuntimeError):
-        with JsonLinesWriter(str(out), atomic=False, flush_each=True) as w:
-            assert out.exists()
-            w.write(ev)
-            assert out.read_bytes().count(b"\n") == 1   # flushed: a killed process keeps it
-            raise RuntimeError("killed")
+    with pytest.raises(RuntimeError), JsonLinesWriter(str(out), atomic=False, flush_each=True) as w:
+        assert out.exists()
+        w.write(ev)
+        assert out.read_bytes().count(b"\n") == 1   # flushed: a killed process keeps it
+        raise RuntimeError("killed")
     assert out.read_bytes().count(b"\n") == 1
     assert leftovers(tmp_path) == ["live.jsonl"]
 
