@@ -6,8 +6,8 @@ Each message is one line for people, naming what and where. Exit statuses
 (cli/main.py): usage mistakes, refused outputs and unusable datasets 2; a failure
 while writing 1; an input that is no capture 2.
 
-Errors that never leave their module (a damaged MCAP record while scanning, a
-cancelled background scan) stay where they are raised.
+Errors that never leave their module (a damaged MCAP record met while walking a
+file, a cancelled background sweep of the rows) stay where they are raised.
 """
 
 from __future__ import annotations

@@ -234,7 +234,7 @@ _kind(RATE_NONSTANDARD, WARNING,
 _kind(FRAMING_ERRORS, ERROR,
       "characters whose stop bit is not at the idle level, breaks (a line held active), parity errors",
       # errors: "3 framing errors in 402 characters, and 2 breaks": a break has no
-      # value, so it is no character, and is counted apart from them
+      # value, so it is no character, and is counted separately from them
       "line {line}: {errors}",
       "first at {first}",
       "{check}",

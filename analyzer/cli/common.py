@@ -99,7 +99,7 @@ def add_input_args(p: argparse.ArgumentParser) -> None:
 # The serial and pairing options and their defaults. The parser's defaults are None,
 # so an option given on the command line is told from one left at its default: a
 # recording's own settings win over defaults, and lose to options given
-# (docs/time.md, "Recordings"). Per-command timeouts (--timeout, a list) are read apart.
+# (docs/time.md, "Recordings"). Per-command timeouts (--timeout, a list) are read separately.
 DEFAULTS = {key: value for key, value in Options().settings().items() if key != "timeouts"}
 # the time and instrument options: only for commands that read capture files
 FILE_OPTIONS = ("tz", "start_time", "channels", "adapter", "usb_device", "samplerate", "unitsize")

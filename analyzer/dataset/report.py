@@ -5,7 +5,7 @@ Per device and period (a day or a week): commands, each status (spec
 §1.4.2-1.4.3: ok, nak, nic, no_ack, no_result, pending), the error and NAK
 rates, and the ACK and result latency percentiles; per capture, the wiring
 doctor's findings. The sums and percentiles are DuckDB's, over the
-``transactions`` view, so a report of months of traffic costs one scan.
+``transactions`` view, so a report of months of traffic costs one pass over it.
 
 A device is *trending worse* when, over its periods with enough commands, the
 least-squares line through its p95 ACK latency (or its error rate) rises, and

@@ -1,5 +1,5 @@
 """Events, transactions and findings as Arrow record batches of the dataset's
-schemas (``schema.py``, docs/dataset.md).
+schemas (``parquet_schema.py``, docs/dataset.md).
 
 The builders take rows one at a time and give a batch when asked, so a day-long
 capture is written in pieces and memory stays flat. Each keeps a Python list

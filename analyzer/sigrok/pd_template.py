@@ -250,17 +250,17 @@ class LineDeframer:
         self.emit = emit
         self.buf = bytearray()
         self.base = 0
-        self.i = 0                        # where scanning resumes, in buf
+        self.i = 0                        # where deframing resumes, in buf
         self.noise_start = None           # absolute offset of a pending noise run
 
     def feed(self, value):
         self.buf.append(value)
-        self.scan(False)
+        self.deframe(False)
 
     def finish(self):
-        self.scan(True)
+        self.deframe(True)
 
-    def scan(self, final):
+    def deframe(self, final):
         buf = self.buf
         n = len(buf)
         i = self.i

@@ -88,14 +88,14 @@ class SimController(threading.Thread):
     def _next(self, until: float, kinds: tuple[str, ...]) -> Event | None:
         """The next answer of one of ``kinds``, or None by ``until``; events before
         it are consumed, events after it are kept."""
-        scanned = 0
+        seen = 0
         while not self._halt.is_set():
-            for k in range(scanned, len(self._inbox)):
+            for k in range(seen, len(self._inbox)):
                 if self._inbox[k].kind in kinds:
                     ev = self._inbox[k]
                     del self._inbox[: k + 1]
                     return ev
-            scanned = len(self._inbox)
+            seen = len(self._inbox)
             if time.monotonic() >= until:
                 return None
             self._read(until)

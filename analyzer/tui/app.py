@@ -26,6 +26,7 @@ from textual.timer import Timer
 from .feed import FeedBatch, ScreenFeed
 from .model import CaptureModel
 from .screens.capture import CaptureScreen
+from .screens.redraw import Redrawn
 from .widgets import EventList, RecordControl
 
 if TYPE_CHECKING:
@@ -178,9 +179,8 @@ class GimbalscopeApp(App):
     def _capture_changed(self) -> None:
         """A full screen on top (statistics, plots, findings) is redrawn when the
         capture has changed, not on a timer."""
-        changed = getattr(self.screen, "capture_changed", None)
-        if changed is not None:
-            changed()
+        if isinstance(self.screen, Redrawn):
+            self.screen.capture_changed()
 
     def _tick(self) -> None:
         """A replay's pace: the rows up to the playback's position, and the position."""
