@@ -163,8 +163,9 @@ def test_sim_behind_socat_has_one_clock(tmp_path, socat_bin):
             cmd = by_number[e["request"]]
             assert e["number"] > cmd["number"] and e["t"] >= cmd["t_end"], (cmd, e)
             assert e["latency"] >= 0
-    # answered in 0.3 ms behind a pty: ACK latencies stay well under the 38-43 ms a false skew made
-    assert statistics.median(a["latency"] for a in acks) < 0.01
+    # answered in 0.3 ms behind a pty: ACK latencies stay well under the 38-43 ms a false
+    # skew made (20 ms leaves room for a busy machine's late reads, not for that skew)
+    assert statistics.median(a["latency"] for a in acks) < 0.02
     results = [e for e in events if e["kind"] == RESULT and e["request"] is not None]
     for r in results:   # a result never before its own ACK on the same line
         ack = next(a for a in acks if a["request"] == r["request"])
