@@ -151,7 +151,9 @@ def test_broken_pipe_is_quiet(tmp_path):
 
 def test_console_script_is_installed():
     import shutil
-    assert shutil.which("gimbalscope"), "pip install -e . provides the gimbalscope command"
+    # beside the interpreter running the tests: the venv's, activated or not
+    assert shutil.which("gimbalscope", path=os.path.dirname(sys.executable)), \
+        "pip install -e . provides the gimbalscope command"
     assert run_cli("--version").stdout.startswith("gimbalscope ")
 
 

@@ -8,6 +8,7 @@ import os
 import random
 import shutil
 import subprocess
+import sys
 
 import pytest
 
@@ -45,8 +46,13 @@ KNOWN_FALSE_ALARMS = {"SUMMARY_OFFSET_WITHOUT_GROUP"}
 EMPTY_GROUPS = ("AttachmentIndex", "ChunkIndex")
 
 
+# the checker installed beside the interpreter running the tests (the venv's, also when
+# the venv is not activated), else the one on PATH
+PYMCAP_CLI = shutil.which("pymcap-cli", path=os.path.dirname(sys.executable)) or "pymcap-cli"
+
+
 def doctor(path) -> list[dict]:
-    out = subprocess.run(["pymcap-cli", "doctor", "--format", "jsonl", str(path)],
+    out = subprocess.run([PYMCAP_CLI, "doctor", "--format", "jsonl", str(path)],
                          capture_output=True, text=True, timeout=120, check=False)
     rows = [json.loads(line) for line in out.stdout.splitlines() if line.strip().startswith("{")]
     assert rows, out.stdout + out.stderr
