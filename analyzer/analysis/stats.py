@@ -35,7 +35,7 @@ from collections import Counter
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from operator import attrgetter
-from typing import Any
+from typing import Any, Generic, TypeVar, overload
 
 import numpy as np
 
@@ -249,11 +249,52 @@ class EventColumns:
             [rate_change(events[i]) for i in np.flatnonzero(kinds.among(RATE)).tolist()])
 
 
+T = TypeVar("T")
+
+
+class Figure(Generic[T]):
+    """A figure of ``Stats``, held in the attribute of its name with an underscore
+    before it. Read, it counts the events still waiting first (``Stats.flush``),
+    so a figure read mid-capture is of every event added."""
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.held = "_" + name
+
+    @overload
+    def __get__(self, stats: None, owner: type) -> Figure[T]: ...
+
+    @overload
+    def __get__(self, stats: Stats, owner: type) -> T: ...
+
+    def __get__(self, stats: Stats | None, owner: type) -> Figure[T] | T:
+        if stats is None:
+            return self
+        stats.flush()
+        value: T = getattr(stats, self.held)
+        return value
+
+
 # ------------------------------------------------------------------ the figures
 class Stats:
     """The statistics of the events added so far. Events added one by one or a
     few at a time wait in a list and are counted ``BATCH`` at a time; reading a
     figure counts those waiting first (``flush``)."""
+
+    # every event added, counted (``Figure``: a read counts those waiting first)
+    events = Figure[int]()
+    kinds = Figure[Counter[str]]()
+    problems = Figure[Counter[str]]()                # events per problem category
+    bytes = Figure[Counter[str]]()                   # bytes per line
+    noise_bytes = Figure[int]()
+    noise_kinds = Figure[Counter[str]]()             # noise events by what they are (their problem)
+    checksum_errors = Figure[int]()                  # events with a checksum problem (frames and broken frames)
+    broken_frames = Figure[int]()                    # of those: noise events, a frame broken beyond reading
+    orphans = Figure[int]()
+    rate_changes = Figure[list[dict[str, Any]]]()    # the link's rate changes (docs/time.md)
+    first_t = Figure[float | None]()
+    last_t = Figure[float | None]()
+    by_command = Figure[dict[str, Counts]]()
+    by_device = Figure[dict[str, Counts]]()
 
     def __init__(self) -> None:
         self._pending: list[Event] = []   # added, not counted yet
@@ -299,83 +340,6 @@ class Stats:
         if self._pending:
             pending, self._pending = self._pending, []
             self._count(EventColumns.of(pending))
-
-    # the figures, each of every event added
-    @property
-    def events(self) -> int:
-        self.flush()
-        return self._events
-
-    @property
-    def kinds(self) -> Counter[str]:
-        self.flush()
-        return self._kinds
-
-    @property
-    def problems(self) -> Counter[str]:
-        """Events per problem category."""
-        self.flush()
-        return self._problems
-
-    @property
-    def bytes(self) -> Counter[str]:
-        """Bytes per line."""
-        self.flush()
-        return self._bytes
-
-    @property
-    def noise_bytes(self) -> int:
-        self.flush()
-        return self._noise_bytes
-
-    @property
-    def noise_kinds(self) -> Counter[str]:
-        """Noise events by what they are (their problem)."""
-        self.flush()
-        return self._noise_kinds
-
-    @property
-    def checksum_errors(self) -> int:
-        """Events with a checksum problem (frames and broken frames)."""
-        self.flush()
-        return self._checksum_errors
-
-    @property
-    def broken_frames(self) -> int:
-        """Of the checksum errors: noise events, a frame broken beyond reading."""
-        self.flush()
-        return self._broken_frames
-
-    @property
-    def orphans(self) -> int:
-        self.flush()
-        return self._orphans
-
-    @property
-    def rate_changes(self) -> list[dict[str, Any]]:
-        """The link's rate changes (docs/time.md)."""
-        self.flush()
-        return self._rate_changes
-
-    @property
-    def first_t(self) -> float | None:
-        self.flush()
-        return self._first_t
-
-    @property
-    def last_t(self) -> float | None:
-        self.flush()
-        return self._last_t
-
-    @property
-    def by_command(self) -> dict[str, Counts]:
-        self.flush()
-        return self._by_command
-
-    @property
-    def by_device(self) -> dict[str, Counts]:
-        self.flush()
-        return self._by_device
 
     def _count(self, batch: EventColumns) -> None:
         """Count the events of ``batch``, the next in wire order: the definition
