@@ -55,8 +55,8 @@ from dissectors.problems import Problem
 
 KINDS = (COMMAND, RESULT, ACK, NAK, NIC, NOISE, RATE, FRAME)
 STATUSES = (None, OK, ST_NAK, ST_NIC, NO_ACK, NO_RESULT, PENDING)
-_KIND_CODE = {k: i for i, k in enumerate(KINDS)}
-_STATUS_CODE = {s: i for i, s in enumerate(STATUSES)}
+KIND_CODE = {k: i for i, k in enumerate(KINDS)}       # a kind's code in the kind column
+STATUS_CODE = {s: i for i, s in enumerate(STATUSES)}  # a status's code in the status column
 
 # flag bits
 UNTIMED = 1        # t and t_end are None; the t column holds the index (the timeline's order)
@@ -254,10 +254,10 @@ class EventStore:
             self.t.extend(cast("list[float]", t))
             self.t_end.extend(cast("list[float]", [ev.t_end for ev in batch]))
         self.offset = _extend_wide(self.offset, [ev.offset for ev in batch])
-        kc = _KIND_CODE
+        kc = KIND_CODE
         self.kind.extend([kc[ev.kind] for ev in batch])
         self.line.extend(self._lines.codes_of([ev.line for ev in batch]))
-        sc = _STATUS_CODE
+        sc = STATUS_CODE
         self.status.extend([sc[ev.status] for ev in batch])
         # keyed by the table entry's identity: hashing the entry was a third of this loop
         self.command = _extend_wide(self.command, self._commands.codes_of(

@@ -24,14 +24,21 @@ from dissectors.event import ACK, COMMAND, NAK, NIC, RATE, RESULT, ST_NIC
 from dissectors.problems import Problem
 
 from ..analysis.stats import Coded, EventColumns, Stats, rate_change
-from .store import CHECKSUM_BAD, KINDS, LINKED, RETRANSMISSION, STATUSES, UNTIMED, EventStore
+from .store import (
+    CHECKSUM_BAD,
+    KIND_CODE,
+    KINDS,
+    LINKED,
+    RETRANSMISSION,
+    STATUS_CODE,
+    STATUSES,
+    UNTIMED,
+    EventStore,
+)
 from .store_filter import Columns
 
 if TYPE_CHECKING:
     from .model.devices import DeviceInfo
-
-_K = {k: i for i, k in enumerate(KINDS)}
-
 
 def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> Stats:
     """The statistics of the first ``stop`` stored events, or of those among them
@@ -60,8 +67,8 @@ def stored_columns(store: EventStore, stop: int, rows: np.ndarray | None = None)
     # a command counts for its own id, an answer for its command's (at its request's row)
     own, request = col("command"), col("request").astype(np.int64)
     answered = cols.column("command")[np.maximum(request - 1, 0)] if stop else own
-    command = np.where((request > 0) & (kind != _K[COMMAND]), answered, own)
-    rate_rows = rows[kind == _K[RATE]].tolist()
+    command = np.where((request > 0) & (kind != KIND_CODE[COMMAND]), answered, own)
+    rate_rows = rows[kind == KIND_CODE[RATE]].tolist()
     return EventColumns(
         Coded(kind, KINDS), Coded(col("line"), store.line_values), Coded(col("status"), STATUSES),
         Coded(command, store.command_ids), Coded(col("device"), store.device_values),
@@ -94,8 +101,8 @@ def devices_of(store: EventStore, stop: int) -> dict[str, DeviceInfo]:
     col = Columns(store, 0, stop).column
     kind, device, flags, line = col("kind"), col("device"), col("flags"), col("line")
     names, lines = store.device_values, store.line_values
-    is_command = kind == _K[COMMAND]
-    answer = np.isin(kind, [_K[RESULT], _K[ACK], _K[NAK], _K[NIC]]) & ((flags & LINKED) != 0)
+    is_command = kind == KIND_CODE[COMMAND]
+    answer = np.isin(kind, [KIND_CODE[RESULT], KIND_CODE[ACK], KIND_CODE[NAK], KIND_CODE[NIC]]) & ((flags & LINKED) != 0)
     mapped = (is_command | answer) & (device != 0)
 
     def info(code: int) -> DeviceInfo:
@@ -112,7 +119,7 @@ def devices_of(store: EventStore, stop: int) -> dict[str, DeviceInfo]:
         info(code)
     for code, n in zip(*np.unique(device[mapped & is_command], return_counts=True)):
         info(code).commands += int(n)
-    acks = mapped & np.isin(kind, [_K[ACK], _K[NAK]])
+    acks = mapped & np.isin(kind, [KIND_CODE[ACK], KIND_CODE[NAK]])
     for code, n in zip(*np.unique(device[acks], return_counts=True)):
         info(code).answered += int(n)
     pairs = np.unique(device[mapped & answer].astype(np.int64) * 256 + line[mapped & answer])
@@ -120,7 +127,7 @@ def devices_of(store: EventStore, stop: int) -> dict[str, DeviceInfo]:
         line_name = lines[p % 256]
         assert line_name is not None   # every event is on a line
         info(p // 256).lines.add(line_name)
-    nic = mapped & is_command & (col("status") == STATUSES.index(ST_NIC))
+    nic = mapped & is_command & (col("status") == STATUS_CODE[ST_NIC])
     commands = store.command_ids
     for code, c in set(zip(device[nic].tolist(), col("command")[nic].tolist())):
         command = commands[c]

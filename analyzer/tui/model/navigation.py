@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from dissectors.event import COMMAND, Event
 
-from ..store import KINDS, EventStore
+from ..store import KIND_CODE, EventStore
 from ..sweep import IsCancelled, ReportProgress, first_match
 from .filter import FilterView
 from .follow import Marks
@@ -21,7 +21,7 @@ from .row_text import RowText
 if TYPE_CHECKING:
     import numpy as np
 
-COMMAND_CODE = KINDS.index(COMMAND)
+COMMAND_CODE = KIND_CODE[COMMAND]
 FIND_BY_FILTER = "="   # a search text that starts with it is a filter expression
 
 
