@@ -91,7 +91,7 @@ def format_address(address: Sequence[int | None]) -> str:
 class PairingRecord(Protocol):
     """What a reader of any event may ask of its pairing record
     (``Event.transaction``): pairing's ``analyzer.analysis.pairing.Transaction``,
-    a rebuilt event's link (``analyzer.tui.store``) or a device given by hand."""
+    a rebuilt event's link (``analyzer.formats.store``) or a device given by hand."""
 
     @property
     def command(self) -> str | None:

@@ -1,5 +1,5 @@
 """What a compiled filter tests, beside the closure that tests it: a plan that an
-engine over columns (the TUI's event store, analyzer/tui/store_filter.py) can
+engine over columns (the TUI's event store, analyzer/formats/store_filter.py) can
 evaluate for many events at once.
 
 The closure stays the ground truth. A plan is a tree of

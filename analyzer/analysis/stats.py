@@ -13,13 +13,13 @@ and ``noise`` breaks its events down the same way.
 One definition, two drivers. The figures are worked out in one place,
 ``Stats.add_columns``, over a batch of events given as columns (``EventColumns``:
 an array a property, with numpy). Columns because the TUI's store holds a day as
-columns (analyzer/tui/store.py), and rebuilding a million events to count them
+columns (analyzer/formats/store.py), and rebuilding a million events to count them
 one by one would take seconds where the arrays take a fraction of one. Events as
 they come (``Stats.add`` and ``add_events``: ``gimbalscope stats``, a live tap, a
 script) wait in a list until there are ``BATCH`` of them, then are turned into the
 same columns (``EventColumns.of``) and counted, so numpy's cost a call is spread
 over thousands of events; the TUI's store hands its columns over as one batch
-(analyzer/tui/store_stats.py). Each batch is counted straight into the running
+(analyzer/formats/store_stats.py). Each batch is counted straight into the running
 figures, and every figure adds up across batches (counts and latency buckets
 add, the first time is the first batch's, the last the last's), so a capture
 counted in batches of any size has the same statistics as counted whole

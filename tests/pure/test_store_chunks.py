@@ -12,10 +12,10 @@ import pickle
 import pytest
 
 import analyzer
+from analyzer.formats.store import COLUMNS, EventStore
 from analyzer.simulation.traffic import generate
 from analyzer.tui.model import CaptureModel
 from analyzer.tui.model.chunks import ChunkMaker
-from analyzer.tui.store import COLUMNS, EventStore
 from dissectors.event import NOISE, Event
 from tests.pure.test_tui_store import SAMPLES, commands_to_many_devices, same
 

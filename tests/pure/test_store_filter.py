@@ -1,4 +1,4 @@
-"""Filters over the TUI store's columns (analyzer/tui/store_filter.py) select
+"""Filters over the TUI store's columns (analyzer/formats/store_filter.py) select
 exactly the rows the filter's closure selects, on every sample capture and on a
 hostile line, for hand-picked filters and for random ones; and the columns
 decide the filters they hold without the closure."""
@@ -13,9 +13,9 @@ import analyzer
 from analyzer.analysis.filter import compile_filter
 from analyzer.analysis.filter_plan import AllOf, AnyOf, Const, Leaf, Name, Not
 from analyzer.errors import FilterError
+from analyzer.formats.store import EventStore
+from analyzer.formats.store_filter import Columns, evaluate, matching
 from analyzer.simulation.traffic import generate
-from analyzer.tui.store import EventStore
-from analyzer.tui.store_filter import Columns, evaluate, matching
 
 SAMPLES = [("captures/demo-ctl.bin", "captures/demo-dev.bin"), ("captures/demo-socat.log",),
            ("captures/demo-bus.bin",)]
@@ -160,8 +160,8 @@ def test_random_filters_select_the_closures_rows(stores, text):
 
 
 def test_a_filtered_views_errors_come_from_the_flags(stores):
+    from analyzer.formats.store import is_error
     from analyzer.tui.model.capture import CaptureModel
-    from analyzer.tui.store import is_error
 
     events = list(analyzer.open("captures/demo-socat.log"))
     model = CaptureModel(follow=False)

@@ -1,6 +1,6 @@
 """The statistics have one definition (``Stats.add_columns``, analyzer/analysis/stats.py)
 and two drivers: events counted as they come, in batches (``gimbalscope stats``),
-and the TUI store's columns (analyzer/tui/store_stats.py, ``stats_of``).
+and the TUI store's columns (analyzer/formats/store_stats.py, ``stats_of``).
 
 The figures are right by hand on a small capture built by hand; a capture counted
 in batches of any size, or one event at a time, has the statistics of its events
@@ -17,10 +17,10 @@ import pytest
 import analyzer
 from analyzer.analysis.filter import compile_filter
 from analyzer.analysis.stats import BATCH, EventColumns, Stats
+from analyzer.formats.store import EventStore
+from analyzer.formats.store_stats import devices_of, stats_of
 from analyzer.listeners import StatsListener
 from analyzer.simulation.traffic import generate
-from analyzer.tui.store import EventStore
-from analyzer.tui.store_stats import devices_of, stats_of
 from dissectors.event import Event
 from tests.pure.test_pairing import cmd, res, run, simple
 

@@ -6,9 +6,9 @@ from __future__ import annotations
 import pytest
 
 import analyzer
+from analyzer.formats.store import EventStore
 from analyzer.simulation.traffic import generate
 from analyzer.tui.model.plots import Series
-from analyzer.tui.store import EventStore
 from dissectors.event import ACK, COMMAND, NOISE, RATE, Event
 from tests.conftest import frame
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import asyncio
 
 import analyzer
+from analyzer.formats.store import is_error
 from analyzer.tui.run import make_app, stop_feed
-from analyzer.tui.store import is_error
 from tests.conftest import SOCAT_LOG
 from tests.ui.test_pilot import settle
 

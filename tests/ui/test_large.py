@@ -11,8 +11,8 @@ import threading
 import pytest
 
 import analyzer
+from analyzer.formats import sweep
 from analyzer.simulation.traffic import generate
-from analyzer.tui import sweep
 from analyzer.tui.run import make_app, stop_feed
 from analyzer.tui.screens import capture as capture_screen
 from analyzer.tui.widgets import EventList

@@ -22,10 +22,10 @@ from bisect import bisect_left, bisect_right
 from dissectors.event import Event
 
 from ...analysis.findings import Finding
+from ...formats.store import EventStore, EventsView
+from ...formats.sweep import IsCancelled, ReportProgress
 from ..detail import DetailNode
 from ..detail import detail as detail_tree
-from ..store import EventStore, EventsView
-from ..sweep import IsCancelled, ReportProgress
 from .chunks import ModelChunk
 from .filter import FilterView, PreparedFilter
 from .follow import Follow, Marks

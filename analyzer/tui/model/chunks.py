@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from dissectors.event import Event
 
 from ...analysis.stats import checksum_problem
-from ..store import EventStore, StoreChunk
+from ...formats.store import EventStore, StoreChunk
 from .plots import PositionPlots, Series
 
 

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 from dissectors.event import Event
 
 from ...analysis.filter import Predicate, compile_filter
-from ..store import ERROR, EventStore
-from ..store_filter import Columns, matching
-from ..sweep import IsCancelled, ReportProgress
+from ...formats.store import ERROR, EventStore
+from ...formats.store_filter import Columns, matching
+from ...formats.sweep import IsCancelled, ReportProgress
 
 
 @dataclass(frozen=True)

@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Protocol
 
 from dissectors.event import COMMAND, Event
 
-from ..store import KIND_CODE, EventStore
-from ..sweep import IsCancelled, ReportProgress, first_match
+from ...formats.store import KIND_CODE, EventStore
+from ...formats.sweep import IsCancelled, ReportProgress, first_match
 from .filter import FilterView
 from .follow import Marks
 from .row_text import RowText
@@ -185,7 +185,7 @@ class Navigation:
         import numpy as np
 
         from ...analysis.filter import compile_filter
-        from ..store_filter import matching
+        from ...formats.store_filter import matching
 
         m = self.model
         expr = expr.strip()

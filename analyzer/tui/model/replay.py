@@ -8,7 +8,7 @@ from bisect import bisect_right
 from dataclasses import dataclass
 from typing import Protocol
 
-from ..store import EventStore
+from ...formats.store import EventStore
 
 
 @dataclass

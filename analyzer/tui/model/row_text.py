@@ -9,8 +9,8 @@ from typing import Protocol
 
 from dissectors.event import COMMAND, Event
 
+from ...formats.store import EventStore
 from ...output import device_address, fmt_seconds, summary
-from ..store import EventStore
 
 TIME_MODES = ("absolute", "relative", "delta")
 

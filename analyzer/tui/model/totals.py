@@ -2,7 +2,7 @@
 status line shows, and the statistics and device map the statistics screen
 shows. The counts follow the events as they are shown; the statistics and the
 device map are worked out from the store's columns when asked
-(analyzer/tui/store_stats.py) and kept until the rows change."""
+(analyzer/formats/store_stats.py) and kept until the rows change."""
 
 from __future__ import annotations
 
@@ -15,9 +15,8 @@ import numpy as np
 from dissectors.event import Event
 
 from ...analysis.stats import Stats, checksum_problem
-from ..store import EventStore
-from ..store_stats import devices_of, stats_of
-from .devices import DeviceInfo
+from ...formats.store import EventStore
+from ...formats.store_stats import DeviceInfo, devices_of, stats_of
 from .filter import FilterView
 
 

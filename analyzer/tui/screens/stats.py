@@ -1,7 +1,7 @@
 """The statistics screen (``S``): the summary and the per-command and per-device
 tables of ``gimbalscope stats``, in its words, the ACK latency histogram, and the
 device map, redrawn when the capture has changed, at most once a second. With a filter, the figures are those of the
-rows it shows (computed from the store's columns: analyzer/tui/store_stats.py)."""
+rows it shows (computed from the store's columns: analyzer/formats/store_stats.py)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Sweeps too long for the screen's thread (a filter or a search over more
-than ``BACKGROUND_ROWS`` rows, analyzer/tui/sweep.py) run here, in a worker
+than ``BACKGROUND_ROWS`` rows, analyzer/formats/sweep.py) run here, in a worker
 thread: the screen and the capture go on, ``Progress`` says how far it got (at
 most ten messages a second, posted from the worker: it never waits for the
 screen), and ``cancel()`` (Esc) stops it between steps. It draws nothing (the
@@ -15,8 +15,8 @@ from textual.message import Message
 from textual.widget import Widget
 from textual.worker import get_current_worker
 
+from ...formats.sweep import Cancelled, IsCancelled, ReportProgress
 from ...words import counted
-from ..sweep import Cancelled, IsCancelled, ReportProgress
 
 # what a sweep runs in the worker: work(progress, cancelled) -> its result
 Work = Callable[[ReportProgress, IsCancelled], Any]

@@ -16,7 +16,7 @@ rate changes, a handful a capture, are rebuilt as events.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,8 +37,17 @@ from .store import (
 )
 from .store_filter import Columns
 
-if TYPE_CHECKING:
-    from .model.devices import DeviceInfo
+
+@dataclass
+class DeviceInfo:
+    """A device of the device map: which lines its answers came on, how many
+    commands it was sent and answered, and which commands it answered with NIC
+    (§1.4.2); the TUI's statistics screen shows the map."""
+    address: str
+    lines: set[str] = field(default_factory=set)       # lines its answers came on
+    commands: int = 0
+    answered: int = 0
+    nic: set[str] = field(default_factory=set)         # commands it answered with NIC
 
 def stats_of(store: EventStore, stop: int, rows: np.ndarray | None = None) -> Stats:
     """The statistics of the first ``stop`` stored events, or of those among them
@@ -87,13 +96,11 @@ def _problems(store: EventStore, stop: int, rows: np.ndarray) -> list[tuple[int,
 
 
 def devices_of(store: EventStore, stop: int) -> dict[str, DeviceInfo]:
-    """The device map (address -> model/devices.py's ``DeviceInfo``) of the first
+    """The device map (address -> ``DeviceInfo``) of the first
     ``stop`` stored events, from the columns: per device, the commands sent to
     it, the ACKs and NAKs it answered, the lines its paired answers (results,
     ACKs, NAKs, NICs) came on, and the commands it answered with NIC. A device
     comes in the order it first appears."""
-    from .model.devices import DeviceInfo
-
     out: dict[str, DeviceInfo] = {}
     if not stop:
         return out

@@ -1,5 +1,5 @@
 """Sweeps: walks over the shown rows too long for the screen's thread (a
-search; a filter's rows the columns cannot decide, analyzer/tui/store_filter.py),
+search; a filter's rows the columns cannot decide, analyzer/formats/store_filter.py),
 made to run in a worker thread: in steps, reporting progress, and stoppable
 (Esc) between steps.
 
