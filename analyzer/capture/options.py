@@ -33,6 +33,9 @@ class Options:
     usb_device: str | None = None
     samplerate: float | None = None       # given: the inputs are bare streams of logic samples
     unitsize: int = 1                     # ... of this many bytes a sample
+    # read a recording's raw bytes even when it carries its decoded columns
+    # (docs/mcap.md, "Stored columns"): ``--redecode``
+    redecode: bool = False
     # the options the user gave (flags, keywords): they win over what a recording
     # says of itself (docs/time.md, "Recordings"); the rest may be taken from it
     explicit: frozenset[str] = frozenset()

@@ -119,9 +119,12 @@ def add_serial_args(p: argparse.ArgumentParser, files: bool = True) -> None:
     if files:
         add_time_args(p)
         add_instrument_args(p)
+        p.add_argument("--redecode", action="store_true",
+                       help="decode a recording's raw bytes even when it carries its decoded columns "
+                            "(by default they are read instead: docs/mcap.md, \"Stored columns\")")
     else:
         # what options_from reads of the file options, unset (a command may still add some of them)
-        p.set_defaults(**dict.fromkeys(FILE_OPTIONS))
+        p.set_defaults(**dict.fromkeys(FILE_OPTIONS), redecode=False)
     _pairing_args(p.add_argument_group("pairing"))
 
 
@@ -272,7 +275,7 @@ def options_from(args: argparse.Namespace) -> Options:
                    swap_lines=value["swap_lines"], follow_rate=value["follow_rate"],
                    tz=args.tz, start_time=args.start_time, channels=args.channels, adapter=args.adapter,
                    usb_device=args.usb_device, samplerate=args.samplerate, unitsize=args.unitsize or 1,
-                   explicit=frozenset(given))
+                   redecode=args.redecode, explicit=frozenset(given))
 
 
 # -q/--quiet: warnings are not said (set by cli/main.py for the command running;

@@ -35,6 +35,11 @@ LOG_TOPIC = "/log"                   # foxglove.Log: human-readable anomalies
 POSITION_TOPIC = "/gimbal/{device}/position"   # per device: analyzer/analysis/positions.py
 READS_TOPIC = "/serial/reads"        # lean recordings: the reads of every line, batched in wire order
 METADATA_NAME = "gimbalscope"
+# the decoded events as the store's columns, Arrow IPC (analyzer/formats/store_ipc.py), in chunks of
+# their own; the metadata record saying they are complete, written when the recording closes
+COLUMNS_TOPIC = "/gimbalscope/columns"
+COLUMNS_ENCODING = "arrow.ipc"
+COLUMNS_RECORD = "gimbalscope.columns"
 PROFILE = "gimbalscope"
 
 DIALECT = "https://json-schema.org/draft/2020-12/schema"

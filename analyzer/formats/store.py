@@ -193,7 +193,7 @@ class StoreChunk:
     fields: dict[int, dict[str, Any]]
     lines: list[str | None]
     devices: list[str | None]
-    commands: list[tuple[str | None, int | Command]]   # (command id, place in COMMANDS, or the entry itself)
+    commands: list[tuple[str | None, int | Command | None]]   # (command id, place in COMMANDS, or the entry itself)
 
 
 class EventStore:
@@ -355,6 +355,13 @@ class EventStore:
         """The command id each code of the ``command`` column stands for (code 0:
         None; several codes can have one id, each with its own table entry)."""
         return [None if v is None else v[0] for v in list(self._commands.values)]
+
+    @property
+    def command_places(self) -> list[list[Any] | None]:
+        """Each code of the ``command`` column as [command id, the table entry's
+        place in ``COMMANDS``] (code 0: None; an entry not in the table: None,
+        which only a hand-made event can have)."""
+        return [None if v is None else [v[0], _ENTRY_PLACE.get(id(v[1]))] for v in list(self._commands.values)]
 
     def device_code(self, device: str) -> int | None:
         """The device column's code for ``device``; None if no event has it."""

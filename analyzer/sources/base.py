@@ -32,6 +32,16 @@ def _ignore(msg: str) -> None:
     pass
 
 
+@dataclass(frozen=True)
+class StoredColumns:
+    """A source's stored columns: the record saying they are complete (None:
+    none to use, ``why`` says why when there is something to say), and their
+    messages (Arrow IPC, analyzer/formats/store_ipc.py) read in order, on demand."""
+    record: dict[str, str] | None
+    why: str | None
+    messages: Callable[[], Iterator[bytes]] = lambda: iter(())
+
+
 class Source(ABC):
     """A capture input with one line (``("AB",)``) or two (``("A", "B")``)."""
 
@@ -136,6 +146,12 @@ class Source(ABC):
         format, as ``Options`` fields): the capture decodes with them unless they
         were given (analyzer/capture/recorded.py). A source of bytes measures none."""
         return {}
+
+    def stored_columns(self) -> StoredColumns:
+        """The decoded columns the source carries beside its bytes (a recording's:
+        docs/mcap.md, "Stored columns"), so that reading it needs no decoding.
+        Sources of bytes carry none."""
+        return StoredColumns(None, None)
 
     def stop(self) -> None:
         """Stop reading a live line: what was read is still given, then the chunks

@@ -59,16 +59,23 @@ from functools import partial
 from itertools import chain
 from typing import Any, BinaryIO
 
+from mcap.reader import make_reader
 from mcap.records import Channel, Metadata, Schema
 from orjson import loads as json_loads
 
 from .. import worker_process
 from ..errors import CaptureError
 from ..formats.mcap_lines import LINES_RECORD, faults_of, reports_of
-from ..formats.mcap_schemas import READS_TOPIC  # lean recordings: the reads of every line, batched
+from ..formats.mcap_schemas import (
+    COLUMNS_ENCODING,
+    COLUMNS_RECORD,
+    COLUMNS_TOPIC,
+    READS_TOPIC,  # lean recordings: the reads of every line, batched
+)
+from ..formats.store_ipc import ColumnsError
 from ..lines import LINE_A, LINE_AB, LINE_B, Chunk, LineFault
 from ..outfile import show
-from .base import ReadSettings, Source
+from .base import ReadSettings, Source, StoredColumns
 from .files import Input, open_input
 from .mcapwalk import (
     MAGIC,
@@ -243,6 +250,19 @@ class McapSource(Source):
         except (OSError, CaptureError, struct.error):   # the file changed under us
             return None, None
 
+    def stored_columns(self) -> StoredColumns:
+        """The recording's stored columns, when its ``gimbalscope.columns`` record
+        says they are complete (a killed tap's recording has none to use: its
+        record is written as it closes)."""
+        try:
+            with open_input(self.path) as f:
+                record, problem = read_metadata(f, os.fstat(f.fileno()).st_size, COLUMNS_RECORD)
+        except (OSError, CaptureError, struct.error):
+            return StoredColumns(None, None)
+        if record is None:
+            return StoredColumns(None, problem and f"{self.label}: stored columns not used: {problem}")
+        return StoredColumns(record, None, partial(_column_messages, self.path))
+
     def _count_clocks(self) -> int:
         """How many clocks stamped the chunks (docs/time.md, "Clocks"): as the
         metadata says, or as the tap that made it had them. Without time there is
@@ -343,6 +363,23 @@ def open_mcap(inputs: list[Input], settings: ReadSettings) -> McapSource:
     if problem:
         source.warn_later(problem)
     return source
+
+
+def _column_messages(path: str) -> Iterator[bytes]:
+    """The messages of ``COLUMNS_TOPIC`` in order, from the chunks that hold them
+    (the summary's chunk indexes lead to them). What does not read raises
+    ``ColumnsError``: the caller decodes the raw bytes instead."""
+    try:
+        with open(path, "rb") as f:
+            reader = make_reader(f)
+            for _schema, channel, message in reader.iter_messages(topics=[COLUMNS_TOPIC], log_time_order=False):
+                if channel.message_encoding != COLUMNS_ENCODING:
+                    raise ColumnsError(f"stored columns encoded as {channel.message_encoding!r}")
+                yield message.data
+    except ColumnsError:
+        raise
+    except Exception as e:   # noqa: BLE001 - whatever the MCAP library says of a file it cannot read: one reason
+        raise ColumnsError(f"stored columns do not read: {type(e).__name__}: {e}") from None
 
 
 def _remove(path: str) -> None:

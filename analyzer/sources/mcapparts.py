@@ -35,7 +35,7 @@ from itertools import chain
 from ..errors import CaptureError
 from ..lines import Chunk, LineFault
 from ..words import counted
-from .base import ReadSettings, Source
+from .base import ReadSettings, Source, StoredColumns
 from .files import Input
 from .mcapfile import EPOCH, McapSource, last_log_time, open_mcap
 
@@ -70,6 +70,27 @@ class McapPartsSource(Source):
         unchecked = _unchecked(self.parts)
         if unchecked:
             self.warn_later(unchecked)
+
+    def stored_columns(self) -> StoredColumns:
+        """Every part's stored columns, in order, when each part has its own
+        complete ones from one decoder and no part's times are moved (parts of
+        one recording never are); the chunks join them (``store_ipc.Joiner``)."""
+        if any(self._shifts):
+            return StoredColumns(None, None)
+        stored = [p.stored_columns() for p in self.parts]
+        why = next((s.why for s in stored if s.why), None)
+        records = [s.record for s in stored]
+        if any(r is None for r in records):
+            return StoredColumns(None, why)
+        decoders = {r.get("decoder") for r in records if r is not None}
+        if len(decoders) != 1:
+            return StoredColumns(None, "stored columns not used: the parts were made by different decoders")
+        first = records[0]
+        assert first is not None
+        counts = [r.get("events", "") for r in records if r is not None]
+        total = sum(int(c) for c in counts) if all(c.isdigit() for c in counts) else -1
+        record = {**first, "events": str(total)}
+        return StoredColumns(record, None, lambda: chain.from_iterable(s.messages() for s in stored))
 
     def report_to(self, handler: Callable[[str], None]) -> None:
         """Every part's warnings go where the source's go."""

@@ -46,10 +46,12 @@ from dissectors.event import Event
 from ..errors import RecordingError
 from ..formats import mcap_schemas as S
 from ..formats.mcap_messages import Messages
+from ..formats.store_ipc import MEDIA_TYPE, VERSION
 from ..lines import Chunk
 from ..outfile import reason, show
 from ..output import dumps
 from ..words import counted
+from .mcap_columns import ColumnBatches
 from .mcap_internals import chunk_writer
 
 # The recording's layout (docs/foxglove.md, "Size"): chunks of 1 MiB compressed
@@ -153,8 +155,10 @@ class McapRecorder:
                  flush_interval: float | None = None, clock: Callable[[], float] = time.monotonic,
                  lines: tuple[str, ...] = ("A", "B"), file: IO[bytes] | None = None,
                  on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None,
-                 lean: bool = False, records: Callable[[], dict[str, dict[str, str]]] | None = None) -> None:
+                 lean: bool = False, records: Callable[[], dict[str, dict[str, str]]] | None = None,
+                 columns: bool = True) -> None:
         self.path = path
+        self.columns = columns   # docs/mcap.md, "Stored columns"
         # metadata records known as the recording goes (module doc): name → values, as of now
         self._records = records
         self._records_due = 0.0
@@ -204,6 +208,11 @@ class McapRecorder:
             self._channel(S.EVENTS_TOPIC, "event")
         for topic, key in ((S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")):
             self._channel(topic, key)
+        self._columns: ColumnBatches | None = None
+        if self.columns:   # schemaless: the Arrow IPC stream carries its schema
+            self._columns_channel = self._writer.register_channel(
+                S.COLUMNS_TOPIC, S.COLUMNS_ENCODING, 0, metadata={"media_type": MEDIA_TYPE, "version": VERSION})
+            self._columns = ColumnBatches(self._write_columns)
         self._lines = lines
         self._records_written: dict[str, dict[str, str]] = {}   # by name: the values last written
         self._records_count: dict[str, int] = {}                 # and how many times
@@ -237,6 +246,8 @@ class McapRecorder:
     def event(self, ev: Event) -> None:
         if not self._closed:
             self._messages.event(ev)
+            if self._columns is not None:
+                self._columns.add(ev, self._messages.time_ns(ev.t, ev.number, ev.offset))
 
     def close(self, metadata: dict[str, str] | None = None) -> None:
         """Finish the file: summary, statistics, and ``metadata`` when the
@@ -248,12 +259,16 @@ class McapRecorder:
         if self._closed:
             return
         data_end = before = self._out.good
+        columns = self._columns.record() if self._columns is not None else None
         try:
             if self.messages == 0:
                 self._write_empty()
                 data_end = before = self._out.good
             if metadata:
                 self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
+                data_end = self._out.good
+            if columns is not None:   # last: a recording cut before it has columns that may be incomplete
+                self._writer.add_metadata(S.COLUMNS_RECORD, columns)
                 data_end = self._out.good
             self._write_records()
             data_end = self._out.good
@@ -302,9 +317,33 @@ class McapRecorder:
         self._write(channel, ts, obj)
 
     def _write(self, channel: int, ts: int, obj: dict) -> None:
+        if not self._closed:
+            self._write_data(channel, ts, dumps(obj))
+
+    def _write_columns(self, data: bytes, ts: int) -> None:
+        """A message of stored columns, in a chunk of its own: a reader that wants
+        only the columns decompresses only their chunks."""
         if self._closed:
             return
-        data = dumps(obj)
+        before = self._out.good
+        try:
+            self._writer.flush()   # the other topics' chunk in progress
+        except OSError as e:
+            self._fail(e, before, self.messages)
+            return
+        self._kept = self.messages
+        self._write_data(self._columns_channel, ts, data)
+        if self._closed:
+            return
+        before = self._out.good
+        try:
+            self._writer.flush()
+        except OSError as e:
+            self._fail(e, before, self.messages)
+            return
+        self._kept = self.messages
+
+    def _write_data(self, channel: int, ts: int, data: bytes) -> None:
         before = self._out.good
         try:
             self._writer.add_message(channel, log_time=ts, data=data, publish_time=ts)
@@ -327,14 +366,16 @@ class McapRecorder:
         a lean recording's batch of reads in progress goes into it first."""
         if self._closed:
             return
-        if self.lean:
-            self._flushing = True
-            try:
+        self._flushing = True
+        try:
+            if self.lean:
                 self._messages.flush_reads()
-            finally:
-                self._flushing = False
-            if self._closed:   # writing the batch failed
-                return
+            if self._columns is not None and not self._closed:   # at most one flush behind the raw bytes
+                self._columns.flush()
+        finally:
+            self._flushing = False
+        if self._closed:   # writing the batch failed
+            return
         before = self._out.good
         try:
             self._writer.flush()

@@ -1,0 +1,70 @@
+"""A recording read from the decoded columns it carries instead of from its raw
+bytes (docs/mcap.md, "Stored columns"): the same events, without decoding.
+
+The columns are used when the recording says they are complete, they were made
+by this very decoder (``store_ipc.decoder_version``), and nothing given changes
+what decoding would make of the bytes (a rate, the lines swapped, a channel, a
+time zone...). Otherwise the raw bytes are decoded, as for any capture, and a
+recording that has columns says in one line why they were left aside.
+``--redecode`` (``Options.redecode``) leaves them aside silently.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+from ..formats.store import StoreChunk
+from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
+from .capture import Capture
+
+# the options that change what decoding makes of a recording's bytes, by their
+# flags: given, the recording is decoded
+_DECODING = {"baud": "--baud", "data_bits": "--data-bits", "parity": "--parity", "stop_bits": "--stop-bits",
+             "frame_gap": "--frame-gap", "ack_timeout": "--ack-timeout", "result_timeout": "--result-timeout",
+             "timeouts": "--timeout", "swap_lines": "--swap-lines", "follow_rate": "--no-follow-rate"}
+_INSTRUMENT = {"tz": "--tz", "start_time": "--start-time", "channels": "--channels", "adapter": "--adapter",
+               "usb_device": "--usb-device", "samplerate": "--samplerate"}
+
+
+@dataclass(frozen=True)
+class StoredEvents:
+    """A capture's events as stored chunks: ``chunks()`` reads them in order and
+    raises ``ColumnsError`` when they do not read or do not add up to ``events``."""
+    events: int
+    chunks: Callable[[], Iterator[StoreChunk]]
+
+
+def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
+    """The capture's stored events, or None and the line saying why they are not
+    used (None when there is nothing to say: no columns, or ``--redecode``)."""
+    options = capture.options
+    if options.redecode:
+        return None, None
+    stored = capture.source.stored_columns()
+    record = stored.record
+    if record is None:
+        return None, stored.why
+    name = capture.source.description
+    if record.get("version") != VERSION:
+        return None, f"{name}: stored columns of version {record.get('version')!r} not read: decoding the raw bytes"
+    if record.get("decoder") != decoder_version():
+        return None, (f"{name}: stored columns made by decoder {record.get('decoder')}, this is "
+                      f"{decoder_version()}: decoding the raw bytes")
+    given = [flag for key, flag in _DECODING.items() if key in options.explicit]
+    given += [flag for key, flag in _INSTRUMENT.items() if getattr(options, key) is not None]
+    if given:
+        return None, f"{name}: {', '.join(given)} given: decoding the raw bytes, not the stored columns"
+    count = record.get("events", "")
+    if not count.isdigit():
+        return None, f"{name}: stored columns not read: their record says {count!r} events"
+    events = int(count)
+
+    def chunks() -> Iterator[StoreChunk]:
+        joiner = Joiner()
+        for data in stored.messages():
+            yield joiner.chunk(data)
+        if joiner.events != events:
+            raise ColumnsError(f"the stored columns hold {joiner.events} events, their record says {events}")
+
+    return StoredEvents(events, chunks), None

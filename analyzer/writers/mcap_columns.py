@@ -1,0 +1,90 @@
+"""The decoded columns a recording carries (docs/mcap.md, "Stored columns"): the
+recorder's events, stored as the TUI's store stores them and written every
+``BATCH`` events (and whenever a live recording flushes) as one Arrow IPC
+message on ``COLUMNS_TOPIC``, so that opening the recording needs no decoding.
+
+Memory stays bounded by one batch. Events must come numbered one after the
+other (a tap's always are); anything else (events made by hand) stops the
+columns, and the recording then says nothing of them: readers decode its raw
+bytes, which every recording keeps.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from dissectors.event import Event
+
+from ..formats.store import EventStore
+from ..formats.store_ipc import VERSION, Tables, decoder_version, encode
+
+BATCH = 65_536      # events a message: a few hundred kB of columns, one MCAP chunk of its own
+_STORE_EVERY = 4_096   # events held as objects before the store takes them
+
+
+class ColumnBatches:
+    """Events in, a message out (``write(data, log_time)``) per batch."""
+
+    def __init__(self, write: Callable[[bytes, int], None]) -> None:
+        self._write = write
+        self.decoder = decoder_version()
+        self.store = EventStore()
+        self._pending: list[Event] = []
+        self._ts: int | None = None      # the batch's first event's log time
+        self.started = False
+        self.stopped: str | None = None  # why the columns stopped (the recording then has none)
+        self.events = 0                  # events written in messages
+        self.messages = 0
+
+    def add(self, ev: Event, ts: int) -> None:
+        if self.stopped is not None:
+            return
+        if self._ts is None:
+            self._ts = ts
+        self._pending.append(ev)
+        if len(self._pending) >= _STORE_EVERY:
+            self._store()
+
+    def _store(self) -> None:
+        events, self._pending = self._pending, []
+        if not events or self.stopped is not None:
+            return
+        store = self.store
+        if not self.started:
+            first = events[0].number
+            if first is None:
+                self.stopped = "events without numbers"
+                return
+            store.base = first - 1
+            self.started = True
+        expected = store.base + len(store) + 1
+        if events[0].number != expected or events[-1].number != expected + len(events) - 1:
+            self.stopped = f"event {events[0].number} came where event {expected} was due"
+            return
+        store.append(events)
+        if len(store) >= BATCH:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the events so far as one message (none if there are none)."""
+        if self._pending:
+            self._store()
+        store = self.store
+        if self.stopped is not None or not len(store):
+            return
+        tables = Tables(store.line_values, store.device_values, store.command_places)
+        n = len(store)
+        ts = self._ts if self._ts is not None else 0
+        self._ts = None
+        self._write(encode(store.take(), tables, self.decoder), ts)
+        self.events += n
+        self.messages += 1
+
+    def record(self) -> dict[str, str] | None:
+        """The ``gimbalscope.columns`` metadata record of a recording whose
+        columns are complete (None if they stopped): written last, it says that
+        the messages hold every event."""
+        if self.stopped is not None:
+            return None
+        return {"version": VERSION, "decoder": self.decoder, "events": str(self.events),
+                "messages": str(self.messages), "media_type": "application/vnd.apache.arrow.stream"}
