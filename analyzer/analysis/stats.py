@@ -59,7 +59,7 @@ from dissectors.event import (
 from dissectors.problems import Problem
 
 _LOG_STEP = math.log(1.01)
-_CHECKSUM_PROBLEMS = frozenset((P_CHECKSUM, P_LENGTH))
+CHECKSUM_CATEGORIES = frozenset((P_CHECKSUM, P_LENGTH))   # what ``Stats.checksum_errors`` counts
 KIND_ORDER = (COMMAND, ACK, NAK, NIC, RESULT, NOISE)   # the order reports list kinds in
 BATCH = 2048   # events counted at a time by ``Stats.add``: numpy's cost a call spread over them
 
@@ -82,7 +82,7 @@ def problem_categories(problems: Iterable[Problem | str]) -> list[str]:
 
 def checksum_problem(ev: Event) -> bool:
     """Does the event have a checksum problem (``Stats.checksum_errors`` counts it)?"""
-    return any(cat in _CHECKSUM_PROBLEMS for cat in categories(ev))
+    return any(cat in CHECKSUM_CATEGORIES for cat in categories(ev))
 
 
 def bucket_middle(bucket: int) -> float:
@@ -380,7 +380,7 @@ class Stats:
         for row, problems in batch.problems:
             cats = problem_categories(problems)
             self._problems.update(cats)
-            checksum = any(cat in _CHECKSUM_PROBLEMS for cat in cats)
+            checksum = any(cat in CHECKSUM_CATEGORIES for cat in cats)
             self._checksum_errors += checksum
             if noise[row]:
                 noise_kind[row] = cats[0] if cats else P_NOISE
@@ -399,7 +399,8 @@ class Stats:
         first, last = self._first_t, self._last_t
         return {
             "events": self._events,
-            "duration": (last - first) if first is not None and last is not None else None,
+            # to the nanosecond, as event times are written (and recordings' stored columns keep them)
+            "duration": round(round(last, 9) - round(first, 9), 9) if first is not None and last is not None else None,
             "bytes": dict(sorted(self._bytes.items())),
             "kinds": {k: self._kinds.get(k, 0) for k in KIND_ORDER},
             "commands": total.commands,

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 from ..formats.store import StoreChunk
 from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
+from ..sources.mcapfile import McapSource
 from .capture import Capture
 
 # the options that change what decoding makes of a recording's bytes, by their
@@ -29,10 +30,12 @@ _INSTRUMENT = {"tz": "--tz", "start_time": "--start-time", "channels": "--channe
 
 @dataclass(frozen=True)
 class StoredEvents:
-    """A capture's events as stored chunks: ``chunks()`` reads them in order and
-    raises ``ColumnsError`` when they do not read or do not add up to ``events``."""
+    """A capture's events as stored chunks: ``chunks(joiner)`` reads them in order
+    (joined by ``joiner``, whose tables a caller may read between chunks; a new one
+    by default) and raises ``ColumnsError`` when they do not read or do not add
+    up to ``events``."""
     events: int
-    chunks: Callable[[], Iterator[StoreChunk]]
+    chunks: Callable[[Joiner | None], Iterator[StoreChunk]]
 
 
 def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
@@ -41,7 +44,13 @@ def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
     options = capture.options
     if options.redecode:
         return None, None
-    stored = capture.source.stored_columns()
+    source = capture.source
+    if isinstance(source, McapSource) and (source.metadata or {}).get("part"):
+        # its columns are its events as decoded with the parts before and after it:
+        # what decoding the part alone makes at its ends differs
+        return None, (f"{source.description}: one part of a recording in parts, read alone: "
+                      "decoding its raw bytes, not the stored columns")
+    stored = source.stored_columns()
     record = stored.record
     if record is None:
         return None, stored.why
@@ -60,8 +69,8 @@ def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
         return None, f"{name}: stored columns not read: their record says {count!r} events"
     events = int(count)
 
-    def chunks() -> Iterator[StoreChunk]:
-        joiner = Joiner()
+    def chunks(joiner: Joiner | None = None) -> Iterator[StoreChunk]:
+        joiner = joiner or Joiner()
         for data in stored.messages():
             yield joiner.chunk(data)
         if joiner.events != events:

@@ -25,6 +25,7 @@ from typing import BinaryIO
 from mcap.records import Attachment, Channel, Header, McapRecord, Message, Metadata, Schema
 from mcap.writer import CompressionType, Writer
 
+from ..formats.mcap_schemas import COLUMNS_RECORD
 from ..listeners.progress import ReadProgress, wanted
 from ..outfile import AtomicOutput, check_output, show, write_error
 from ..sources.files import open_input
@@ -127,6 +128,7 @@ class Salvage:
         self.dropped: dict[str, list] = {}
         self.partial: list[tuple[int, int, str | None]] = []   # CRC-failed chunks: (offset, messages kept, why)
         self.from_cut = 0                             # messages kept from a chunk cut short
+        self.columns_record: dict[str, str] | None = None
 
     # ------------------------------------------------------------- reading
     def read(self, f: BinaryIO, size: int) -> None:
@@ -161,6 +163,8 @@ class Salvage:
             self._define(record)
         elif isinstance(record, Message):
             self._message(record, None)
+        elif isinstance(record, Metadata) and record.name == COLUMNS_RECORD:
+            self.columns_record = dict(record.metadata)   # kept only if nothing is lost (``finish``)
         elif isinstance(record, Metadata):
             self._start()
             self.writer.add_metadata(record.name, dict(record.metadata))
@@ -265,6 +269,11 @@ class Salvage:
 
     def finish(self, src: str) -> None:
         self._start()
+        # the stored columns' record says they hold every event (docs/mcap.md, "Stored
+        # columns"): with anything dropped or cut it would not be true, and the
+        # recovered file is decoded from its raw bytes when opened
+        if self.columns_record is not None and not self.report():
+            self.writer.add_metadata(COLUMNS_RECORD, self.columns_record)
         self.writer.add_metadata("gimbalscope.recover", {
             "source": show(src), "messages": str(self.messages),
             "cut": self.cut or "none: the file was complete",

@@ -62,6 +62,10 @@ _SCHEMA_FIELDS = {name: arrow_type for name, arrow_type, _dtype in _COLUMNS} | {
     "raw": na.binary(),                   # the event's bytes, as on the wire
     "problems": na.string(),              # JSON [[problem id, text], ...]; "" without problems
     "fields": na.string(),                # JSON object of fields re-dissection does not give; ""
+    # the position a go-to command (P) sent or a position answer (P?) gave, NaN for
+    # every other event: the TUI's position plots, without decoding a payload
+    "azimuth_deg": na.float64(),
+    "elevation_deg": na.float64(),
 }
 # store columns the recorded ones are converted to (the store widens H/I as it needs)
 _STORE_TYPES = {"offset": "q", "kind": "B", "line": "B", "status": "B", "flags": "B", "command": "I",
@@ -87,8 +91,10 @@ def _ns(seconds: np.ndarray) -> np.ndarray:
     return np.array([round(round(x, 9) * 1e9) for x in seconds.tolist()], dtype="i8")
 
 
-def encode(chunk: StoreChunk, tables: Tables, decoder: str) -> bytes:
-    """One message: the events of ``chunk`` and the whole ``tables`` so far."""
+def encode(chunk: StoreChunk, tables: Tables, decoder: str,
+           positions: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
+    """One message: the events of ``chunk`` and the whole ``tables`` so far;
+    ``positions``, the azimuth and elevation columns (none: all NaN)."""
     cols = chunk.columns
     n = len(cols["kind"])
     flags = np.frombuffer(cols["flags"], dtype="u1") if n else np.zeros(0, "u1")
@@ -113,6 +119,8 @@ def encode(chunk: StoreChunk, tables: Tables, decoder: str) -> bytes:
     arrays.append(_sparse_text(n, chunk.start, {i: [[p.id.name if isinstance(p, Problem) else None, str(p)]
                                                       for p in ps] for i, ps in chunk.problems.items()}))
     arrays.append(_sparse_text(n, chunk.start, chunk.fields))
+    for column in positions or (np.full(n, np.nan), np.full(n, np.nan)):
+        arrays.append(na.c_array_from_buffers(na.float64(), n, [None, np.ascontiguousarray(column, "f8")]))
     metadata = {
         "gimbalscope.columns": VERSION, "decoder": decoder,
         "kinds": orjson.dumps(list(KINDS)).decode(), "statuses": orjson.dumps(list(STATUSES)).decode(),
@@ -144,10 +152,12 @@ def _sparse_text(n: int, start: int, by_index: dict[int, Any]) -> Any:
 @dataclass
 class Decoded:
     """One message read: the events as a ``StoreChunk`` whose codes are the
-    message's own (``tables``), and the decoder that made them."""
+    message's own (``tables``), the decoder that made them, and the positions
+    (azimuth, elevation) of the position commands and answers."""
     chunk: StoreChunk
     tables: Tables
     decoder: str
+    positions: tuple[np.ndarray, np.ndarray]
 
 
 def decode(data: bytes, raw_base: int) -> Decoded:
@@ -160,10 +170,13 @@ def decode(data: bytes, raw_base: int) -> Decoded:
         batches = list(stream)
     except Exception as e:   # noqa: BLE001 - whatever the Arrow reader says of bytes it cannot read: one reason
         raise ColumnsError(f"not an Arrow IPC stream ({type(e).__name__}: {e})") from None
-    meta = {k.decode(): v.decode() for k, v in (schema.metadata or {}).items()}
+    try:
+        meta = {k.decode(): v.decode() for k, v in (schema.metadata or {}).items()}
+        names = [schema.field(i).name for i in range(schema.n_fields)]
+    except UnicodeDecodeError as e:
+        raise ColumnsError(f"the stored columns' metadata or names are not text ({e})") from None
     if meta.get("gimbalscope.columns") != VERSION:
         raise ColumnsError(f"stored columns of version {meta.get('gimbalscope.columns')!r}, not {VERSION}")
-    names = [schema.field(i).name for i in range(schema.n_fields)]
     if names != list(_SCHEMA_FIELDS):
         raise ColumnsError(f"columns {names} are not those of version {VERSION}")
     if len(batches) != 1:
@@ -175,7 +188,16 @@ def decode(data: bytes, raw_base: int) -> Decoded:
                 raise ValueError(f"a command entry {c!r}")
     except (KeyError, ValueError, TypeError) as e:
         raise ColumnsError(f"the tables of the stored columns do not read ({e})") from None
-    batch = batches[0]
+    try:
+        return _decoded(batches[0], names, tables, meta.get("decoder", ""), raw_base)
+    except ColumnsError:
+        raise
+    except (RuntimeError, ValueError, IndexError) as e:   # buffers that do not add up (nanoarrow, numpy)
+        raise ColumnsError(f"the stored columns do not read ({type(e).__name__}: {e})") from None
+
+
+def _decoded(batch: Any, names: list[str], tables: Tables, decoder: str, raw_base: int) -> Decoded:
+    """``decode``'s record batch read into a chunk."""
     n = len(batch)
     child = {name: batch.child(i) for i, name in enumerate(names)}
     num = {name: np.frombuffer(child[name].buffer(1), dtype=dtype)[:n] if n else np.zeros(0, dtype)
@@ -195,13 +217,27 @@ def decode(data: bytes, raw_base: int) -> Decoded:
     for name, typecode in _STORE_TYPES.items():
         columns[name] = _store_array(typecode, num[name])
     columns["errors"] = _store_array("i", np.flatnonzero(flags & ERROR) + start + 1)
-    problems: dict[int, Sequence[Problem]] = {i: [parse(text) if name is None else by_name(name).with_text(text) for name, text in ps]
-                for i, ps in _sparse_values(child["problems"], n, start).items()}
-    fields = _sparse_values(child["fields"], n, start)
+    for name, values in (("kind", KINDS), ("status", STATUSES)):
+        if n and int(num[name].max()) >= len(values):
+            raise ColumnsError(f"a {name} code past the {len(values)} values of its table")
+    if n and (np.any(num["request"] < 0) or np.any(num["request"] >= num["number"])):
+        raise ColumnsError("an answer whose command does not come before it")
+    try:
+        problems: dict[int, Sequence[Problem]] = {
+            i: [parse(text) if name is None else by_name(name).with_text(text) for name, text in ps]
+            for i, ps in _sparse_values(child["problems"], n, start).items()}
+        fields = _sparse_values(child["fields"], n, start)
+    except (KeyError, ValueError, TypeError) as e:   # orjson's errors are ValueErrors
+        raise ColumnsError(f"the problems or fields of the stored columns do not read ({type(e).__name__}: {e})") from None
     # the tables whole; ``Joiner`` hands on only what a receiving store lacks
     chunk = StoreChunk(start, columns, raw, problems, fields, list(tables.lines), list(tables.devices),
                        [(c[0], c[1]) for c in tables.commands if c is not None])
-    return Decoded(chunk, tables, meta.get("decoder", ""))
+    positions = (_floats(child["azimuth_deg"], n), _floats(child["elevation_deg"], n))
+    return Decoded(chunk, tables, decoder, positions)
+
+
+def _floats(column: Any, n: int) -> np.ndarray:
+    return np.frombuffer(column.buffer(1), dtype="f8")[:n] if n else np.zeros(0)
 
 
 def _store_array(typecode: str, values: np.ndarray) -> array:
@@ -235,6 +271,7 @@ class Joiner:
         self.raw_base = 0
         self.events = 0          # events handed on: the next chunk starts there
         self.decoder: str | None = None
+        self.positions: tuple[np.ndarray, np.ndarray] = (np.zeros(0), np.zeros(0))   # the last chunk's
 
     def chunk(self, data: bytes) -> StoreChunk:
         """The next message as a chunk; ``ColumnsError`` if it does not read or
@@ -244,6 +281,7 @@ class Joiner:
         n = len(chunk.columns["kind"])
         if n and chunk.start != self.events:
             raise ColumnsError(f"stored columns from event {chunk.start + 1} do not follow event {self.events}")
+        chunk.start = self.events   # an empty message has no first number: it sits where the joiner is
         if self.decoder is None:
             self.decoder = decoded.decoder
         elif decoded.decoder != self.decoder:
@@ -255,7 +293,14 @@ class Joiner:
         chunk.commands = [(c[0], c[1]) for c in new_commands if c is not None]
         self.raw_base += len(chunk.raw)
         self.events += n
+        self.positions = decoded.positions
         return chunk
+
+    def known(self) -> tuple[list[Any], list[Any], list[Any]]:
+        """Every value coded so far, in code order from code 1 (lines, devices,
+        commands as (id, place)): what a store of one chunk must learn first."""
+        return tuple([k for k, _c in sorted(table.items(), key=lambda kv: kv[1])][1:]   # type: ignore[return-value]
+                     for table in (self.lines, self.devices, self.commands))
 
     @staticmethod
     def _remap(chunk: StoreChunk, name: str, values: list[Any], known: dict[Any, int],
@@ -276,7 +321,9 @@ class Joiner:
         codes = np.frombuffer(column, dtype=np.dtype(column.typecode)) if len(column) else np.zeros(0, "i8")
         if len(codes) and int(codes.max()) >= len(values):
             raise ColumnsError(f"a {name} code past the {len(values)} values of its table")
-        chunk.columns[name] = _store_array("B" if name == "line" else "I", mapping[codes])
+        mapped = mapping[codes]
+        wide = "I" if len(mapped) and int(mapped.max()) >= 1 << 16 else "H"   # as narrow as the store keeps it
+        chunk.columns[name] = _store_array("B" if name == "line" else wide, mapped)
         return new
 
 

@@ -28,14 +28,21 @@ import dataclasses
 import os
 import threading
 import time
+from array import array
 from collections.abc import Callable
 from functools import partial
+from typing import TYPE_CHECKING
 
 from .. import worker_process
 from ..capture import Options
 from .doctor_process import DoctorProcess
 from .feed import FILE_INTERVAL, FeedBatch, ScreenFeed
 from .model.chunks import ChunkMaker
+
+if TYPE_CHECKING:
+    from ..capture.stored import StoredEvents
+    from ..formats.store import StoreChunk
+    from ..runner import TapRunner
 
 # cores enough for the wiring doctor's process beside the decoding one and the
 # screen: with fewer, the doctor waits until the file has loaded (on two cores,
@@ -93,12 +100,17 @@ def _decode(inputs: tuple[str, ...], options: Options, command: str | None, send
     that fails says so in it."""
     try:
         from ..capture import open as open_capture
+        from ..capture.stored import stored_events
         from ..info import CaptureInfo
         from ..runner import TapRunner
         from .feed import Feed
 
         capture = open_capture(*inputs, options=options)
         runner = TapRunner(capture, [], info=CaptureInfo.of(capture, command=command))
+        stored, _why = stored_events(capture)   # the capture says why not, as it runs
+        if stored is not None:
+            _send_stored(stored, runner, sender)
+            return
         feed = Feed(runner, BatchSender(sender), None)   # the doctor is in a process of its own
         runner.add_listener(feed)
         feed.run()
@@ -109,6 +121,53 @@ def _decode(inputs: tuple[str, ...], options: Options, command: str | None, send
         sender.send(FeedBatch([], [], [], done=True, error=f"{type(e).__name__}: {e}"))
 
 
+def _send_stored(stored: StoredEvents, runner: TapRunner, sender: worker_process.Sender) -> None:
+    """A recording's stored columns (analyzer/capture/stored.py), sent chunk by
+    chunk as they are read: no decoding, and nothing for a ``Feed`` to time."""
+    from ..formats.store_ipc import ColumnsError, Joiner
+    from .feed import FeedBatch, LineStatus
+    from .model.chunks import stored_model_chunk
+
+    names = runner.info.line_names
+    lines = {line: LineStatus(line, names[line], state="file") for line in runner.lines}
+    line_codes: list[str | None] = [None]
+    joiner = Joiner()
+    error = None
+    sent = 0
+
+    def status() -> list[LineStatus]:
+        return [LineStatus(s.line, s.port, s.state, s.bytes) for s in lines.values()]
+
+    try:
+        for chunk in stored.chunks(joiner):
+            line_codes += chunk.lines
+            ends = chunk.columns["end"]
+            counted = _bytes_by_line(chunk, line_codes, ends)
+            for line, n in counted.items():
+                if line in lines:
+                    lines[line].bytes += n
+            sent += len(chunk.columns["kind"])
+            sender.send(FeedBatch([], [], status(), settings=runner.serial_settings, read=sent,
+                                  total=stored.events or None, chunk=stored_model_chunk(chunk, joiner.known(), joiner.positions)))
+    except ColumnsError as e:
+        error = f"the stored columns stop after event {sent}: {e}"
+    sender.send(FeedBatch([], [], status(), settings=runner.serial_settings, done=True, error=error,
+                          read=sent, total=stored.events or None))
+
+
+def _bytes_by_line(chunk: StoreChunk, line_codes: list[str | None], ends: array) -> dict[str | None, int]:
+    """The raw bytes of the chunk's events, by line."""
+    import numpy as np
+
+    end = np.frombuffer(ends, ends.typecode).astype("i8")
+    lengths = np.diff(end, prepend=int(end[-1]) - len(chunk.raw)) if len(end) else end
+    codes = np.frombuffer(chunk.columns["line"], chunk.columns["line"].typecode)
+    if not len(codes):
+        return {}
+    sums = np.bincount(codes, weights=lengths, minlength=len(line_codes))
+    return {line_codes[c]: int(n) for c, n in enumerate(sums) if n}
+
+
 class ProcessFeed(ScreenFeed):
     """The screen's side of the decoding process: its batches, received by a
     thread of its own and handed to ``deliver``, with the doctor's word (its
@@ -116,23 +175,37 @@ class ProcessFeed(ScreenFeed):
     no lines to swap."""
 
     def __init__(self, inputs: tuple[str, ...], options: Options, deliver: Callable[[FeedBatch], None], *,
-                 command: str | None = "view", doctor: DoctorProcess | None = None) -> None:
+                 command: str | None = "view", doctor: DoctorProcess | None = None,
+                 started: worker_process.Worker | None = None) -> None:
         """``doctor``: the wiring doctor's process, started beside the decoding
-        where there are cores enough, else once the file has loaded."""
+        where there are cores enough, else once the file has loaded. ``started``:
+        the decoding process of these inputs, started already (``start_process``):
+        ``spawn`` adopts it rather than start another."""
         self.inputs, self.options, self.command = inputs, options, command
         self.deliver = deliver
         self.doctor_process = doctor
         self._doctor_started = False
         self.notes: list[str] = []
         self.lines = {}
-        self.process: worker_process.Worker | None = None
+        self.process: worker_process.Worker | None = started
         self.messages: worker_process.Receiver | None = None   # the batches, from ``spawn``
         self._thread = threading.Thread(target=self._receive, daemon=True, name="gimbalscope-decode-wait")
         self._stopping_by_screen = False
 
+    @staticmethod
+    def start_process(inputs: tuple[str, ...], options: Options, command: str | None = "view") -> (
+            worker_process.Worker | None):
+        """The decoding process of ``inputs``, started before its ``ProcessFeed`` is
+        made (hand it over as ``started``): it then imports and decodes while the
+        screen is still being made. None if no process can be had."""
+        return worker_process.start(_decode, (inputs, options, command))
+
     def spawn(self) -> bool:
-        """Start the decoding process; False if no process can be had."""
-        worker = worker_process.start(_decode, (self.inputs, self.options, self.command))
+        """Start the decoding process, or adopt the one ``started`` already; False
+        if no process can be had."""
+        worker = self.process
+        if worker is None:
+            worker = self.start_process(self.inputs, self.options, self.command)
         if worker is None:
             return False
         self.process, self.messages = worker, worker.messages

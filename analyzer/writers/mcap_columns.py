@@ -13,6 +13,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numpy as np
+
 from dissectors.event import Event
 
 from ..formats.store import EventStore
@@ -30,6 +32,7 @@ class ColumnBatches:
         self.decoder = decoder_version()
         self.store = EventStore()
         self._pending: list[Event] = []
+        self._positions: dict[int, dict] = {}   # row in the batch -> fields of a position command or answer
         self._ts: int | None = None      # the batch's first event's log time
         self.started = False
         self.stopped: str | None = None  # why the columns stopped (the recording then has none)
@@ -61,7 +64,13 @@ class ColumnBatches:
         if events[0].number != expected or events[-1].number != expected + len(events) - 1:
             self.stopped = f"event {events[0].number} came where event {expected} was due"
             return
+        n = len(store) - 1
         store.append(events)
+        positions = self._positions
+        for k, ev in enumerate(events, n + 1):   # the plots' points (store_ipc's position columns)
+            command = ev.command
+            if (command == "P" or command == "P?") and ev.fields and "azimuth_deg" in ev.fields:
+                positions[k] = ev.fields
         if len(store) >= BATCH:
             self.flush()
 
@@ -76,7 +85,12 @@ class ColumnBatches:
         n = len(store)
         ts = self._ts if self._ts is not None else 0
         self._ts = None
-        self._write(encode(store.take(), tables, self.decoder), ts)
+        azimuth, elevation = np.full(n, np.nan), np.full(n, np.nan)
+        for k, fields in self._positions.items():
+            azimuth[k] = fields["azimuth_deg"]
+            elevation[k] = fields.get("elevation_deg", np.nan)
+        self._positions = {}
+        self._write(encode(store.take(), tables, self.decoder, (azimuth, elevation)), ts)
         self.events += n
         self.messages += 1
 

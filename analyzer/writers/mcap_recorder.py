@@ -158,7 +158,9 @@ class McapRecorder:
                  lean: bool = False, records: Callable[[], dict[str, dict[str, str]]] | None = None,
                  columns: bool = True) -> None:
         self.path = path
-        self.columns = columns   # docs/mcap.md, "Stored columns"
+        # docs/mcap.md, "Stored columns": a lean recording carries none (they would
+        # add half its size again); reading it decodes, as before
+        self.columns = columns and not lean
         # metadata records known as the recording goes (module doc): name → values, as of now
         self._records = records
         self._records_due = 0.0

@@ -54,9 +54,9 @@ class PositionPlots:
             if device is None:
                 continue
             if ev.kind == COMMAND and command == "P":                  # go to (Table 11)
-                self._point(device, "commanded", ev.t, fields)
+                self.point(device, "commanded", ev.t, fields)
             elif ev.kind == RESULT and command == "P?" and ev.transaction is not None:
-                self._point(device, "reported", ev.t, fields)          # an unpaired answer says nothing
+                self.point(device, "reported", ev.t, fields)          # an unpaired answer says nothing
 
     def merge(self, series: dict[str, dict[str, Series]]) -> None:
         """Points the plots of a decoding process found (a file viewed), after these."""
@@ -69,7 +69,8 @@ class PositionPlots:
                 m.t.extend(s.t)
                 m.v.extend(s.v)
 
-    def _point(self, addr: str, which: str, t: float | None, fields: dict[str, Any]) -> None:
+    def point(self, addr: str, which: str, t: float | None, fields: dict[str, Any]) -> None:
+        """A ``commanded`` or ``reported`` position of ``addr`` at ``t`` (none without time)."""
         if t is None:
             return
         series = self.series.get(addr)
