@@ -78,6 +78,16 @@ class Tally:
     def evidence(self) -> list[int]:
         return sorted(set(self.first[:MAX_EVIDENCE // 2]) | set(list(self.last)[-MAX_EVIDENCE // 2:]))
 
+    def state(self) -> list:
+        return [self.n, self.first, list(self.last)]
+
+    @classmethod
+    def of_state(cls, state: list) -> Tally:
+        tally = cls()
+        tally.n, tally.first = int(state[0]), [int(x) for x in state[1]]
+        tally.last.extend(int(x) for x in state[2])
+        return tally
+
 
 class LineTally:
     """Per line: bytes, and what they turned into."""
@@ -93,6 +103,24 @@ class LineTally:
         self.per_second: deque[list[int]] = deque()   # [second, errors] of the last minute (timed)
         self.by_length: Counter[tuple[bool, bool]] = Counter()   # (long frame, bad) -> count
         self.sample = bytearray()   # the first SAMPLE bytes that are not valid frames
+
+    def state(self) -> dict[str, Any]:
+        return {"bytes": self.bytes, "good_bytes": self.good_bytes, "noise_bytes": self.noise_bytes,
+                "frames": self.frames, "bad_frames": self.bad_frames, "noise_runs": self.noise_runs,
+                "errors": self.errors.state(), "per_second": [list(b) for b in self.per_second],
+                "by_length": [[long, bad, n] for (long, bad), n in self.by_length.items()],
+                "sample": self.sample.hex()}
+
+    @classmethod
+    def of_state(cls, state: dict[str, Any]) -> LineTally:
+        line = cls()
+        for name in ("bytes", "good_bytes", "noise_bytes", "frames", "bad_frames", "noise_runs"):
+            setattr(line, name, int(state[name]))
+        line.errors = Tally.of_state(state["errors"])
+        line.per_second.extend([int(sec), int(n)] for sec, n in state["per_second"])
+        line.by_length.update({(bool(long), bool(bad)): int(n) for long, bad, n in state["by_length"]})
+        line.sample = bytearray.fromhex(state["sample"])
+        return line
 
     @property
     def error_count(self) -> int:
@@ -141,6 +169,32 @@ class WiringSigns:
         self.exchanges = 0
         self._turn: list | None = None   # the latest turn: [line, start, end]
         self._guessed: tuple | None = None   # (what it was worked out from, the guess)
+
+    def state(self) -> dict[str, Any]:
+        """What the signs hold after the events so far, as JSON values: a recording
+        keeps it with its stored columns (docs/mcap.md), so that reading the columns
+        says what reading every event would (``of_state``)."""
+        return {"lines": {name: line.state() for name, line in self.lines.items()},
+                "answer_bytes_on_a": self.answer_bytes_on_a.state(), "commands_on_b": self.commands_on_b.state(),
+                "ok_transactions": self.ok_transactions, "rate_votes": [[r, n] for r, n in self._rate_votes.items()],
+                "votes_left": self._votes_left, "turns": self.turns, "exchanges": self.exchanges, "turn": self._turn}
+
+    @classmethod
+    def of_state(cls, lines: tuple[str, ...], state: dict[str, Any]) -> WiringSigns:
+        """The signs ``state()`` gave; raises ``KeyError``, ``TypeError`` or
+        ``ValueError`` for what it did not give."""
+        signs = cls(lines)
+        signs.lines = {str(name): LineTally.of_state(line) for name, line in state["lines"].items()}
+        signs.answer_bytes_on_a = Tally.of_state(state["answer_bytes_on_a"])
+        signs.commands_on_b = Tally.of_state(state["commands_on_b"])
+        signs.ok_transactions = int(state["ok_transactions"])
+        signs._rate_votes = Counter({int(r): int(n) for r, n in state["rate_votes"]})
+        signs._votes_left = int(state["votes_left"])
+        signs.turns = {str(k): int(v) for k, v in state["turns"].items()}
+        signs.exchanges = int(state["exchanges"])
+        turn = state["turn"]
+        signs._turn = None if turn is None else [str(turn[0]), float(turn[1]), float(turn[2])]
+        return signs
 
     def add(self, ev: Event) -> bool:
         """Count ``ev``; True when it is a command frame travelling device→controller

@@ -14,7 +14,10 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
-from ..formats.store import StoreChunk
+import orjson
+
+from ..analysis.signs import WiringSigns
+from ..formats.store import EventStore, StoreChunk
 from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
 from ..sources.mcapfile import McapSource
 from .capture import Capture
@@ -36,6 +39,22 @@ class StoredEvents:
     up to ``events``."""
     events: int
     chunks: Callable[[Joiner | None], Iterator[StoreChunk]]
+    record: dict[str, str]   # the columns' record (docs/mcap.md)
+
+    def store(self) -> EventStore:
+        """Every event in one store (``ColumnsError`` as ``chunks``)."""
+        store = EventStore()
+        for chunk in self.chunks(None):
+            store.append_chunk(chunk)
+        return store
+
+    def signs(self, lines: tuple[str, ...]) -> WiringSigns | None:
+        """The wiring signs of every event, as the recorder kept them; None when
+        the record has none that read."""
+        try:
+            return WiringSigns.of_state(lines, orjson.loads(self.record["wiring_signs"]))
+        except (KeyError, TypeError, ValueError, IndexError, AttributeError):
+            return None
 
 
 def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
@@ -61,7 +80,9 @@ def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
         return None, (f"{name}: stored columns made by decoder {record.get('decoder')}, this is "
                       f"{decoder_version()}: decoding the raw bytes")
     given = [flag for key, flag in _DECODING.items() if key in options.explicit]
-    given += [flag for key, flag in _INSTRUMENT.items() if getattr(options, key) is not None]
+    instrument = {"tz": options.tz, "start_time": options.start_time, "channels": options.channels,
+                  "adapter": options.adapter, "usb_device": options.usb_device, "samplerate": options.samplerate}
+    given += [flag for key, flag in _INSTRUMENT.items() if instrument[key] is not None]
     if given:
         return None, f"{name}: {', '.join(given)} given: decoding the raw bytes, not the stored columns"
     count = record.get("events", "")
@@ -76,4 +97,4 @@ def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:
         if joiner.events != events:
             raise ColumnsError(f"the stored columns hold {joiner.events} events, their record says {events}")
 
-    return StoredEvents(events, chunks), None
+    return StoredEvents(events, chunks, record), None

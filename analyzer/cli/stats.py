@@ -9,6 +9,7 @@ import sys
 from ..listeners import StatsListener
 from ..output import dumps
 from .common import Subcommands, add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
+from .stored_stats import stored_stats
 
 
 def register(sub: Subcommands) -> None:
@@ -23,9 +24,12 @@ def register(sub: Subcommands) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    counter = StatsListener(keep)
-    run_tap(capture, "stats", counter, progress=True, check=True)
-    data = counter.stats.to_dict()
+    stats = stored_stats(capture, keep)   # a recording's stored columns, when they can be read
+    if stats is None:
+        counter = StatsListener(keep)
+        run_tap(capture, "stats", counter, progress=True, check=True)
+        stats = counter.stats
+    data = stats.to_dict()
     if args.format == "json":
         sys.stdout.buffer.write(dumps(data) + b"\n")
     else:

@@ -36,10 +36,11 @@ from dissectors.commands import COMMANDS
 from dissectors.problems import Problem, by_name, parse
 
 from ..version import __version__
-from .store import ERROR, KINDS, STATUSES, UNTIMED, StoreChunk
+from .store import ERROR, FRAMED, KINDS, STATUSES, UNTIMED, StoreChunk
 
 VERSION = "1"          # the layout below; a reader that does not know it decodes the raw bytes
 MEDIA_TYPE = "application/vnd.apache.arrow.stream"
+MIN_FRAME = 7          # start, address (3), source, length, checksum: a frame's bytes at the least (Table 1)
 
 # (name, Arrow type, numpy dtype) in the record batch's order
 _COLUMNS: tuple[tuple[str, Any, str], ...] = (
@@ -68,7 +69,7 @@ _SCHEMA_FIELDS = {name: arrow_type for name, arrow_type, _dtype in _COLUMNS} | {
     "elevation_deg": na.float64(),
 }
 # store columns the recorded ones are converted to (the store widens H/I as it needs)
-_STORE_TYPES = {"offset": "q", "kind": "B", "line": "B", "status": "B", "flags": "B", "command": "I",
+_STORE_TYPES = {"offset": "I", "kind": "B", "line": "B", "status": "B", "flags": "B", "command": "I",
                 "device": "I", "latency": "d", "request": "i", "txn": "i"}
 
 
@@ -211,10 +212,17 @@ def _decoded(batch: Any, names: list[str], tables: Tables, decoder: str, raw_bas
     raw_child = child["raw"]
     offsets = np.frombuffer(raw_child.buffer(1), dtype="i4")[:n + 1] if n else np.zeros(1, "i4")
     raw = bytes(raw_child.buffer(2))[:int(offsets[-1])] if n else b""
+    lengths = np.diff(offsets)
+    if n and (offsets[0] != 0 or np.any(lengths < 0) or int(offsets[-1]) != len(raw)):
+        raise ColumnsError("the raw bytes' offsets do not add up")
+    if n and np.any(((flags & FRAMED) != 0) & (lengths < MIN_FRAME)):
+        raise ColumnsError("a frame shorter than a frame's header and checksum")
     ends = raw_base + offsets[1:].astype("i8")
     columns = {"end": _store_array("q" if n and ends[-1] >= 2 ** 32 else "I", ends),
                "t": _store_array("d", t), "t_end": _store_array("d", t_end)}
     for name, typecode in _STORE_TYPES.items():
+        if name == "offset" and n and int(num[name].max()) >= 1 << 32:
+            typecode = "q"   # a line past 4 GB: as the store widens it
         columns[name] = _store_array(typecode, num[name])
     columns["errors"] = _store_array("i", np.flatnonzero(flags & ERROR) + start + 1)
     for name, values in (("kind", KINDS), ("status", STATUSES)):

@@ -12,6 +12,7 @@ from dissectors.event import Event
 from ..analysis.doctor import Invocation
 from ..analysis.findings import Finding
 from ..analysis.signs import WiringSigns
+from ..info import CaptureInfo
 from ..runner import WARNING, Listener, TapRunner
 
 
@@ -19,6 +20,13 @@ def warning_text(f: Finding) -> str:
     """One line: what is wrong, what shows it, what to try."""
     detail = f.detail.splitlines()[0] if f.detail else ""
     return f"{f.title}: {detail}" + (f" (try: {f.fix})" if f.fix else "")
+
+
+def wiring_findings(signs: WiringSigns, info: CaptureInfo) -> list[Finding]:
+    """What ``signs`` show at error level, their fixes said for the command run."""
+    how = Invocation(info.inputs, info.live, info.command, baud=info.baud)
+    signs.read_baud = info.baud     # the rate the tap read at: a wrong rate is named against it
+    return signs.findings(how.swap_fix(), how.baud_fix(), how.live)
 
 
 class WiringCheck(Listener):
@@ -42,10 +50,7 @@ class WiringCheck(Listener):
         runner = self._runner
         if self.signs is None or runner is None:
             return
-        info = runner.info
-        how = Invocation(info.inputs, info.live, info.command, baud=info.baud)
-        self.signs.read_baud = info.baud     # the rate the tap read at: a wrong rate is named against it
-        self.findings = self.signs.findings(how.swap_fix(), how.baud_fix(), how.live)
+        self.findings = wiring_findings(self.signs, runner.info)
         for f in self.findings:
             text = warning_text(f)
             self.warnings.append(text)

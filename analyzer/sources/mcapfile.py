@@ -60,7 +60,7 @@ from itertools import chain
 from typing import Any, BinaryIO
 
 from mcap.reader import make_reader
-from mcap.records import Channel, Metadata, Schema
+from mcap.records import Channel, Message, Metadata, Schema
 from orjson import loads as json_loads
 
 from .. import worker_process
@@ -91,6 +91,7 @@ from .mcapwalk import (
     RECORD_HEAD,
     Damaged,
     Walk,
+    chunk_parts,
     intact_prefix,
     op_name,
     parse,
@@ -366,20 +367,62 @@ def open_mcap(inputs: list[Input], settings: ReadSettings) -> McapSource:
 
 
 def _column_messages(path: str) -> Iterator[bytes]:
-    """The messages of ``COLUMNS_TOPIC`` in order, from the chunks that hold them
-    (the summary's chunk indexes lead to them). What does not read raises
-    ``ColumnsError``: the caller decodes the raw bytes instead."""
+    """The messages of ``COLUMNS_TOPIC`` in order, from the chunks that hold them:
+    the summary's chunk indexes lead to them. Each chunk
+    must carry a CRC that its records match: the Arrow reader trusts the bytes it
+    is given (a damaged message can crash it), so only bytes written as they are
+    reach it. What does not read raises ``ColumnsError``: the caller decodes the
+    raw bytes instead."""
     try:
         with open(path, "rb") as f:
-            reader = make_reader(f)
-            for _schema, channel, message in reader.iter_messages(topics=[COLUMNS_TOPIC], log_time_order=False):
-                if channel.message_encoding != COLUMNS_ENCODING:
-                    raise ColumnsError(f"stored columns encoded as {channel.message_encoding!r}")
-                yield message.data
+            summary = make_reader(f).get_summary()
+            if summary is None:
+                raise ColumnsError("the recording has no summary to find its stored columns by")
+            ids = {c.id for c in summary.channels.values() if c.topic == COLUMNS_TOPIC}
+            if any(summary.channels[i].message_encoding != COLUMNS_ENCODING for i in ids):
+                raise ColumnsError(f"stored columns not encoded as {COLUMNS_ENCODING}")
+            indexes = sorted((i for i in summary.chunk_indexes if ids & set(i.message_index_offsets)),
+                             key=lambda i: i.chunk_start_offset)
+            for index in indexes:   # ours are each a chunk of their own; another writer's may share them
+                yield from _chunk_columns(f, index.chunk_start_offset, index.chunk_length, ids)
     except ColumnsError:
         raise
     except Exception as e:   # noqa: BLE001 - whatever the MCAP library says of a file it cannot read: one reason
         raise ColumnsError(f"stored columns do not read: {type(e).__name__}: {e}") from None
+
+
+def _chunk_columns(f: BinaryIO, offset: int, length: int, ids: set[int]) -> Iterator[bytes]:
+    """The columns messages of the chunk record at ``offset``, whose CRC holds."""
+    f.seek(offset)
+    record = f.read(length)
+    if len(record) != length or length < RECORD_HEAD:
+        raise ColumnsError(f"the chunk at byte {offset} is cut short")
+    op, size = RECORD.unpack_from(record)
+    if op != OP_CHUNK or size != length - RECORD_HEAD:
+        raise ColumnsError(f"no chunk at byte {offset}, where the index says one is")
+    body = record[RECORD_HEAD:]
+    if chunk_parts(body, cut=False)[1] == 0:
+        raise ColumnsError(f"the chunk at byte {offset} has no CRC to check its stored columns by")
+    try:
+        records, crc_ok = read_chunk(body)
+    except Damaged as e:
+        raise ColumnsError(f"the chunk at byte {offset}: {e}") from None
+    if not crc_ok:
+        raise ColumnsError(f"the chunk at byte {offset} fails its CRC check")
+    pos = 0
+    while pos < len(records):
+        if len(records) - pos < RECORD_HEAD:
+            raise ColumnsError(f"a record cut short in the chunk at byte {offset}")
+        op, size = RECORD.unpack_from(records, pos)
+        start = pos + RECORD_HEAD
+        pos = start + size
+        if pos > len(records):
+            raise ColumnsError(f"a record runs past its chunk at byte {offset}")
+        if op == OP_MESSAGE:
+            message = parse(op, records[start:pos])
+            assert isinstance(message, Message)
+            if message.channel_id in ids:
+                yield message.data
 
 
 def _remove(path: str) -> None:

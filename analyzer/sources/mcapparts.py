@@ -85,7 +85,7 @@ class McapPartsSource(Source):
         decoders = {r.get("decoder") for r in records if r is not None}
         if len(decoders) != 1:
             return StoredColumns(None, "stored columns not used: the parts were made by different decoders")
-        first = records[0]
+        first = records[-1]   # the last part's: what it says of the whole so far (the wiring signs)
         assert first is not None
         counts = [r.get("events", "") for r in records if r is not None]
         total = sum(int(c) for c in counts) if all(c.isdigit() for c in counts) else -1

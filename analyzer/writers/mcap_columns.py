@@ -14,21 +14,38 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+import orjson
 
 from dissectors.event import Event
 
+from ..analysis.signs import WiringSigns
 from ..formats.store import EventStore
 from ..formats.store_ipc import VERSION, Tables, decoder_version, encode
+from ..lines import Chunk
 
 BATCH = 65_536      # events a message: a few hundred kB of columns, one MCAP chunk of its own
 _STORE_EVERY = 4_096   # events held as objects before the store takes them
 
 
+class RecordingTally:
+    """What the columns of a recording's parts share: the wiring signs of every
+    event so far, and the bytes and events recorded so far."""
+
+    def __init__(self, lines: tuple[str, ...]) -> None:
+        self.signs = WiringSigns(lines)
+        self.raw_bytes = 0
+        self.events = 0
+
+
 class ColumnBatches:
     """Events in, a message out (``write(data, log_time)``) per batch."""
 
-    def __init__(self, write: Callable[[bytes, int], None]) -> None:
+    def __init__(self, write: Callable[[bytes, int], None], shared: RecordingTally) -> None:
         self._write = write
+        self.shared = shared
+        # the wiring signs of every event (analyzer/analysis/signs.py), kept in the
+        # record: what `stats` and the like say of the wiring, without a pass over the events
+        self.signs = shared.signs
         self.decoder = decoder_version()
         self.store = EventStore()
         self._pending: list[Event] = []
@@ -38,6 +55,15 @@ class ColumnBatches:
         self.stopped: str | None = None  # why the columns stopped (the recording then has none)
         self.events = 0                  # events written in messages
         self.messages = 0
+
+    def raw(self, chunk: Chunk) -> None:
+        """Bytes recorded: the columns hold their events, unless the tap passed
+        over them (``Chunk.undecoded``: decoding fell behind a live line), when
+        they stop (decoding the recording gives events the tap never made)."""
+        if chunk.data:
+            self.shared.raw_bytes += len(chunk.data)
+            if chunk.undecoded and self.stopped is None:
+                self.stopped = f"the tap passed over bytes it did not decode ({chunk.undecoded})"
 
     def add(self, ev: Event, ts: int) -> None:
         if self.stopped is not None:
@@ -66,6 +92,10 @@ class ColumnBatches:
             return
         n = len(store) - 1
         store.append(events)
+        self.shared.events += len(events)
+        add = self.signs.add
+        for ev in events:
+            add(ev)
         positions = self._positions
         for k, ev in enumerate(events, n + 1):   # the plots' points (store_ipc's position columns)
             command = ev.command
@@ -94,11 +124,16 @@ class ColumnBatches:
         self.events += n
         self.messages += 1
 
-    def record(self) -> dict[str, str] | None:
+    def record(self, part: bool = False) -> dict[str, str] | None:
         """The ``gimbalscope.columns`` metadata record of a recording whose
         columns are complete (None if they stopped): written last, it says that
         the messages hold every event."""
         if self.stopped is not None:
             return None
+        if self.shared.raw_bytes and not self.shared.events and not part:
+            # bytes and not one event: a recorder fed only the bytes (the API allows
+            # it; a tap feeds both). A part may hold bytes whose events the next holds
+            return None
         return {"version": VERSION, "decoder": self.decoder, "events": str(self.events),
-                "messages": str(self.messages), "media_type": "application/vnd.apache.arrow.stream"}
+                "messages": str(self.messages), "media_type": "application/vnd.apache.arrow.stream",
+                "wiring_signs": orjson.dumps(self.signs.state()).decode()}

@@ -51,7 +51,7 @@ from ..lines import Chunk
 from ..outfile import reason, show
 from ..output import dumps
 from ..words import counted
-from .mcap_columns import ColumnBatches
+from .mcap_columns import ColumnBatches, RecordingTally
 from .mcap_internals import chunk_writer
 
 # The recording's layout (docs/foxglove.md, "Size"): chunks of 1 MiB compressed
@@ -156,11 +156,13 @@ class McapRecorder:
                  lines: tuple[str, ...] = ("A", "B"), file: IO[bytes] | None = None,
                  on_error: Callable[[str], None] | None = None, wire_byte_time: float | None = None,
                  lean: bool = False, records: Callable[[], dict[str, dict[str, str]]] | None = None,
-                 columns: bool = True) -> None:
+                 columns: bool = True, tally: RecordingTally | None = None) -> None:
         self.path = path
         # docs/mcap.md, "Stored columns": a lean recording carries none (they would
         # add half its size again); reading it decodes, as before
         self.columns = columns and not lean
+        # what the columns' record says of the whole recording (parts share one: each says it so far)
+        self._tally = tally
         # metadata records known as the recording goes (module doc): name → values, as of now
         self._records = records
         self._records_due = 0.0
@@ -214,7 +216,9 @@ class McapRecorder:
         if self.columns:   # schemaless: the Arrow IPC stream carries its schema
             self._columns_channel = self._writer.register_channel(
                 S.COLUMNS_TOPIC, S.COLUMNS_ENCODING, 0, metadata={"media_type": MEDIA_TYPE, "version": VERSION})
-            self._columns = ColumnBatches(self._write_columns)
+            if self._tally is None:
+                self._tally = RecordingTally(lines)
+            self._columns = ColumnBatches(self._write_columns, self._tally)
         self._lines = lines
         self._records_written: dict[str, dict[str, str]] = {}   # by name: the values last written
         self._records_count: dict[str, int] = {}                 # and how many times
@@ -231,6 +235,8 @@ class McapRecorder:
         receiver's own errors on them (analyzer/formats/mcap_lines.py)."""
         if not self._closed:
             self._messages.raw(chunk, offset, line_errors)
+            if self._columns is not None:
+                self._columns.raw(chunk)
             if self.lean:   # reads wait in a batch: flush on time here too
                 self._maybe_flush()
 
@@ -261,7 +267,7 @@ class McapRecorder:
         if self._closed:
             return
         data_end = before = self._out.good
-        columns = self._columns.record() if self._columns is not None else None
+        columns = self._columns.record(part="part" in self._start_args[0]) if self._columns is not None else None
         try:
             if self.messages == 0:
                 self._write_empty()
@@ -493,6 +499,7 @@ class RotatingRecorder:
         self.paths: list[str] = []
         self.messages = 0
         self.current: McapRecorder | None = None
+        self.tally = RecordingTally(kw.get("lines", ("A", "B")))   # of every part so far (McapRecorder)
         self._open()
 
     def _open(self) -> None:
@@ -500,6 +507,7 @@ class RotatingRecorder:
         path = part_path(self.path, self.part)
         kw = dict(self.kw)
         kw["metadata"] = {**kw.get("metadata", {}), "part": str(self.part)}
+        kw["tally"] = self.tally
         try:
             self.current = McapRecorder(path, on_error=self._part_failed, **kw)
         except RecordingError as e:

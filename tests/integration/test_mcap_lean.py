@@ -35,7 +35,8 @@ def mcap_messages(path) -> list[tuple[str, int, dict]]:
     """(topic, log time, message) in file order, read by the mcap library."""
     with open(path, "rb") as f:
         return [(channel.topic, message.log_time, json.loads(message.data))
-                for _schema, channel, message in make_reader(f).iter_messages(log_time_order=False)]
+                for _schema, channel, message in make_reader(f).iter_messages(log_time_order=False)
+                if channel.message_encoding == "json"]   # not the stored columns (Arrow IPC)
 
 
 def reads_of(path) -> list[tuple]:

@@ -1,0 +1,63 @@
+"""The statistics of a recording from its stored columns (docs/mcap.md, "Stored
+columns"): ``gimbalscope stats`` without decoding. The columns go into one event
+store and the statistics are worked out over them (``stats_of``, the one
+definition the TUI uses too); what a decoding run would say beside them is said
+the same way: the capture's warnings, the wiring check's (from the wiring signs
+the recorder kept), an empty capture.
+
+Where decoding would say more than the columns know, the recording is decoded
+instead: two clocks (the skew between them is estimated as it decodes) and rate
+changes (following them warns as it goes)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..analysis.filter import Predicate
+from ..analysis.rate import RATE_MARK
+from ..analysis.stats import Stats
+from ..capture import Capture
+from ..capture.stored import stored_events
+from ..formats.store import KIND_CODE
+from ..formats.store_filter import matching
+from ..formats.store_ipc import ColumnsError
+from ..formats.store_stats import stats_of
+from ..info import CaptureInfo
+from ..listeners import NotePrinter
+from ..listeners.wiring_check import warning_text, wiring_findings
+from ..runner import RUNNER, WARNING, Note
+from .common import quiet, warn
+
+
+def stored_stats(capture: Capture, keep: Predicate | None, command: str = "stats") -> Stats | None:
+    """The statistics of the events ``keep`` selects, read from the stored
+    columns, with what a run says said; None when the capture is to be decoded."""
+    stored, why = stored_events(capture)
+    if why:
+        warn(why)
+    if stored is None or capture.clocks > 1:
+        return None
+    signs = stored.signs(tuple(capture.lines))
+    if signs is None:
+        return None
+    try:
+        store = stored.store()
+    except ColumnsError as e:
+        warn(f"{capture.source.description}: stored columns not read ({e}): decoding the raw bytes")
+        return None
+    n = len(store)
+    if KIND_CODE["rate"] in store.kind or RATE_MARK.search(store.raw):
+        return None
+    rows = None if keep is None else matching(keep, store, 0, n)
+    stats = stats_of(store, n, None if rows is None else np.asarray(rows))
+    info = CaptureInfo.of(capture, command=command)
+    printer = NotePrinter(quiet=quiet())
+    for text in capture.warnings:
+        printer.on_note(Note(text, WARNING))
+    for finding in wiring_findings(signs, info):
+        printer.on_note(Note(warning_text(finding), WARNING, finding=finding, origin=RUNNER))
+    printer.on_stop()
+    if n == 0:
+        warn(f"{info.source}: no bytes in this capture")
+    capture.source.close()   # a run closes it as it ends
+    return stats
