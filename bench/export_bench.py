@@ -4,6 +4,8 @@
   1. `gimbalscope export` of K socat logs of saturated 115200-baud traffic, with
      1 worker and with 2: events/s, MB/s of input, dataset bytes per event, and
      the peak resident memory of the command and of its biggest worker
+  1c. `gimbalscope export` of the same captures recorded as MCAP (with their stored
+     columns) against `--redecode`: the ratio
   1b. with --spark: the same export on Spark local[1] and local[2] (the spark extra
      and Java 17): events/s, and the time Spark takes to start alone, which every
      --spark command pays once
@@ -86,6 +88,27 @@ def throughput(logs: list[str], work: str) -> None:
         print(f"1. export -j {jobs} of {len(logs)} socat logs ({size / 1e6:.0f} MB, {n:,} events): {seconds:.1f} s, "
               f"{n / seconds:,.0f} events/s, {size / 1e6 / seconds:.1f} MB/s; dataset {folder_bytes(out) / n:.1f} "
               f"bytes/event; peak RSS {own:.0f} MB (command), {kids:.0f} MB (biggest worker)", flush=True)
+
+
+def recordings(logs: list[str], work: str) -> None:
+    """Export of the same captures recorded (MCAP, carrying their stored columns)
+    against the same export decoding their raw bytes (--redecode)."""
+    paths = []
+    for log in logs:
+        path = os.path.join(work, os.path.basename(log).removesuffix(".log") + ".mcap")
+        if not os.path.exists(path):
+            subprocess.run([sys.executable, "-m", "analyzer", "convert", log, "--baud", "115200", "-o", path, "-q",
+                            "--force"], cwd=ROOT, check=True, stderr=subprocess.DEVNULL)
+        paths.append(path)
+    times = {}
+    for extra in ([], ["--redecode"]):
+        out = os.path.join(work, "ds-mcap")
+        shutil.rmtree(out, ignore_errors=True)
+        times[bool(extra)] = measured(["export", *paths, "-o", out, "-j", "1", "-q", *extra])[0]
+    n = dataset_events(out)
+    print(f"1c. export -j 1 of the same {len(paths)} captures recorded ({n:,} events): {times[False]:.1f} s reading "
+          f"the recordings, {times[True]:.1f} s with --redecode: {times[True] / times[False]:.2f}x (target >= 10x; "
+          "export decodes the raw bytes either way: docs/mcap.md, \"Stored columns\")", flush=True)
 
 
 _SPARK_START = ("import time; t = time.perf_counter(); from analyzer.dataset.spark.session import start; "
@@ -184,6 +207,7 @@ def main() -> None:
     logs = make_logs(args.work, args.captures, args.events_per_capture)
     if not args.skip_export:
         throughput(logs, args.work)
+        recordings(logs, args.work)
         if args.spark:
             on_spark(logs, args.work)
     if args.skip_queries:

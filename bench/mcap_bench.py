@@ -8,7 +8,9 @@ Prints:
      and that the lean one decodes to the same events
   3. events/s when re-dissecting an MCAP, and its share of raw-dump decode speed
      (target >= 60%); each decode the fastest of three
-  4. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
+  4. `stats` and `decode` of the recording from its stored columns against
+     `--redecode` (stats target >= 10x; decode reads no columns)
+  5. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
      115200-baud traffic (target < 20% of one core)
 
     python3 bench/mcap_bench.py [--events 300000] [--live-seconds 10]
@@ -28,6 +30,8 @@ import tty
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, ROOT)
+
+from measure import run_measured
 
 import analyzer
 from analyzer.info import CaptureInfo
@@ -78,6 +82,17 @@ def columns_bytes(path: str) -> int:
         if index.message_index_offsets and set(index.message_index_offsets) <= ids:
             total += index.chunk_length + index.message_index_length + 80   # + its chunk index record
     return total
+
+
+def opening(path: str, n: int) -> None:
+    """Commands on the recording, reading its stored columns against decoding its
+    raw bytes (--redecode): each the fastest of three, in a process of its own."""
+    print(f"4. opening the recording of {n:,} events (each the fastest of 3), stored columns against "
+          "--redecode (targets: stats and export >= 10x):")
+    for args in (["stats", "--format", "json"], ["decode", "--format", "jsonl"]):
+        stored = min(run_measured([*args, path])[0] for _ in range(3))
+        decoded = min(run_measured([*args, path, "--redecode"])[0] for _ in range(3))
+        print(f"   {' '.join(args)}: {stored:.2f} s against {decoded:.2f} s: {decoded / stored:.1f}x")
 
 
 def cpu_seconds(pid: int) -> float:
@@ -170,8 +185,9 @@ def main() -> None:
     print(f"3. re-dissecting the MCAP (each decode the fastest of 3): {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
           f"log: {raw_rate:,.0f} events/s; from raw dumps: {dump_rate:,.0f} events/s")
     print(f"   MCAP re-dissection is {mcap_rate / dump_rate:.0%} of raw-dump decode speed (target >= 60%)")
+    opening(out, n_rec)
     share, events = live_cpu(args.live_seconds, os.path.join(tmp, "live.mcap"))
-    print(f"4. live --record on two saturated {BAUD}-baud ptys: {share:.0%} of one core over "
+    print(f"5. live --record on two saturated {BAUD}-baud ptys: {share:.0%} of one core over "
           f"{args.live_seconds:.0f} s ({events:,} events recorded; target < 20%)")
 
 
