@@ -93,8 +93,9 @@ def test_convert_then_decode_gives_the_same_events(tmp_path, inputs):
     assert set(meta["lines"].split(",")) == ({"AB"} if len(inputs) == 1 and inputs[0].endswith(".bin") else {"A", "B"})
 
 
-def test_killed_recorder_leaves_a_file_that_reads_and_recovers(tmp_path):
-    path = tmp_path / "live.mcap"
+def raw_only_recorder(path) -> McapRecorder:
+    """A live recorder (flushing as it goes) fed the raw bytes of 20 exchanges and
+    no events, left open: a tap killed now leaves what it flushed."""
     rec = McapRecorder(str(path), metadata={"tool": "gimbalscope test", "baud": "9600"},
                        start_time=1_795_000_000.0, flush_interval=0.0)
     cmd = frame((1, 1, 1), 0, "P?")
@@ -105,6 +106,12 @@ def test_killed_recorder_leaves_a_file_that_reads_and_recovers(tmp_path):
         for line, data, when in (("A", cmd, t), ("B", b"\x06", t + 0.02), ("B", res, t + 0.025)):
             rec.raw(Chunk(line, data, when), offsets[line])
             offsets[line] += len(data)
+    return rec
+
+
+def test_killed_recorder_leaves_a_file_that_reads_and_recovers(tmp_path):
+    path = tmp_path / "live.mcap"
+    rec = raw_only_recorder(path)
     # SIGKILL now: no summary, no footer; what was flushed is on disk
     killed = tmp_path / "killed.mcap"
     shutil.copyfile(path, killed)

@@ -21,9 +21,8 @@ from analyzer.capture.stored import stored_events
 from analyzer.formats.mcap_schemas import COLUMNS_RECORD, COLUMNS_TOPIC
 from analyzer.formats.store import EventStore
 from analyzer.simulation.traffic import generate
-from analyzer.sources.base import Chunk
-from analyzer.writers.mcap_recorder import McapRecorder
-from tests.conftest import BUS, CTL, DEV, SOCAT_LOG, frame, run_cli
+from tests.conftest import BUS, CTL, DEV, SOCAT_LOG, run_cli
+from tests.integration.test_mcap import raw_only_recorder
 from tests.integration.test_mcap_parts import record
 from tests.pure.test_tui_store import same
 
@@ -141,16 +140,7 @@ def test_a_recorder_fed_raw_bytes_alone_says_nothing_of_columns(tmp_path):
     """McapRecorder given raw bytes and no events: no columns record (it would say
     0 events where decoding makes 60), killed or closed; both decode."""
     path = tmp_path / "live.mcap"
-    rec = McapRecorder(str(path), metadata={"tool": "gimbalscope test", "baud": "9600"},
-                       start_time=1_795_000_000.0, flush_interval=0.0)
-    cmd = frame((1, 1, 1), 0, "P?")
-    res = frame((0, 1, 1), 1, "0FA0FC18")
-    offsets = {"A": 0, "B": 0}
-    for k in range(20):
-        t = k * 0.1
-        for line, data, when in (("A", cmd, t), ("B", b"\x06", t + 0.02), ("B", res, t + 0.025)):
-            rec.raw(Chunk(line, data, when), offsets[line])
-            offsets[line] += len(data)
+    rec = raw_only_recorder(path)
     killed = tmp_path / "killed.mcap"   # SIGKILL now: no summary, no footer, no columns record
     shutil.copyfile(path, killed)
     rec.close()
