@@ -23,11 +23,17 @@ decoding and doctor processes). The fleet export's pool and Spark have their own
   run (a decoding process closes its capture, and a reader process of its own
   with it); ``Worker.end`` asks so, and kills a child that does not listen. A
   child still running when the caller exits is ended then.
+- **Prepared ahead**: a caller that knows which module's work it will start
+  before it knows the arguments starts the process early (``prepared``): the
+  child's interpreter starts and imports that module while the caller imports
+  its own, and ``start`` hands it its work. ``view`` does so for its decoding
+  process before any of the command's modules are imported (docs/tui.md).
 """
 
 from __future__ import annotations
 
 import atexit
+import importlib
 import json
 import os
 import pickle
@@ -36,7 +42,8 @@ import struct
 import subprocess
 import sys
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import IO, TypeVarTuple
 
 _Args = TypeVarTuple("_Args")
@@ -150,25 +157,66 @@ def start(work: Callable[[*_Args, Sender], None], args: tuple[*_Args]) -> Worker
     """Run ``work(*args, sender)`` in a process of its own; None if no process
     can be had (out of processes, memory, descriptors). ``work`` is a function
     at the top of a module (the child imports it by name); ``args`` are pickled.
-    The child's standard error (and what it prints) goes nowhere."""
+    The child's standard error (and what it prints) goes nowhere. A process
+    ``prepared`` for ``work``'s module is taken rather than one started."""
+    worker = _prepared.pop(work.__module__, None)
+    if worker is not None and _give(worker, work, args):
+        return worker
+    worker = _spawn()
+    return worker if worker is not None and _give(worker, work, args) else None
+
+
+_prepared: dict[str, Worker] = {}   # module → a process that has imported it, waiting for its work
+
+
+@contextmanager
+def prepared(module: str) -> Iterator[None]:
+    """Within it, the next ``start`` of a function of ``module`` runs in a process
+    started on entry, which has imported ``module`` meanwhile: a caller that
+    knows early which work it will start has the child's imports overlap its
+    own (``view``'s decoding process, started before the command's modules are
+    imported: docs/tui.md). One that no ``start`` took is ended on exit."""
+    worker = None if module in _prepared else _spawn(module)
+    if worker is not None:
+        _prepared[module] = worker
     try:
-        process = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(_path())], stdin=subprocess.PIPE,
-                                   stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
+        yield
+    finally:
+        if worker is not None and _prepared.get(module) is worker:   # no start took it
+            del _prepared[module]
+            worker.end()
+            worker.messages.close()
+            if worker._process.stdin is not None:
+                worker._process.stdin.close()
+
+
+def _spawn(*preload: str) -> Worker | None:
+    """A fresh interpreter that imports ``preload``, then waits for its work (``_give``)."""
+    try:
+        process = subprocess.Popen([sys.executable, "-c", _BOOT, json.dumps(_path()), *preload],
+                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL)
     except OSError:
         return None
     assert process.stdin is not None and process.stdout is not None   # both are pipes
     worker = Worker(process, Receiver(process.stdout))
+    _running.add(worker)
+    return worker
+
+
+def _give(worker: Worker, work: Callable[..., None], args: tuple) -> bool:
+    """Hand ``worker`` its work; False if it ended before it could read it."""
+    stdin = worker._process.stdin
+    assert stdin is not None   # a pipe, closed once the work is on it
     try:
-        with process.stdin:
-            pickle.dump((work, args), process.stdin, protocol=pickle.HIGHEST_PROTOCOL)
+        with stdin:
+            pickle.dump((work, args), stdin, protocol=pickle.HIGHEST_PROTOCOL)
     except BaseException as e:
         worker.messages.close()
         worker.end()
         if isinstance(e, OSError):   # the child ended before it read its work
-            return None
+            return False
         raise
-    _running.add(worker)
-    return worker
+    return True
 
 
 def _path() -> list[str]:
@@ -185,6 +233,8 @@ def _serve() -> None:
     os.dup2(2, 1)
     signal.signal(signal.SIGTERM, _ended)
     try:
+        for module in sys.argv[2:]:   # prepared: imported while the caller makes up its mind
+            importlib.import_module(module)
         work, args = pickle.load(sys.stdin.buffer)
         work(*args, sender)
     except (SystemExit, KeyboardInterrupt):   # ended by the caller, or Ctrl-C: nothing to say

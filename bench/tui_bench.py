@@ -2,6 +2,10 @@
 """TUI figures (issues: Textual TUI; day-long captures). Runs the real app
 headless (Textual's Pilot) and prints:
 
+  0. the first screen from the process start: `gimbalscope view FILE` (the
+     console script) in a terminal of its own, until it shows the first event
+     row, for that MCAP and for two raw dumps and a socat log of up to 100,000
+     events (median of three each)
   1. `gimbalscope view` of an N-event MCAP (made once, kept in the temporary
      folder): time to the first screen, time until every event is loaded against
      `decode --format jsonl` of the same file, peak memory and bytes per event,
@@ -14,13 +18,14 @@ headless (Textual's Pilot) and prints:
   4. (--idle SECONDS, alone) `gimbalscope live` on two quiet ptys in a terminal
      of its own: the share of a core it uses while nothing arrives
 
-Targets: first screen < 1 s; loading no slower than decode --format jsonl (1.0x);
+Targets: first screen < 1 s (from the process start, and in the app); loading no slower than decode --format jsonl (1.0x);
 peak RSS <= 150 bytes per event at 1M events and within 2 GB at 10M; keys < 200
 ms at 10M; live no drops and at most 250 ms behind; idle live <= 1 % of a core.
 
     python3 bench/tui_bench.py [--events 1000000] [--live-seconds 10] [--no-live]
     python3 bench/tui_bench.py --events 10000000 --no-live   # makes a 10M recording first (minutes)
     python3 bench/tui_bench.py --idle 20                    # the idle live TUI's CPU share over 20 s
+    python3 bench/tui_bench.py --first-screen               # only figure 0 (a 100k-event recording)
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import os
+import re
 import resource
 import sys
 import tempfile
@@ -52,6 +58,10 @@ from analyzer.tui.widgets import EventList
 from analyzer.writers.mcap import McapWriter
 
 SIZE = (120, 40)
+# the first event row as the terminal gets it, escape codes taken out: number 1,
+# its time ("-" untimed), its direction and line ("     1 0.000000    → A 1.1.2")
+FIRST_ROW = re.compile(rb"(?:^|\s)1 +\S+ +(?:\xe2\x86\x92|\xe2\x86\x90) [AB] ")
+ESCAPE = re.compile(rb"\x1b\[[0-9;?]*[A-Za-z]")
 
 
 def rss_mb() -> float:
@@ -232,6 +242,91 @@ def view_report(path: str) -> None:
           f"Esc stopped a running filter in {f['cancel']:.0f}{'' if f['cancelled'] else ' (NOT stopped)'}")
 
 
+def console_script() -> list[str]:
+    """The ``gimbalscope`` command beside this interpreter (the venv's), else ``python -m analyzer``."""
+    script = os.path.join(os.path.dirname(sys.executable), "gimbalscope")
+    return [script] if os.access(script, os.X_OK) else [sys.executable, "-m", "analyzer"]
+
+
+def first_screen_from_start(args: list[str], timeout: float = 60.0) -> float:
+    """Seconds from starting ``gimbalscope ARGS`` in a terminal of its own (a pty of
+    SIZE, as a user's) until that terminal has been sent the first event row."""
+    import fcntl
+    import pty
+    import select
+    import signal
+    import struct
+    import subprocess
+    import termios
+
+    term_m, term_s = pty.openpty()
+    fcntl.ioctl(term_s, termios.TIOCSWINSZ, struct.pack("HHHH", SIZE[1], SIZE[0], 0, 0))
+    env = dict(os.environ, TERM="xterm-256color", COLUMNS=str(SIZE[0]), LINES=str(SIZE[1]))
+    t0 = time.perf_counter()
+    proc = subprocess.Popen([*console_script(), *args], stdin=term_s, stdout=term_s, stderr=term_s, env=env,
+                            start_new_session=True)
+    os.close(term_s)
+    shown, seen = None, b""
+    try:
+        while shown is None and time.perf_counter() - t0 < timeout:
+            if not select.select([term_m], [], [], 0.01)[0]:
+                continue
+            try:
+                data = os.read(term_m, 1 << 16)
+            except OSError:   # the TUI has ended (and closed the terminal)
+                break
+            if not data:
+                break
+            seen += data
+            if FIRST_ROW.search(ESCAPE.sub(b" ", seen)):
+                shown = time.perf_counter() - t0
+    finally:
+        proc.send_signal(signal.SIGTERM)   # the TUI quits on SIGTERM, as on q
+        end = time.monotonic() + 10
+        while proc.poll() is None and time.monotonic() < end:   # read what it draws, so that it never waits to write
+            if select.select([term_m], [], [], 0.05)[0]:
+                try:
+                    os.read(term_m, 1 << 16)
+                except OSError:
+                    break
+        if proc.poll() is None:
+            proc.kill()
+        proc.wait()
+        os.close(term_m)
+    if shown is None:
+        text = ESCAPE.sub(b" ", seen).decode(errors="replace")[-400:]
+        raise SystemExit(f"gimbalscope {' '.join(args)}: no event row within {timeout:.0f} s: ...{text}")
+    return shown
+
+
+def make_captures(events: int, folder: str) -> dict[str, list[str]]:
+    """Two raw dumps and a socat log of about ``events`` events (made once)."""
+    a, b, log = (os.path.join(folder, f"gimbalscope-tui-bench-{events}{end}") for end in ("-a.bin", "-b.bin", ".log"))
+    if not all(os.path.exists(p) for p in (a, b, log)):
+        tr = saturated(int(events / EVENTS_PER_COMMAND), seed=11)
+        for path, data in ((a, tr.line_bytes("A")), (b, tr.line_bytes("B"))):
+            with open(path, "wb") as f:
+                f.write(data)
+        with open(log, "w") as f:
+            f.write(tr.socat_log())
+    return {"two raw dumps": [a, b, "--baud", str(BAUD)], "a socat log": [log]}
+
+
+def first_screen_report(recording: str, events: int) -> None:
+    """Figure 0: the first screen from the process start, median of three, for
+    the recording and for raw dumps and a socat log of up to 100,000 events."""
+    import statistics
+
+    inputs = {f"the {recorded_events(recording) or events:,}-event MCAP recording": [recording],
+              **make_captures(min(events, 100_000), os.path.dirname(recording))}
+    figures = []
+    for name, args in inputs.items():
+        runs = [first_screen_from_start(["view", *args]) for _ in range(3)]
+        figures.append(f"{name} {statistics.median(runs):.2f} s ({', '.join(f'{r:.2f}' for r in runs)})")
+    print(f"0. first screen from the process start (gimbalscope view in a {SIZE[0]}x{SIZE[1]} terminal until it "
+          f"shows the first event row; median of 3; target < 1 s): {'; '.join(figures)}")
+
+
 def baseline_keys() -> None:
     """The same keys on the 474-event sample: what a key costs with few rows."""
     app = make_app(analyzer.open(os.path.join(ROOT, "captures", "demo-socat.log")), mode="view")
@@ -395,17 +490,21 @@ def idle_figures(seconds: float) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--events", type=int, default=1_000_000)
+    ap.add_argument("--events", type=int, help="events of the recording (1,000,000; --first-screen: 100,000)")
     ap.add_argument("--live-seconds", type=float, default=10.0)
     ap.add_argument("--recording", help="reuse this MCAP (made if missing)")
     ap.add_argument("--feed-ptys", nargs=2, type=int, help=argparse.SUPPRESS)   # the wire process
     ap.add_argument("--view-figures", help=argparse.SUPPRESS)                  # the view process
     ap.add_argument("--no-live", action="store_true", help="skip the live figures")
+    ap.add_argument("--first-screen", action="store_true",
+                    help="only figure 0, the first screen from the process start (--events 100000 unless told)")
     ap.add_argument("--idle", type=float, metavar="SECONDS",
                     help="only the idle live TUI's CPU share, measured over SECONDS (e.g. 20)")
     ap.add_argument("--seed", type=int, default=5, help=argparse.SUPPRESS)
     ap.add_argument("--start", type=float, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.events is None:
+        args.events = 100_000 if args.first_screen else 1_000_000
     if args.feed_ptys:
         feed_ptys(args.feed_ptys, args.live_seconds, args.seed, args.start)
         return
@@ -420,6 +519,9 @@ def main() -> None:
     if not os.path.exists(path):
         print(f"making a {args.events:,}-event recording at {path} (once) ...", flush=True)
         make_recording(args.events, path)
+    first_screen_report(path, args.events)
+    if args.first_screen:
+        return
     view_report(path)
     baseline_keys()
     if not args.no_live:

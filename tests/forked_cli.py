@@ -81,6 +81,9 @@ def serve(jobs: list[dict], parallel: int) -> dict[str, dict]:
     os.chdir(ROOT)
     for name in PRELOAD:
         importlib.import_module(name)
+    from analyzer.cli.main import build_parser
+
+    build_parser()   # every command's module (main imports only the one it runs)
     gc.freeze()      # the imported objects: a child's collections then leave their pages shared
     waiting = list(reversed(jobs))
     running: dict[int, tuple[dict, float, bool]] = {}     # pid → (job, started, killed)

@@ -6,37 +6,22 @@ from __future__ import annotations
 
 import argparse
 import errno
+import importlib
 import os
 import signal
 import sys
+from collections.abc import Sequence
+from contextlib import AbstractContextManager, nullcontext
 
+from .. import worker_process
 from ..docs import page
-from ..errors import DatasetError
+from ..errors import DatasetError, UsageError
 from ..extras import missing_extra
 from ..outfile import OutputError, one_line
 from ..output import StdoutError, flush_stdout, stdout_error
 from ..sources import CaptureError, formats
 from ..sources.meter import READS
 from ..version import __version__
-from . import (
-    convert,
-    decode,
-    demo,
-    doctor,
-    export,
-    foxglove,
-    live,
-    query,
-    recover,
-    replay,
-    report,
-    sigrok,
-    sim,
-    stats,
-    view,
-    wireshark,
-)
-from .common import UsageError, set_quiet
 
 EXIT_INPUT = 2
 EXIT_OUTPUT = 1
@@ -46,6 +31,14 @@ EXIT_OUTPUT = 1
 # to standard output.
 WRITE_ONLY_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 
+# the subcommands, one module each (named as the command), in the order --help lists them
+COMMANDS = ("decode", "stats", "doctor", "demo", "live", "sim", "replay", "view", "convert", "export", "query",
+            "report", "recover", "foxglove", "wireshark", "sigrok")
+# the process a command will start, started before the command's modules are
+# imported (worker_process.prepared): view's decoding process then imports while
+# the screen's modules do, and its first rows come with the first screen (docs/tui.md)
+PREPARED = {"view": "analyzer.tui.decode_process"}
+
 
 class OneLineParser(argparse.ArgumentParser):
     """argparse, but a usage mistake is one line (and exit 2), like every other error."""
@@ -54,7 +47,8 @@ class OneLineParser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"gimbalscope: error: {message} (see: {self.prog} --help)\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(commands: Sequence[str] = COMMANDS) -> argparse.ArgumentParser:
+    """The command line of ``commands`` (all of them unless told)."""
     p = OneLineParser(prog="gimbalscope",
                       description="Protocol analyzer for servo pan-tilt gimbals (serial command set rev 1.9).",
                       epilog=f"Captures read: {', '.join(formats())}; live: serial ports (device names, "
@@ -64,23 +58,17 @@ def build_parser() -> argparse.ArgumentParser:
     # no command (or a group without its subcommand) runs nothing; commands without -q are not quiet
     p.set_defaults(run=None, quiet=False)
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
-    decode.register(sub)
-    stats.register(sub)
-    doctor.register(sub)
-    demo.register(sub)
-    live.register(sub)
-    sim.register(sub)
-    replay.register(sub)
-    view.register(sub)
-    convert.register(sub)
-    export.register(sub)
-    query.register(sub)
-    report.register(sub)
-    recover.register(sub)
-    foxglove.register(sub)
-    wireshark.register(sub)
-    sigrok.register(sub)
+    for name in commands:
+        importlib.import_module(f"{__package__}.{name}").register(sub)
     return p
+
+
+def commands_of(argv: Sequence[str]) -> Sequence[str]:
+    """The commands ``argv`` needs parsed: the one it names first, else all of
+    them (for --help, --version, or a mistake). A command's module is imported
+    only to run it: the others' added over a tenth of a second to every start,
+    and ``view``'s first screen waits on its start (docs/tui.md)."""
+    return argv[:1] if argv[:1] and argv[0] in COMMANDS else COMMANDS
 
 
 def error(message: str) -> None:
@@ -102,8 +90,25 @@ def quiet_stdout() -> None:
     os.close(devnull)
 
 
+def early_process(commands: Sequence[str]) -> AbstractContextManager[None]:
+    """The process the command will start, started now if it has one (``PREPARED``)."""
+    module = PREPARED.get(commands[0]) if len(commands) == 1 else None
+    return worker_process.prepared(module) if module else nullcontext()
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else argv
+    commands = commands_of(argv)
+    with early_process(commands):
+        return run_command(argv, commands)
+
+
+def run_command(argv: list[str], commands: Sequence[str]) -> int:
+    """Parse ``argv`` (``commands``' command line) and run its command."""
+    # here, not at the top: its imports are the command's, made after its early process started
+    from .common import set_quiet
+
+    parser = build_parser(commands)
     args = parser.parse_args(argv)
     if args.run is None:
         parser.print_help()

@@ -23,7 +23,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from dissectors.event import Event
 
@@ -32,11 +32,12 @@ from ..listeners import DoctorListener
 from ..outfile import show
 from ..runner import DOCTOR, RECORDING, Listener, Note, TapRunner
 from ..sources.meter import READS, ReadMeter
-from ..writers.mcap import McapWriter
-from ..writers.mcap_recorder import RecordingError
 from .doctor_process import DoctorProcess, DoctorWord
 from .model.chunks import ModelChunk
 from .model.sampled import SampledInput, split_description
+
+if TYPE_CHECKING:
+    from ..writers.mcap import McapWriter
 
 # events a message at most: a batch waits as event objects (about 100 bytes an
 # event once stored, several times that before), so a big one raises the peak
@@ -206,6 +207,10 @@ class Feed(ScreenFeed, Listener):
         """Record from the next step on; a path that cannot be written is said on screen."""
         if self.recorder is not None and not self.recorder.failed:
             return
+        # imported to record only: the writer's modules took a tenth of a second of every view's start
+        from ..writers.mcap import McapWriter
+        from ..writers.mcap_recorder import RecordingError
+
         try:
             self.recorder = McapWriter(path, self.runner.info, live=True, lean=self.record_lean,
                                        metadata={"recorded_from": "the TUI's record key"})

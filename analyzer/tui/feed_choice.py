@@ -9,22 +9,29 @@ and whose processes can be had (docs/tui.md, "Loading a file").
 
 A capture thread is a ``LiveFeed``, a ``Feed`` or a ``StreamFeed`` by its input
 (``feed_class``).
+
+The first case's decoding process may be started before the screen is made
+(``early_decoding``, as ``run_app`` does): its interpreter then imports while
+the screen's does, and the feed adopts it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 from ..capture import Capture
 from ..info import CaptureInfo
 from ..listeners import DoctorListener
 from ..runner import Listener, TapRunner
-from ..writers.mcap import McapWriter
+from ..worker_process import Worker
 from .decode_process import ProcessFeed
 from .doctor_process import DoctorProcess, readable_by_another_process
 from .feed import FeedBatch, ScreenFeed, feed_class
+
+if TYPE_CHECKING:
+    from ..writers.mcap import McapWriter
 
 Deliver = Callable[[FeedBatch], None]
 
@@ -39,6 +46,7 @@ class Loading:
     recorder: McapWriter | None = None        # --record
     listeners: Sequence[Listener] = ()        # the --foxglove server
     record_lean: bool = False
+    decoding: Worker | None = None            # the first case's process, started already (early_decoding)
 
     def viewed_file(self) -> bool:
         """A file viewed that another process can read again."""
@@ -59,8 +67,18 @@ class Loading:
 def decoding_process(loading: Loading, deliver: Deliver) -> ScreenFeed | None:
     """The file decoded in a process of its own, the doctor in another."""
     feed = ProcessFeed(loading.capture.inputs, loading.capture.options, deliver, command=loading.info.command,
-                       doctor=loading.doctor_process())
+                       doctor=loading.doctor_process(), started=loading.decoding)
     return feed if feed.spawn() else None
+
+
+def early_decoding(loading: Loading) -> Worker | None:
+    """The first case's decoding process, started now, before the screen is made
+    (hand it over as ``Loading.decoding``); None where that case does not hold, or
+    no process can be had (the case then tries once more, and the cases go on
+    as they would)."""
+    if not loading.viewed_file_alone():   # the first case (FEED_CASES)
+        return None
+    return ProcessFeed.start_process(loading.capture.inputs, loading.capture.options, loading.info.command)
 
 
 def thread_doctor_process(loading: Loading, deliver: Deliver) -> ScreenFeed | None:

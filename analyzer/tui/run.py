@@ -1,6 +1,10 @@
 """Open the TUI on a capture: the glue between the CLI and the app. The capture
 is fed to the screen by a capture thread or a decoding process (feed_choice.py);
-quitting stops it and finalises any recording."""
+quitting stops it and finalises any recording.
+
+Nothing of the screen (Textual, the app's modules) is imported before
+``make_app``: ``run_app`` starts a viewed file's decoding process first, whose
+interpreter then imports while this one imports the screen."""
 
 from __future__ import annotations
 
@@ -12,20 +16,20 @@ import signal
 import sys
 import tomllib
 from collections.abc import Callable, Sequence
-from typing import Any
-
-from textual.binding import Binding
-from textual.dom import DOMNode
+from typing import TYPE_CHECKING, Any
 
 from ..capture import Capture
 from ..errors import KeymapError, UsageError
 from ..info import CaptureInfo
 from ..runner import Listener
-from ..writers.mcap import McapWriter
-from .app import GimbalscopeApp
+from ..worker_process import Worker
 from .feed import FeedBatch, ScreenFeed
-from .feed_choice import Loading, choose_feed
+from .feed_choice import Loading, choose_feed, early_decoding
 from .model import CaptureModel
+
+if TYPE_CHECKING:
+    from ..writers.mcap import McapWriter
+    from .app import GimbalscopeApp
 
 # A capture thread decodes flat out while a file loads (one that is not decoded
 # in a process of its own: feed_choice.py); with the interpreter's default 5 ms
@@ -67,6 +71,9 @@ def load_keymap(path: str | None) -> dict[str, str]:
 def binding_ids() -> set[str]:
     """Every id a keymap can rebind, read from the Binding(id=...) of each widget,
     screen and app class of this package (so a new binding is known at once)."""
+    from textual.binding import Binding
+    from textual.dom import DOMNode
+
     package = __name__.rpartition(".")[0]
     for mod in pkgutil.walk_packages(sys.modules[package].__path__, prefix=package + "."):
         importlib.import_module(mod.name)   # screens are imported lazily by the app
@@ -97,13 +104,18 @@ def check_ids(path: str, keymap: dict[str, str]) -> None:
 def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, speed: float = 1.0,
              recorder: McapWriter | None = None, record_path: str | None = None, record_lean: bool = False,
              info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
-             filter_text: str | None = None, listeners: Sequence[Listener] = ()) -> GimbalscopeApp:
+             filter_text: str | None = None, listeners: Sequence[Listener] = (),
+             decoding: Worker | None = None) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
     follow off). The capture starts when the app mounts, fed as feed_choice.py
     chooses, with ``recorder`` (``--record``), ``listeners`` (the ``--foxglove``
     server), the doctor and the feed as the runner's listeners; ``info`` is the one
     ``recorder`` and ``listeners`` were made with. ``record_lean``: the record
-    key writes lean recordings (``live --lean``, docs/mcap.md)."""
+    key writes lean recordings (``live --lean``, docs/mcap.md). ``decoding``: the
+    file's decoding process, started already (``early_decoding``): the feed
+    adopts it."""
+    from .app import GimbalscopeApp  # the screen's imports: after run_app has started the decoding
+
     model = CaptureModel(follow=mode != "view")
     if filter_text:
         model.set_filter(filter_text)   # already checked by the CLI
@@ -111,7 +123,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         model.replay.start(speed)
     info = info or CaptureInfo.of(capture, command=mode)
 
-    loading = Loading(capture, info, mode, recorder, listeners, record_lean)
+    loading = Loading(capture, info, mode, recorder, listeners, record_lean, decoding)
 
     def make_feed(deliver: Callable[[FeedBatch], None]) -> ScreenFeed:
         return choose_feed(loading, deliver)
@@ -136,19 +148,30 @@ def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[s
 
 
 def run_app(capture: Capture, **kw: Any) -> int:
-    """The TUI until it quits; then what the capture had to say (recordings written)."""
-    app = make_app(capture, **kw)
-    old = signal.signal(signal.SIGTERM, lambda *_: app.call_later(app.exit))
-    switch = sys.getswitchinterval()
-    sys.setswitchinterval(SWITCH)
+    """The TUI until it quits; then what the capture had to say (recordings written).
+
+    A file viewed has its decoding process started first, before the screen's
+    imports (make_app's): the two interpreters import side by side, and the
+    first rows are there about when the screen is (docs/tui.md, "Loading a file")."""
+    mode, listeners = kw["mode"], kw.get("listeners", ())
+    info = kw.pop("info", None) or CaptureInfo.of(capture, command=mode)
+    decoding = early_decoding(Loading(capture, info, mode, kw.get("recorder"), listeners))
     try:
-        app.run()
+        app = make_app(capture, info=info, decoding=decoding, **kw)
+        old = signal.signal(signal.SIGTERM, lambda *_: app.call_later(app.exit))
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(SWITCH)
+        try:
+            app.run()
+        finally:
+            sys.setswitchinterval(switch)
+            signal.signal(signal.SIGTERM, old)
+            notes = stop_feed(app, listeners)
     finally:
-        sys.setswitchinterval(switch)
-        signal.signal(signal.SIGTERM, old)
-        notes = stop_feed(app, kw.get("listeners", ()))
+        if decoding is not None:
+            decoding.end()   # its feed has ended it, unless the screen never came to make one
     # "serving Foxglove on …" is for the screen: once it has closed, nothing serves
-    screen_only = {l.announcement for l in kw.get("listeners", ())}
+    screen_only = {l.announcement for l in listeners}
     for note in (n for n in notes if n not in screen_only):
         print(f"gimbalscope: {note}", file=sys.stderr)
     return 0

@@ -25,7 +25,7 @@ import tty
 
 import pytest
 
-from analyzer.cli.main import build_parser
+from analyzer.cli.main import COMMANDS, build_parser, commands_of
 from tests.conftest import ROOT, run_cli
 
 BAD_NUMBERS = ("nan", "inf", "-inf", "-1")
@@ -85,6 +85,20 @@ def test_every_subcommand_help_exits_0_and_prints_usage():
             broken[name] = (code, out[:80], err)
     assert len(subcommands()) >= 10
     assert broken == {}
+
+
+def test_a_command_parsed_alone_is_parsed_as_among_all():
+    """``main`` builds the parser of the command it runs only (the others' modules
+    are not imported): what a command line says, and its help, do not change."""
+    every = subcommands()
+    assert sorted(COMMANDS) == sorted(every)
+    for name in COMMANDS:
+        (alone,) = [a for a in build_parser((name,))._actions if isinstance(a, argparse._SubParsersAction)]
+        assert list(alone.choices) == [name]
+        assert alone.choices[name].format_help() == every[name].format_help()
+    assert commands_of(["view", "x.mcap", "--keymap", "k.toml"]) == ["view"]
+    for not_one in ([], ["--help"], ["--version"], ["vew", "x.mcap"]):
+        assert commands_of(not_one) == COMMANDS
 
 
 def test_every_numeric_option_refuses_nan_inf_and_negatives():

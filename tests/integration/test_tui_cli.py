@@ -1,13 +1,34 @@
 """The TUI's command-line side: view needs a terminal, bad keymaps and filters
 are one line, and live/demo/replay print (not open the TUI) when piped."""
 
-from tests.conftest import run_cli
+from tests.conftest import SOCAT_LOG, run_cli
 
 
 def test_view_without_a_terminal_is_one_line():
     r = run_cli("view", "captures/demo-socat.log")
     assert r.returncode == 2 and r.stderr.strip() == \
         "gimbalscope: error: view needs a terminal (for scripts: gimbalscope decode)"
+
+
+def test_view_prepares_its_decoding_process_first_and_ends_it_when_unused(monkeypatch, capsys):
+    """``view`` starts the interpreter of its decoding process before its own
+    modules are imported (the first screen comes sooner); a view that stops
+    before it decodes (here: no terminal) leaves nothing running."""
+    from analyzer import worker_process
+    from analyzer.cli.main import main
+
+    spawned = []
+    real = worker_process.subprocess.Popen
+
+    def popen(*args, **kw):
+        spawned.append(real(*args, **kw))
+        return spawned[-1]
+    monkeypatch.setattr(worker_process.subprocess, "Popen", popen)
+    assert main(["view", SOCAT_LOG]) == 2
+    assert "view needs a terminal" in capsys.readouterr().err
+    assert len(spawned) == 1 and spawned[0].poll() is not None
+    assert main(["decode", SOCAT_LOG, "--format", "jsonl"]) == 0
+    assert len(spawned) == 1   # only view prepares one
 
 
 def test_bad_keymap_is_one_line(tmp_path):

@@ -1,6 +1,8 @@
 """Work in a process of its own (analyzer/worker_process.py): its messages arrive
 in order; what it prints reaches no terminal; SIGTERM ends it through its
-``finally`` clauses; a child killed mid-way is an EOFError, not a garbled message."""
+``finally`` clauses; a child killed mid-way is an EOFError, not a garbled message;
+a process prepared for a module's work is the one its ``start`` takes, and one
+that none took is ended."""
 
 from __future__ import annotations
 
@@ -92,3 +94,57 @@ def test_a_channel_without_a_process():
     with pytest.raises(EOFError):
         messages.recv()
     messages.close()
+
+
+def counting_spawns(monkeypatch) -> list:
+    """The processes ``worker_process`` starts from now on (their ``Popen``)."""
+    spawned: list = []
+    real = worker_process.subprocess.Popen
+
+    def popen(*args, **kw):
+        spawned.append(real(*args, **kw))
+        return spawned[-1]
+    monkeypatch.setattr(worker_process.subprocess, "Popen", popen)
+    return spawned
+
+
+def test_start_takes_the_process_prepared_for_its_work(monkeypatch):
+    spawned = counting_spawns(monkeypatch)
+    with worker_process.prepared(__name__):
+        worker = worker_process.start(count_to, (3,))
+        assert worker is not None and messages_of(worker) == [("item", k, b"x" * k) for k in range(3)]
+        worker.end()
+        worker.messages.close()
+    assert len(spawned) == 1 and worker.pid == spawned[0].pid
+
+
+def test_work_of_another_module_has_a_process_of_its_own_and_the_prepared_one_ends_unused(monkeypatch):
+    spawned = counting_spawns(monkeypatch)
+    with worker_process.prepared("json.decoder"):
+        worker = worker_process.start(count_to, (1,))
+        assert worker is not None and messages_of(worker) == [("item", 0, b"")]
+        worker.end()
+        worker.messages.close()
+        assert len(spawned) == 2 and worker.pid == spawned[1].pid
+        assert spawned[0].poll() is None   # still waiting for work of json.decoder
+    assert spawned[0].poll() is not None   # no start took it: ended on leaving
+
+
+def test_a_prepared_process_that_died_is_replaced(monkeypatch):
+    spawned = counting_spawns(monkeypatch)
+    with worker_process.prepared(__name__):
+        spawned[0].kill()
+        spawned[0].wait()
+        worker = worker_process.start(count_to, (2,))
+        assert worker is not None and messages_of(worker) == [("item", k, b"x" * k) for k in range(2)]
+        worker.end()
+        worker.messages.close()
+    assert len(spawned) == 2 and worker.pid == spawned[1].pid
+
+
+def test_no_process_to_be_had_is_none_prepared_or_not(monkeypatch):
+    def no_process(*args, **kw):
+        raise OSError(11, "Resource temporarily unavailable")
+    monkeypatch.setattr(worker_process.subprocess, "Popen", no_process)
+    with worker_process.prepared(__name__):
+        assert worker_process.start(count_to, (1,)) is None
