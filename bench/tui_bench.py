@@ -7,7 +7,7 @@ headless (Textual's Pilot) and prints:
      row, for that MCAP and for two raw dumps and a socat log of up to 100,000
      events (median of three each)
   1. `gimbalscope view` of an N-event MCAP (made once, kept in the temporary
-     folder): time to the first screen, time until every event is loaded against
+     folder, made again when its stored columns are not this decoder's): time to the first screen, time until every event is loaded against
      `decode --format jsonl` of the same file, peak memory and bytes per event,
      and whether End pressed while loading follows to the last event
   2. keys on those events: home, page down, next error, pair, same device, end
@@ -18,7 +18,8 @@ headless (Textual's Pilot) and prints:
   4. (--idle SECONDS, alone) `gimbalscope live` on two quiet ptys in a terminal
      of its own: the share of a core it uses while nothing arrives
 
-Targets: first screen < 1 s (from the process start, and in the app); loading no slower than decode --format jsonl (1.0x);
+Targets: first screen < 1 s (from the process start, and in the app); a recording
+with stored columns fully loaded >= 10x faster than decode --format jsonl of it;
 peak RSS <= 150 bytes per event at 1M events and within 2 GB at 10M; keys < 200
 ms at 10M; live no drops and at most 250 ms behind; idle live <= 1 % of a core.
 
@@ -66,6 +67,17 @@ ESCAPE = re.compile(rb"\x1b\[[0-9;?]*[A-Za-z]")
 
 def rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+def columns_usable(path: str) -> bool:
+    """Does the recording carry stored columns this decoder reads (docs/mcap.md)?"""
+    from analyzer.capture.stored import stored_events
+
+    capture = analyzer.open(path)
+    try:
+        return stored_events(capture)[0] is not None
+    finally:
+        capture.source.close()
 
 
 def make_recording(events: int, path: str) -> None:
@@ -125,7 +137,7 @@ def view_figures(path: str) -> dict[str, float]:
     loading, memory, and keys once loaded. Returns the figures."""
     sys.setswitchinterval(SWITCH)   # as run_app does
     t0 = time.perf_counter()
-    app = make_app(analyzer.open(path, baud=BAUD), mode="view")
+    app = make_app(analyzer.open(path), mode="view")   # its own settings: a --baud given would decode it
     figures: dict[str, float] = {}
 
     # the first screen: when the event list first renders a line holding an event
@@ -227,8 +239,9 @@ def view_report(path: str) -> None:
     jsonl, _jsonl_rss = run_measured(["decode", path, "--format", "jsonl"])
     n = f["events"]
     print(f"1. view of {n:,} events: first screen after {f['first']:.2f} s (target < 1 s); all loaded after "
-          f"{f['loaded']:.1f} s ({n / f['loaded']:,.0f} events/s), decode --format jsonl of the same file "
-          f"{jsonl:.1f} s: {jsonl / f['loaded']:.2f}x as fast (target: no slower, 1.0x); peak RSS once loaded "
+          f"{f['loaded']:.2f} s ({n / f['loaded']:,.0f} events/s), decode --format jsonl of the same file "
+          f"{jsonl:.1f} s: {jsonl / f['loaded']:.1f}x as fast (target >= 10x from its stored columns); "
+          "peak RSS once loaded "
           f"{f['rss_loaded']:.0f} MB, {f['rss_loaded'] * 1024 * 1024 / n:.0f} bytes per event (target <= 150), "
           f"the process decoding it {f.get('rss_decoding', 0):.0f} MB at its peak, "
           f"after the keys and filters {f['rss']:.0f} MB; End "
@@ -516,8 +529,9 @@ def main() -> None:
         print(json.dumps(view_figures(args.view_figures)))
         return
     path = args.recording or os.path.join(tempfile.gettempdir(), f"gimbalscope-tui-bench-{args.events}.mcap")
-    if not os.path.exists(path):
-        print(f"making a {args.events:,}-event recording at {path} (once) ...", flush=True)
+    if not os.path.exists(path) or not columns_usable(path):
+        print(f"making a {args.events:,}-event recording at {path} (once, and again when its stored columns are "
+              "not this decoder's) ...", flush=True)
         make_recording(args.events, path)
     first_screen_report(path, args.events)
     if args.first_screen:
