@@ -133,6 +133,29 @@ class Worker:
         if self.is_alive():
             self._process.kill()
 
+    def give(self, work: Callable[..., None], args: tuple) -> bool:
+        """Hand it its work (a prepared child waits for it on its standard input);
+        False if it ended before it could read it."""
+        stdin = self._process.stdin
+        assert stdin is not None   # a pipe, closed once the work is on it
+        try:
+            with stdin:
+                pickle.dump((work, args), stdin, protocol=pickle.HIGHEST_PROTOCOL)
+        except BaseException as e:
+            self.messages.close()
+            self.end()
+            if isinstance(e, OSError):   # the child ended before it read its work
+                return False
+            raise
+        return True
+
+    def discard(self) -> None:
+        """End a child that was never given work, and close its pipes."""
+        self.end()
+        self.messages.close()
+        if self._process.stdin is not None:
+            self._process.stdin.close()
+
     def end(self, wait: float = END_WAIT) -> None:
         """End it if it still runs (SIGTERM, then SIGKILL after ``wait`` seconds), and reap it."""
         if self.is_alive():
@@ -160,10 +183,10 @@ def start(work: Callable[[*_Args, Sender], None], args: tuple[*_Args]) -> Worker
     The child's standard error (and what it prints) goes nowhere. A process
     ``prepared`` for ``work``'s module is taken rather than one started."""
     worker = _prepared.pop(work.__module__, None)
-    if worker is not None and _give(worker, work, args):
+    if worker is not None and worker.give(work, args):
         return worker
     worker = _spawn()
-    return worker if worker is not None and _give(worker, work, args) else None
+    return worker if worker is not None and worker.give(work, args) else None
 
 
 _prepared: dict[str, Worker] = {}   # module → a process that has imported it, waiting for its work
@@ -184,10 +207,7 @@ def prepared(module: str) -> Iterator[None]:
     finally:
         if worker is not None and _prepared.get(module) is worker:   # no start took it
             del _prepared[module]
-            worker.end()
-            worker.messages.close()
-            if worker._process.stdin is not None:
-                worker._process.stdin.close()
+            worker.discard()
 
 
 def _spawn(*preload: str) -> Worker | None:
@@ -201,22 +221,6 @@ def _spawn(*preload: str) -> Worker | None:
     worker = Worker(process, Receiver(process.stdout))
     _running.add(worker)
     return worker
-
-
-def _give(worker: Worker, work: Callable[..., None], args: tuple) -> bool:
-    """Hand ``worker`` its work; False if it ended before it could read it."""
-    stdin = worker._process.stdin
-    assert stdin is not None   # a pipe, closed once the work is on it
-    try:
-        with stdin:
-            pickle.dump((work, args), stdin, protocol=pickle.HIGHEST_PROTOCOL)
-    except BaseException as e:
-        worker.messages.close()
-        worker.end()
-        if isinstance(e, OSError):   # the child ended before it read its work
-            return False
-        raise
-    return True
 
 
 def _path() -> list[str]:

@@ -184,17 +184,22 @@ class WiringSigns:
         """The signs ``state()`` gave; raises ``KeyError``, ``TypeError`` or
         ``ValueError`` for what it did not give."""
         signs = cls(lines)
-        signs.lines = {str(name): LineTally.of_state(line) for name, line in state["lines"].items()}
-        signs.answer_bytes_on_a = Tally.of_state(state["answer_bytes_on_a"])
-        signs.commands_on_b = Tally.of_state(state["commands_on_b"])
-        signs.ok_transactions = int(state["ok_transactions"])
-        signs._rate_votes = Counter({int(r): int(n) for r, n in state["rate_votes"]})
-        signs._votes_left = int(state["votes_left"])
-        signs.turns = {str(k): int(v) for k, v in state["turns"].items()}
-        signs.exchanges = int(state["exchanges"])
-        turn = state["turn"]
-        signs._turn = None if turn is None else [str(turn[0]), float(turn[1]), float(turn[2])]
+        signs.take_state(state)
         return signs
+
+    def take_state(self, state: dict[str, Any]) -> None:
+        """Hold what ``state()`` gave, in place of what the events so far left."""
+        self.lines = {str(name): LineTally.of_state(line) for name, line in state["lines"].items()}
+        self.answer_bytes_on_a = Tally.of_state(state["answer_bytes_on_a"])
+        self.commands_on_b = Tally.of_state(state["commands_on_b"])
+        self.ok_transactions = int(state["ok_transactions"])
+        self._rate_votes = Counter({int(r): int(n) for r, n in state["rate_votes"]})
+        self._votes_left = int(state["votes_left"])
+        self.turns = {str(k): int(v) for k, v in state["turns"].items()}
+        self.exchanges = int(state["exchanges"])
+        turn = state["turn"]
+        self._turn = None if turn is None else [str(turn[0]), float(turn[1]), float(turn[2])]
+        self._guessed = None
 
     def add(self, ev: Event) -> bool:
         """Count ``ev``; True when it is a command frame travelling device→controller

@@ -26,7 +26,7 @@ def test_a_recording_recovered_whole_keeps_its_columns(tmp_path):
 def test_a_recovered_recording_that_lost_a_chunk_is_decoded_from_its_bytes(tmp_path):
     rec, damaged, fixed = tmp_path / "rec.mcap", tmp_path / "damaged.mcap", tmp_path / "fixed.mcap"
     log = tmp_path / "tap.log"   # enough traffic for several chunks of raw bytes and events
-    log.write_text(generate(6000, baud=115200, seed=5).socat_log())
+    log.write_text(generate(4500, baud=115200, seed=5).socat_log())
     assert run_cli("convert", log, "--baud", "115200", "-o", rec).returncode == 0
     whole = rec.read_bytes()
     chunks = chunks_in(whole)

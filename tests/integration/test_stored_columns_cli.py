@@ -47,8 +47,7 @@ def both(*args: str) -> tuple[str, str]:
 
 
 def test_stats_says_what_decoding_says(recording):
-    for command in (["stats", "--format", "json"], ["stats"], ["stats", "--filter", 'status == "nak" or problems'],
-                    ["stats", "--format", "json", "--filter", 'device == "1.1.2" and kind != "ack"']):
+    for command in (["stats"], ["stats", "--format", "json", "--filter", 'status == "nak" or device == "1.1.2"']):
         stored, decoded = both(*command, *recording)
         assert stored == decoded, command
         assert stored.strip()

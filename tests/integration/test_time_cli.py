@@ -77,7 +77,7 @@ def test_garbled_metadata_falls_back_to_the_defaults_with_one_warning(log_115200
         ids = {}
         for sid, schema in summary.schemas.items():
             ids[sid] = w.register_schema(schema.name, schema.encoding, schema.data)
-        chans = {cid: w.register_channel(ch.topic, ch.message_encoding, ids[ch.schema_id])
+        chans = {cid: w.register_channel(ch.topic, ch.message_encoding, ids.get(ch.schema_id, 0))   # 0: schemaless
                  for cid, ch in summary.channels.items()}
         for _s, ch, m in reader.iter_messages():
             w.add_message(chans[ch.id], m.log_time, m.data, m.publish_time)

@@ -95,9 +95,10 @@ def decoded(*paths: str) -> int:
 
 @pytest.fixture(scope="module")
 def generated_capture(tmp_path_factory: pytest.TempPathFactory) -> str:
-    """A capture of some 70,000 events: several MCAP chunks and two columns messages."""
+    """A capture of some 13,000 events: several MCAP chunks (the rotated parts below
+    hold several columns messages: one a part)."""
     path = tmp_path_factory.mktemp("generated") / "bus.log"
-    path.write_text(generate(28_000, seed=5).socat_log(nanoseconds=True))
+    path.write_text(generate(5_000, seed=5).socat_log(nanoseconds=True))
     return str(path)
 
 
@@ -110,7 +111,7 @@ def test_mcap_core_reads_a_default_recording_and_its_columns_whole(tmp_path: Pat
     check_columns(indexed, decoded(out))
     assert indexed["chunk_compressions"].get("zstd", 0) >= 1   # the app's zstd decompressor did inflate them
     if capture == "generated":
-        assert indexed["chunks"] >= 10 and len(indexed["columns"]) >= 2
+        assert indexed["chunks"] >= 3 and len(indexed["columns"]) >= 1
 
 
 def test_mcap_core_reads_a_lean_recording_whole(tmp_path: Path) -> None:
