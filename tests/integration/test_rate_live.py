@@ -197,6 +197,8 @@ def test_parts_after_a_rate_change_start_at_the_new_rate(tmp_path):
         if first is not None:
             break
     assert first is not None, "no part after the switch holds a whole exchange"
+    if part != parts[-1]:   # passed over only when it is that short, not when it reads as garbage
+        assert len(list(analyzer.open(parts[-1]))) < 10
     # (a part may begin inside a frame the previous one holds the start of)
     assert not [e for e in alone[first:] if e.kind == NOISE or e.checksum_ok is False]
     # and all of them together give what the tap gave
