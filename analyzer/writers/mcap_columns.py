@@ -23,7 +23,7 @@ from ..formats.store import EventStore
 from ..formats.store_ipc import VERSION, Tables, decoder_version, encode
 from ..lines import Chunk
 
-BATCH = 65_536      # events a message: a few hundred kB of columns, one MCAP chunk of its own
+BATCH = 16_384      # events a message: about 300 kB of columns, one MCAP chunk of its own
 _STORE_EVERY = 4_096   # events held as objects before the store takes them
 
 
