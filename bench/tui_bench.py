@@ -54,6 +54,7 @@ from analyzer.capture import open_live
 from analyzer.info import CaptureInfo
 from analyzer.runner import TapRunner
 from analyzer.tui.decode_process import ProcessFeed
+from analyzer.tui.feed_choice import Loading, early_decoding
 from analyzer.tui.run import SWITCH, make_app, stop_feed
 from analyzer.tui.widgets import EventList
 from analyzer.writers.mcap import McapWriter
@@ -137,7 +138,12 @@ def view_figures(path: str) -> dict[str, float]:
     loading, memory, and keys once loaded. Returns the figures."""
     sys.setswitchinterval(SWITCH)   # as run_app does
     t0 = time.perf_counter()
-    app = make_app(analyzer.open(path), mode="view")   # its own settings: a --baud given would decode it
+    # as `gimbalscope view` runs it (tui/run.py, run_app): the decoding process
+    # started before the screen is made; the recording with its own settings (a
+    # --baud given would decode it)
+    capture = analyzer.open(path)
+    info = CaptureInfo.of(capture, command="view")
+    app = make_app(capture, mode="view", info=info, decoding=early_decoding(Loading(capture, info, "view")))
     figures: dict[str, float] = {}
 
     # the first screen: when the event list first renders a line holding an event
