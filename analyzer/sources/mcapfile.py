@@ -56,11 +56,13 @@ import struct
 from binascii import a2b_base64
 from collections.abc import Callable, Generator, Iterator
 from functools import partial
+from io import BytesIO
 from itertools import chain
 from typing import Any, BinaryIO
 
+from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
-from mcap.records import Channel, Message, Metadata, Schema
+from mcap.records import Channel, ChunkIndex, Message, Metadata, Schema
 from orjson import loads as json_loads
 
 from .. import worker_process
@@ -82,6 +84,7 @@ from .mcapwalk import (
     MESSAGE_HEAD,
     OP_CHANNEL,
     OP_CHUNK,
+    OP_CHUNK_INDEX,
     OP_DATA_END,
     OP_FOOTER,
     OP_MESSAGE,
@@ -639,10 +642,15 @@ def _raw_batches(path: str, label: str, p: _Pass, note: Note) -> Iterator[list]:
             raise CaptureError(f"{label}: not an MCAP file (it does not start with the MCAP magic "
                                "bytes of version 0)")
         # channels registered without any message are only in the summary
-        for op, body in summary_records(f, size, (OP_SCHEMA, OP_CHANNEL)):
-            _read_records(_record(op, body), p, [])
+        summary = summary_records(f, size, (OP_SCHEMA, OP_CHANNEL, OP_CHUNK_INDEX))
+        for op, body in summary:
+            if op != OP_CHUNK_INDEX:
+                _read_records(_record(op, body), p, [])
+        columns_only = _columns_chunks(summary)
         walk = Walk(f, size)
         for offset, op, body in walk.records(_BODIES):
+            if op == OP_CHUNK and offset in columns_only:
+                continue   # the stored columns, in chunks of their own: no raw bytes there
             out = _read_record(offset, op, body, p, note)
             if out:
                 yield out
@@ -661,6 +669,25 @@ def _raw_batches(path: str, label: str, p: _Pass, note: Note) -> Iterator[list]:
             topic, why = f"/serial/{line}/raw", _diagnose(first, p.need_t)
         note(_FOREIGN, f"{count} messages on {topic} were not gimbalscope raw chunks (the first: {why})"
              if count > 1 else f"1 message on {topic} was not a gimbalscope raw chunk ({why})")
+
+
+def _columns_chunks(summary: list[tuple[int, bytes]]) -> set[int]:
+    """The offsets of the chunks that, as the summary's chunk indexes say, hold
+    only stored columns (docs/mcap.md): decoding the raw bytes passes them over
+    unopened. A summary that does not read gives none: every chunk is read."""
+    try:
+        ids = set()
+        for op, body in summary:
+            if op == OP_CHANNEL:
+                channel = parse(op, body)
+                if isinstance(channel, Channel) and channel.topic == COLUMNS_TOPIC:
+                    ids.add(channel.id)
+        if not ids:
+            return set()
+        indexes = [ChunkIndex.read(ReadDataStream(BytesIO(body))) for op, body in summary if op == OP_CHUNK_INDEX]
+    except Exception:   # noqa: BLE001 - a summary that does not read only costs the skip
+        return set()
+    return {i.chunk_start_offset for i in indexes if i.message_index_offsets and set(i.message_index_offsets) <= ids}
 
 
 def _read_record(offset: int, op: int, body: bytes, p: _Pass, note: Note) -> list:

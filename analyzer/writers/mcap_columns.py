@@ -65,11 +65,12 @@ class ColumnBatches:
             if chunk.undecoded and self.stopped is None:
                 self.stopped = f"the tap passed over bytes it did not decode ({chunk.undecoded})"
 
-    def add(self, ev: Event, ts: int) -> None:
+    def add(self, ev: Event, ts_of: Callable[[Event], int]) -> None:
+        """``ev``, whose log time ``ts_of`` gives (asked of a batch's first event only)."""
         if self.stopped is not None:
             return
         if self._ts is None:
-            self._ts = ts
+            self._ts = ts_of(ev)
         self._pending.append(ev)
         if len(self._pending) >= _STORE_EVERY:
             self._store()

@@ -255,7 +255,10 @@ class McapRecorder:
         if not self._closed:
             self._messages.event(ev)
             if self._columns is not None:
-                self._columns.add(ev, self._messages.time_ns(ev.t, ev.number, ev.offset))
+                self._columns.add(ev, self._log_time)
+
+    def _log_time(self, ev: Event) -> int:
+        return self._messages.time_ns(ev.t, ev.number, ev.offset)
 
     def close(self, metadata: dict[str, str] | None = None) -> None:
         """Finish the file: summary, statistics, and ``metadata`` when the
