@@ -135,6 +135,15 @@ def _send_stored(stored: StoredEvents, runner: TapRunner, sender: worker_process
     error = None
     sent = 0
 
+    # the status line says how much of the file has loaded, in bytes: the share of its events read
+    try:
+        size = sum(os.path.getsize(path) for path in runner.info.inputs) or None
+    except OSError:   # gone since it was opened: the share is not said
+        size = None
+
+    def read(events: int) -> int:
+        return (size or 0) * events // max(stored.events, 1)
+
     def status() -> list[LineStatus]:
         return [LineStatus(s.line, s.port, s.state, s.bytes) for s in lines.values()]
 
@@ -147,12 +156,12 @@ def _send_stored(stored: StoredEvents, runner: TapRunner, sender: worker_process
                 if line in lines:
                     lines[line].bytes += n
             sent += len(chunk.columns["kind"])
-            sender.send(FeedBatch([], [], status(), settings=runner.serial_settings, read=sent,
-                                  total=stored.events or None, chunk=stored_model_chunk(chunk, joiner.known(), joiner.positions)))
+            sender.send(FeedBatch([], [], status(), settings=runner.serial_settings, read=read(sent), total=size,
+                                  chunk=stored_model_chunk(chunk, joiner.known(), joiner.positions)))
     except ColumnsError as e:
         error = f"the stored columns stop after event {sent}: {e}"
     sender.send(FeedBatch([], [], status(), settings=runner.serial_settings, done=True, error=error,
-                          read=sent, total=stored.events or None))
+                          read=read(sent), total=size))
 
 
 def _bytes_by_line(chunk: StoreChunk, line_codes: list[str | None], ends: array) -> dict[str | None, int]:

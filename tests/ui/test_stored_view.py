@@ -37,11 +37,12 @@ def loaded(path: str, **kw):
         async with app.run_test(size=(120, 30)) as pilot:
             await settle(pilot, app, lambda a: a.model.done)
             await pilot.pause(0.1)
+            return str(app.status_bar.render())
     try:
-        asyncio.run(drive())
+        status = asyncio.run(drive())
     finally:
         stop_feed(app)
-    return app.model, isinstance(app.feed, ProcessFeed)
+    return app.model, isinstance(app.feed, ProcessFeed), status
 
 
 @pytest.fixture(scope="module")
@@ -61,9 +62,10 @@ def recordings(tmp_path_factory):
 @pytest.mark.parametrize("name", ["socat", "hostile"])
 def test_view_from_the_columns_holds_what_decoding_gives(recordings, name):
     path = recordings[name]
-    got, by_process = loaded(path)
-    want, _ = loaded(path, redecode=True)
+    got, by_process, status = loaded(path)
+    want, _, decoded_status = loaded(path, redecode=True)
     assert by_process
+    assert status == decoded_status and "loaded" in status   # how much of the file, in its bytes
     a, b = got.store, want.store
     assert len(a) == len(b) > 400
     for column in COLUMNS:
