@@ -93,9 +93,12 @@ def test_a_live_tap_follows_the_rate_change():
     assert len(commands) >= 10
     assert not [e for e in later if e.kind == NOISE or e.checksum_ok is False]
     # every one answered (ok, or NIC for what the simulated firmware does not implement),
-    # but the last: the tap may stop between a command and its answer
-    assert {e.status for e in commands[:-1]} <= {OK, ST_NIC} and sum(e.status == OK for e in commands) >= 10
-    assert commands[-1].status in (OK, ST_NIC, PENDING)
+    # but those still in flight when the tap stopped, at the end (under load, more than one)
+    in_flight = len(commands)
+    while in_flight and commands[in_flight - 1].status == PENDING:
+        in_flight -= 1
+    assert in_flight >= len(commands) - 3
+    assert {e.status for e in commands[:in_flight]} <= {OK, ST_NIC} and sum(e.status == OK for e in commands) >= 10
     # and times them at its byte time: a 9-byte P? takes 9 × 10/115200 s, not 9.4 ms
     spans = [e.t_end - e.t for e in commands if len(e.raw) == 9]
     assert spans and statistics.median(spans) == pytest.approx(9 * BT_115200, rel=0.05)
