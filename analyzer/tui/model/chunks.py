@@ -60,20 +60,13 @@ def stored_model_chunk(chunk: StoreChunk, known: tuple[list, list, list],
             for w in dict.fromkeys(which[mine].tolist()):
                 these = mine[which[mine] == w]
                 name = "commanded" if w == 1 else "reported"
-                series = plots.series.setdefault(devices[d - 1], {})
-                _extend(series, f"{name} azimuth", t[these], azimuth[these])
+                address = devices[d - 1]
+                plots.extend(address, f"{name} azimuth", t[these].tolist(), azimuth[these].tolist())
                 with_elevation = these[~np.isnan(elevation[these])]
                 if len(with_elevation):
-                    _extend(series, f"{name} elevation", t[with_elevation], elevation[with_elevation])
+                    plots.extend(address, f"{name} elevation", t[with_elevation].tolist(),
+                                 elevation[with_elevation].tolist())
     return ModelChunk(chunk, plots.series, checksum)
-
-
-def _extend(series: dict[str, Series], name: str, t: np.ndarray, v: np.ndarray) -> None:
-    s = series.get(name)
-    if s is None:
-        s = series[name] = Series()
-    s.t.frombytes(np.ascontiguousarray(t, "f8").tobytes())
-    s.v.frombytes(np.ascontiguousarray(v, "f8").tobytes())
 
 
 class ChunkMaker:

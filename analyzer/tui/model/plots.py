@@ -6,7 +6,7 @@ points. The plots screen draws them."""
 from __future__ import annotations
 
 from array import array
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
 from dissectors.event import COMMAND, RESULT, Event
@@ -79,6 +79,12 @@ class PositionPlots:
         self._series(series, f"{which} azimuth").append(t, fields["azimuth_deg"])
         if "elevation_deg" in fields:
             self._series(series, f"{which} elevation").append(t, fields["elevation_deg"])
+
+    def extend(self, addr: str, name: str, t: Iterable[float], v: Iterable[float]) -> None:
+        """Points of series ``name`` of ``addr`` at once (a recording's stored columns)."""
+        s = self._series(self.series.setdefault(addr, {}), name)
+        s.t.extend(t)
+        s.v.extend(v)
 
     @staticmethod
     def _series(series: dict[str, Series], name: str) -> Series:
