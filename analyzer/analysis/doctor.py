@@ -32,7 +32,9 @@ line with ACK/NAK, then NIC or a result frame; Table 3 addresses):
 
 from __future__ import annotations
 
+import dataclasses
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from statistics import median
 from typing import Any
@@ -155,6 +157,16 @@ class Invocation:
         return (f"capture it again with the tap at the line's rate, {rate} bps if it read at {read} "
                 f"(gimbalscope live PORT --baud {rate}): the bytes are what the tap's UART read, and no --baud "
                 f"decodes them now")
+
+
+# the rules whose findings depend on how the traffic is read, not on its events alone
+READING_RULES = ("waveform", "wiring", "no_frames")
+# what a finding's state keeps: all but when it was first found (``findings`` dates it)
+_UNDATED = ("first_seen", "first_seen_event")
+
+
+def _finding_state(f: Finding) -> dict[str, Any]:
+    return {k: v for k, v in dataclasses.asdict(f).items() if k not in _UNDATED}
 
 
 def _densest(times: list[float], window: float) -> int:
@@ -344,6 +356,8 @@ class WiringDoctor:
         # a logic capture's lines as its software UART measured them (analyzer/physical/report.py),
         # kept up to date by the source: the waveform rules read them
         self.physical: dict | None = None
+        # the findings of the event rules as a recording kept them (``of_kept``); None: worked out
+        self._kept: dict[str, list[Finding]] | None = None
 
     # ------------------------------------------------------------------ input
     def add(self, ev: Event) -> None:
@@ -433,12 +447,19 @@ class WiringDoctor:
             dev.identity = f"{f.get('name', '?')} rev {f.get('revision', '?')} s/n {f.get('serial', '?')}"
 
     # --------------------------------------------------------------- findings
+    def _rules(self) -> tuple[tuple[str, Callable[[], list[Finding]]], ...]:
+        """The rules in the order they are asked: root causes first."""
+        return (("waveform", self._waveform), ("wiring", self._wiring), ("no_frames", self._no_frames),
+                ("echo", self._echo), ("silent_after_rate", self._silent_after_rate), ("silent", self._silent),
+                ("noisy", self._noisy), ("controller", self._controller), ("slow", self._slow),
+                ("device_map", self._device_map))
+
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
-        rules = (self._waveform, self._wiring, self._no_frames, self._echo, self._silent_after_rate, self._silent,
-                 self._noisy, self._controller, self._slow, self._device_map)
+        kept = self._kept
         # root causes first: what they explain is not raised with them (the table's ``hides``)
-        out = unexplained(rule() for rule in rules)
+        out = unexplained(kept[name] if kept is not None and name in kept else rule()
+                          for name, rule in self._rules())
         for f in out:
             key = f.key
             if key not in self._first_seen:
@@ -447,6 +468,36 @@ class WiringDoctor:
             f.evidence = sorted(f.evidence)[:_MAX_EVIDENCE]
         out.sort(key=lambda f: (SEVERITY_ORDER[f.severity], f.code, f.subject))
         return out
+
+    # ------------------------------------------------------- kept findings
+    def kept(self) -> dict[str, Any]:
+        """What the rules that read the events alone found so far, with the counts
+        the findings are dated by, as JSON values: a recording keeps it with its
+        stored columns (docs/mcap.md, "Stored columns"), so that its findings need
+        no pass over its events (``of_kept``). The rules that name how the traffic
+        is read (``READING_RULES``: the fixes name the command and its inputs) or
+        what a logic analyser measured are left out: they are worked out when read,
+        from the wiring signs the recording keeps beside this."""
+        rules = {name: [_finding_state(f) for f in rule()] for name, rule in self._rules()
+                 if name not in READING_RULES}
+        return {"rules": rules, "events": self.events, "first_t": self.first_t, "last_t": self.last_t}
+
+    @classmethod
+    def of_kept(cls, signs: WiringSigns, ack_timeout: float, invocation: Invocation,
+                state: dict[str, Any]) -> WiringDoctor:
+        """A doctor whose findings are those ``kept()`` gave, with ``signs`` (the
+        recording's wiring signs) and ``invocation`` for the reading rules; raises
+        ``KeyError``, ``TypeError`` or ``ValueError`` for a state ``kept`` did not give."""
+        doctor = cls(tuple(signs.lines), ack_timeout, invocation)
+        signs.read_baud = invocation.baud
+        doctor.signs, doctor.lines = signs, signs.lines
+        doctor.events = int(state["events"])
+        doctor.first_t = None if state["first_t"] is None else float(state["first_t"])
+        doctor.last_t = None if state["last_t"] is None else float(state["last_t"])
+        rules = state["rules"]
+        doctor._kept = {name: [Finding(**f) for f in rules[name]] for name, _rule in doctor._rules()
+                        if name not in READING_RULES}
+        return doctor
 
     @property
     def timed(self) -> bool:

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import orjson
 
+from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.signs import WiringSigns
 from ..formats.store import EventStore, StoreChunk
 from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
@@ -47,6 +48,22 @@ class StoredEvents:
         for chunk in self.chunks(None):
             store.append_chunk(chunk)
         return store
+
+    def doctor(self, lines: tuple[str, ...], ack_timeout: float, invocation: Invocation) -> WiringDoctor | None:
+        """The wiring doctor of every event, as the recorder kept it (its findings
+        as a pass over the events gives them, ``invocation`` naming the command
+        that reads them); None when the record has none that read, or the
+        recorder judged by another ACK timeout."""
+        signs = self.signs(lines)
+        if signs is None or "doctor" not in self.record:
+            return None
+        try:
+            state = orjson.loads(self.record["doctor"])
+            if float(self.record.get("ack_timeout", "nan")) != ack_timeout:
+                return None
+            return WiringDoctor.of_kept(signs, ack_timeout, invocation, state)
+        except (KeyError, TypeError, ValueError, AttributeError):
+            return None
 
     def signs(self, lines: tuple[str, ...]) -> WiringSigns | None:
         """The wiring signs of every event, as the recorder kept them; None when

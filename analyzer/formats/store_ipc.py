@@ -86,7 +86,7 @@ class Tables:
     commands: list[list[Any] | None]   # [command id, place in COMMANDS (None: no entry, an unknown id)]
 
 
-def _ns(seconds: np.ndarray) -> np.ndarray:
+def nanoseconds(seconds: np.ndarray) -> np.ndarray:
     """Seconds as integer nanoseconds, rounded as the event contract rounds them
     (Python's ``round(t, 9)``, correctly rounded). ``t * 1e9`` is off by far less
     than a nanosecond's thousandth for any capture time, so rounding it gives the
@@ -111,8 +111,8 @@ def encode(chunk: StoreChunk, tables: Tables, decoder: str,
     t_end = np.frombuffer(cols["t_end"], dtype="f8") if n else np.zeros(0)
     t_ns = np.zeros(n, "i8")
     end_ns = np.zeros(n, "i8")
-    t_ns[timed] = _ns(t[timed])
-    end_ns[timed] = _ns(t_end[timed])
+    t_ns[timed] = nanoseconds(t[timed])
+    end_ns[timed] = nanoseconds(t_end[timed])
     values: dict[str, np.ndarray] = {
         "number": np.arange(chunk.start + 1, chunk.start + n + 1, dtype="i8"),
         "t_ns": t_ns, "duration_ns": end_ns - t_ns,
@@ -342,10 +342,13 @@ class Joiner:
         return new
 
 
-# the modules whose code decides what a recording's events are: stored columns
-# made by another version of any of them are not used (the raw bytes are decoded)
+# the modules whose code decides what a recording's events are, and what the
+# doctor's findings kept beside them say: stored columns made by another version
+# of any of them are not used (the raw bytes are decoded)
 _DECODER_MODULES = ("dissectors", "analyzer.capture", "analyzer.analysis.pairing", "analyzer.analysis.rate",
                     "analyzer.analysis.echo", "analyzer.analysis.align", "analyzer.analysis.skew",
+                    "analyzer.analysis.doctor", "analyzer.analysis.findings", "analyzer.analysis.signs",
+                    "analyzer.analysis.stats",
                     "analyzer.sources.mcapfile", "analyzer.sources.mcapwalk", "analyzer.sources.mcapparts",
                     "analyzer.formats.mcap_lines", "analyzer.formats.store")
 

@@ -107,7 +107,7 @@ class McapWriter(FileWriter):
         in place, flushes them every ``flush_interval`` when live, and after a failed write
         closes them as well as it can (analyzer/writers/mcap_recorder.py)."""
         kw: dict[str, Any] = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean,
-                                  records=self._records)
+                                  records=self._records, ack_timeout=self.info.ack_timeout)
         if self.live:
             kw.update(metadata=self.info.metadata(**self._extra), flush_interval=self.flush_interval,
                       on_error=self._failed)
@@ -124,7 +124,8 @@ class McapWriter(FileWriter):
         """A recording into the target's file (a conversion)."""
         if self.file is not None:
             self.recorder = McapRecorder(self.path, metadata={}, file=self.file, lines=self.info.lines,
-                                         lean=self.lean, records=self._records, **message_clock(self.info))
+                                         lean=self.lean, records=self._records, ack_timeout=self.info.ack_timeout,
+                                         **message_clock(self.info))
 
     @property
     def failed(self) -> str | None:

@@ -18,7 +18,7 @@ import orjson
 
 from dissectors.event import Event
 
-from ..analysis.signs import WiringSigns
+from ..analysis.doctor import WiringDoctor
 from ..formats.store import EventStore
 from ..formats.store_ipc import VERSION, Tables, decoder_version, encode
 from ..lines import Chunk
@@ -28,11 +28,13 @@ _STORE_EVERY = 4_096   # events held as objects before the store takes them
 
 
 class RecordingTally:
-    """What the columns of a recording's parts share: the wiring signs of every
-    event so far, and the bytes and events recorded so far."""
+    """What the columns of a recording's parts share: the wiring doctor fed every
+    event so far (its wiring signs among its tallies), and the bytes and events
+    recorded so far. ``ack_timeout``: the tap's, which the doctor's rules judge by."""
 
-    def __init__(self, lines: tuple[str, ...]) -> None:
-        self.signs = WiringSigns(lines)
+    def __init__(self, lines: tuple[str, ...], ack_timeout: float = 0.5) -> None:
+        self.doctor = WiringDoctor(lines, ack_timeout)
+        self.signs = self.doctor.signs
         self.raw_bytes = 0
         self.events = 0
 
@@ -43,9 +45,10 @@ class ColumnBatches:
     def __init__(self, write: Callable[[bytes, int], None], shared: RecordingTally) -> None:
         self._write = write
         self.shared = shared
-        # the wiring signs of every event (analyzer/analysis/signs.py), kept in the
-        # record: what `stats` and the like say of the wiring, without a pass over the events
-        self.signs = shared.signs
+        # the wiring doctor's tallies of every event (its signs: analyzer/analysis/signs.py),
+        # kept in the record: what `stats`, `export` and the like say of the wiring and
+        # the doctor's findings, without a pass over the events
+        self.doctor = shared.doctor
         self.decoder = decoder_version()
         self.store = EventStore()
         self._pending: list[Event] = []
@@ -94,7 +97,7 @@ class ColumnBatches:
         n = len(store) - 1
         store.append(events)
         self.shared.events += len(events)
-        add = self.signs.add
+        add = self.doctor.add
         for ev in events:
             add(ev)
         positions = self._positions
@@ -137,4 +140,5 @@ class ColumnBatches:
             return None
         return {"version": VERSION, "decoder": self.decoder, "events": str(self.events),
                 "messages": str(self.messages), "media_type": "application/vnd.apache.arrow.stream",
-                "wiring_signs": orjson.dumps(self.signs.state()).decode()}
+                "wiring_signs": orjson.dumps(self.doctor.signs.state()).decode(),
+                "doctor": orjson.dumps(self.doctor.kept()).decode(), "ack_timeout": f"{self.doctor.ack_timeout!r}"}
