@@ -107,8 +107,8 @@ def recordings(logs: list[str], work: str) -> None:
         times[bool(extra)] = measured(["export", *paths, "-o", out, "-j", "1", "-q", *extra])[0]
     n = dataset_events(out)
     print(f"1c. export -j 1 of the same {len(paths)} captures recorded ({n:,} events): {times[False]:.1f} s reading "
-          f"the recordings, {times[True]:.1f} s with --redecode: {times[True] / times[False]:.2f}x (target >= 10x; "
-          "export decodes the raw bytes either way: docs/mcap.md, \"Stored columns\")", flush=True)
+          f"the recordings' stored columns, {times[True]:.1f} s with --redecode: {times[True] / times[False]:.2f}x "
+          "(target >= 10x; docs/dataset.md, \"Exporting a recording\")", flush=True)
 
 
 _SPARK_START = ("import time; t = time.perf_counter(); from analyzer.dataset.spark.session import start; "

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Protocol
 from dissectors.event import Event
 
 from .. import uris
-from ..capture import Options
+from ..capture import Capture, Options
 from ..capture import open as open_capture
 from ..info import CaptureInfo
 from ..listeners.wiring_check import WiringCheck
@@ -178,12 +178,17 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | 
             site = (capture.source.metadata or {}).get("site") or None
         info = CaptureInfo.of(capture, command="export", site=site)
         writer = _writer(job, info, site)
+        if not isinstance(writer, FileWriter):
+            if _from_columns(capture, info, writer, out):
+                return
+            writer = _writer(job, info, site)
+            capture = open_capture(*local, options=job.options)   # afresh: the columns were read from it
         check = WiringCheck()   # swapped lines, a wrong rate, not this protocol: said, as decode says them
         listeners: list[Listener] = [check, writer]
         if progress is not None:
             listeners.insert(0, _Reporter(job.index, progress))
         out.events = TapRunner(capture, listeners, info=info).run()
-        out.warnings = list(capture.warnings) + [f"{name}: {text}" for text in check.warnings]
+        out.warnings += list(capture.warnings) + [f"{name}: {text}" for text in check.warnings]
         cut = next((w for w in capture.warnings if "ends early" in w), None)
         if cut is not None:
             _discard(writer, job.file)
@@ -205,6 +210,23 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | 
         if writer is not None:
             _discard(writer, job.file)
         raise
+
+
+def _from_columns(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWriter, out: Outcome) -> bool:
+    """Export a recording from the decoded columns it carries (dataset/export_stored.py):
+    True when done; False when it is to be decoded (``writer`` then aborted)."""
+    from .export_stored import Undecodable, export_stored
+
+    try:
+        done = export_stored(capture, info, writer, out.capture)
+    except Undecodable as e:
+        if e.why:
+            out.warnings.append(e.why)
+        return False
+    writer.commit()
+    out.events, out.rows = done.events, dict(writer.rows)
+    out.warnings += done.warnings
+    return True
 
 
 @contextlib.contextmanager

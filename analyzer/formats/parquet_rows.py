@@ -16,6 +16,7 @@ import datetime as dt
 from collections.abc import Callable, Iterable, Iterator
 from typing import TYPE_CHECKING, Any, Protocol
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
@@ -23,6 +24,7 @@ from dissectors.event import Event, Origin
 from dissectors.wire import payload_text
 
 from . import parquet_schema as S
+from .store_ipc import nanoseconds
 
 if TYPE_CHECKING:
     from ..analysis.transactions import OpenTransaction
@@ -30,7 +32,7 @@ if TYPE_CHECKING:
 _EPOCH = dt.date(1970, 1, 1)
 
 
-def _array(values: list, kind: pa.DataType) -> pa.Array:
+def values_array(values: list, kind: pa.DataType) -> pa.Array:
     """``values`` as an array of ``kind``; values that do not fit become null."""
     try:
         return pa.array(values, kind)
@@ -43,6 +45,19 @@ def _array(values: list, kind: pa.DataType) -> pa.Array:
                 v = None
             fixed.append(v)
         return pa.array(fixed, kind)
+
+
+def to_the_ns(t: pa.Array) -> pa.Array:
+    """Times rounded to the nanosecond as the event contract rounds them
+    (``store_ipc.nanoseconds``): what a recording's stored columns keep, so that
+    a dataset is the same made from them or from decoding (docs/dataset.md)."""
+    if t.null_count == len(t):
+        return t
+    values = t.to_numpy(zero_copy_only=False)   # nulls as NaN
+    valid = ~np.isnan(values)
+    out = values.copy()
+    out[valid] = nanoseconds(values[valid]) / 1e9
+    return pa.array(out, pa.float64(), mask=~valid)
 
 
 def _constant(value: str | None, n: int) -> pa.Array:
@@ -117,7 +132,7 @@ class _Fields:
             values: list = [None] * n
             for row, value in got:
                 values[row] = value
-            out.append(_array(values, kind))
+            out.append(values_array(values, kind))
         self.values = {}
         return out
 
@@ -184,7 +199,8 @@ class EventBatches:
     def batch(self) -> pa.RecordBatch:
         """The rows added since the last batch."""
         n, c = self.n, self.cols
-        arrays = {name: _array(c[name], kind) for name, kind in S.EVENT_COLUMNS if name in c}
+        arrays = {name: values_array(c[name], kind) for name, kind in S.EVENT_COLUMNS if name in c}
+        arrays["t"], arrays["t_end"] = to_the_ns(arrays["t"]), to_the_ns(arrays["t_end"])
         arrays["capture"] = _constant(self.capture, n)
         arrays["site"] = _constant(self.site, n)
         arrays["ts"] = timestamps(arrays["t"], self.start_time)
@@ -235,7 +251,8 @@ class TransactionBatches:
 
     def batch(self) -> pa.RecordBatch:
         n, c = self.n, self.cols
-        arrays = {name: _array(c[name], kind) for name, kind in S.TRANSACTION_COLUMNS if name in c}
+        arrays = {name: values_array(c[name], kind) for name, kind in S.TRANSACTION_COLUMNS if name in c}
+        arrays["t"] = to_the_ns(arrays["t"])
         arrays["capture"] = _constant(self.capture, n)
         arrays["site"] = _constant(self.site, n)
         arrays["ts"] = timestamps(arrays["t"], self.start_time)

@@ -111,6 +111,19 @@ def _extend_array(column: array, more: array) -> array:
     return column
 
 
+def natural_fields(kind: str, payload: bytes | None, entry: Command | None) -> dict[str, Any]:
+    """The fields a re-dissection of an event's payload gives: a command's, and a
+    result's against the table entry of the command it answers (which is why the
+    store keeps only other events' fields)."""
+    if payload is None:
+        return NO_FIELDS
+    if kind == COMMAND:
+        return dissect_command(payload).fields
+    if kind == RESULT:
+        return dissect_result(entry, payload)[0] if entry is not None else NO_FIELDS
+    return NO_FIELDS
+
+
 class Link:
     """A rebuilt event's pairing record: the part of ``analyzer.analysis.pairing.Transaction``
     that readers of events use (the statistics, ``Event.device``)."""
@@ -322,17 +335,6 @@ class EventStore:
         self.problems.update(chunk.problems)
         self.fields.update(chunk.fields)
 
-    @staticmethod
-    def _natural_fields(kind: str, payload: bytes | None, entry: Command | None) -> dict[str, Any]:
-        """The fields a re-dissection of the payload gives."""
-        if payload is None:
-            return NO_FIELDS
-        if kind == COMMAND:
-            return dissect_command(payload).fields
-        if kind == RESULT:
-            return dissect_result(entry, payload)[0] if entry is not None else NO_FIELDS
-        return NO_FIELDS
-
     # --------------------------------------------------------------- reading
     def column(self, name: str) -> array:
         """The column ``name`` (one of ``COLUMNS``): row i is event i's."""
@@ -412,7 +414,7 @@ class EventStore:
             ev.command, ev.entry = self._commands.values[code]
         fields = self.fields.get(i)
         if fields is None:
-            fields = self._natural_fields(kind, ev.payload, ev.entry)
+            fields = natural_fields(kind, ev.payload, ev.entry)
         ev.fields = fields
         ev.problems = self.problems.get(i, NO_PROBLEMS)
         ev.status = STATUSES[self.status[i]]

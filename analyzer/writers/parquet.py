@@ -74,6 +74,7 @@ class ParquetDatasetWriter(Listener):
         self.first_t: float | None = None
         self.last_t: float | None = None
         self.rows = {table: 0 for table in S.TABLES}
+        self._start_time = info.start_time   # what dates an undated row: the capture's start
         self.committed = False
 
     # ------------------------------------------------------------ the runner's calls
@@ -141,6 +142,27 @@ class ParquetDatasetWriter(Listener):
             self._write("findings", findings_batch(findings, self.capture, self.site,
                                                    rows.start_time, first, self.last_t))
 
+    # ------------------------------------------------------------ rows made elsewhere
+    def write_rows(self, table: str, batch: Any) -> None:
+        """Rows of ``table`` made without events (``formats/parquet_columns.py``:
+        a recording's stored columns), written as this writer's own."""
+        self._write(table, batch)
+
+    def write_findings(self, findings: list, start_time: float | None, first_t: float | None,
+                       last_t: float | None) -> None:
+        """The doctor's ``findings`` of a capture whose rows ``write_rows`` wrote
+        (``first_t``, ``last_t``: its first and last event's times), then the
+        files closed, as ``on_stop`` does for one read event by event."""
+        try:
+            if findings:
+                self._write("findings", findings_batch(findings, self.capture, self.site, start_time,
+                                                       first_t if first_t is not None else 0.0, last_t))
+            for writer in self._writers.values():
+                writer.close()
+        except BaseException:
+            self.abort()
+            raise
+
     # ------------------------------------------------------------ files
     def _file(self, table: str, day: str) -> str:
         return self.folder.file(table, f"{S.PARTITION}={day}", self.key + ".parquet")
@@ -148,7 +170,7 @@ class ParquetDatasetWriter(Listener):
     def _write(self, table: str, batch: Any) -> None:
         # findings are dated by the capture's start (their rows carry no time of their own)
         column = "start" if table == "findings" else "ts"
-        undated = day_of(self._batches[0].start_time if self._batches is not None else self.info.start_time)
+        undated = day_of(self._batches[0].start_time if self._batches is not None else self._start_time)
         for day, rows in partitions(batch, column, undated):
             writer = self._writers.get((table, day))
             if writer is None:
