@@ -8,12 +8,13 @@ Prints:
      and that the lean one decodes to the same events
   3. events/s when re-dissecting an MCAP, and its share of raw-dump decode speed
      (target >= 60%); each decode the fastest of three
-  4. `stats` and `decode` of the recording from its stored columns against
-     `--redecode` (stats target >= 10x; decode reads no columns)
+  4. `stats`, `export` and `decode` of the recording from its stored columns
+     against `--redecode` (stats and export target >= 10x; decode reads no
+     columns); `--opening REC` prints this figure alone, for a given recording
   5. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
      115200-baud traffic (target < 20% of one core)
 
-    python3 bench/mcap_bench.py [--events 300000] [--live-seconds 10]
+    python3 bench/mcap_bench.py [--events 300000] [--live-seconds 10] [--opening REC.mcap [--runs 1]]
 """
 
 from __future__ import annotations
@@ -84,15 +85,18 @@ def columns_bytes(path: str) -> int:
     return total
 
 
-def opening(path: str, n: int) -> None:
+def opening(path: str, n: int, runs: int = 3) -> None:
     """Commands on the recording, reading its stored columns against decoding its
-    raw bytes (--redecode): each the fastest of three, in a process of its own."""
-    print(f"4. opening the recording of {n:,} events (each the fastest of 3), stored columns against "
-          "--redecode (targets: stats and export >= 10x):")
-    for args in (["stats", "--format", "json"], ["decode", "--format", "jsonl"]):
-        stored = min(run_measured([*args, path])[0] for _ in range(3))
-        decoded = min(run_measured([*args, path, "--redecode"])[0] for _ in range(3))
-        print(f"   {' '.join(args)}: {stored:.2f} s against {decoded:.2f} s: {decoded / stored:.1f}x")
+    raw bytes (--redecode): each the fastest of ``runs``, in a process of its own."""
+    print(f"4. opening the recording of {n:,} events (each the fastest of {runs}), stored columns against "
+          "--redecode (targets: stats and export >= 10x; decode reads no columns):")
+    folder = tempfile.mkdtemp(prefix="gimbalscope-mcap-bench-export-")
+    export = ["export", "-j", "1", "-o", os.path.join(folder, "ds")]
+    for args in (["stats", "--format", "json"], export, ["decode", "--format", "jsonl"]):
+        stored = min(run_measured([*args, path])[0] for _ in range(runs))
+        decoded = min(run_measured([*args, path, "--redecode"])[0] for _ in range(runs))
+        name = "export -j 1" if args is export else " ".join(args)
+        print(f"   {name}: {stored:.2f} s against {decoded:.2f} s: {decoded / stored:.1f}x", flush=True)
 
 
 def cpu_seconds(pid: int) -> float:
@@ -145,7 +149,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--events", type=int, default=300_000)
     ap.add_argument("--live-seconds", type=float, default=10.0)
+    ap.add_argument("--opening", metavar="RECORDING",
+                    help="only figure 4, on this recording (made with its columns: e.g. tui_bench's 1M or 10M one)")
+    ap.add_argument("--runs", type=int, default=3, help="figure 4: each the fastest of RUNS")
     args = ap.parse_args()
+    if args.opening:
+        from tui_bench import recorded_events
+        opening(args.opening, recorded_events(args.opening) or 0, args.runs)
+        return
     tmp = tempfile.mkdtemp(prefix="gimbalscope-mcap-bench-")
     tr = saturated(int(args.events / EVENTS_PER_COMMAND))
     ctl, dev = os.path.join(tmp, "ctl.bin"), os.path.join(tmp, "dev.bin")
@@ -185,7 +196,7 @@ def main() -> None:
     print(f"3. re-dissecting the MCAP (each decode the fastest of 3): {mcap_rate:,.0f} events/s; decoding the same capture from its socat "
           f"log: {raw_rate:,.0f} events/s; from raw dumps: {dump_rate:,.0f} events/s")
     print(f"   MCAP re-dissection is {mcap_rate / dump_rate:.0%} of raw-dump decode speed (target >= 60%)")
-    opening(out, n_rec)
+    opening(out, n_rec, args.runs)
     share, events = live_cpu(args.live_seconds, os.path.join(tmp, "live.mcap"))
     print(f"5. live --record on two saturated {BAUD}-baud ptys: {share:.0%} of one core over "
           f"{args.live_seconds:.0f} s ({events:,} events recorded; target < 20%)")

@@ -357,7 +357,7 @@ class WiringDoctor:
         # kept up to date by the source: the waveform rules read them
         self.physical: dict | None = None
         # the findings of the event rules as a recording kept them (``of_kept``); None: worked out
-        self._kept: dict[str, list[Finding]] | None = None
+        self.stored: dict[str, list[Finding]] | None = None
 
     # ------------------------------------------------------------------ input
     def add(self, ev: Event) -> None:
@@ -447,7 +447,7 @@ class WiringDoctor:
             dev.identity = f"{f.get('name', '?')} rev {f.get('revision', '?')} s/n {f.get('serial', '?')}"
 
     # --------------------------------------------------------------- findings
-    def _rules(self) -> tuple[tuple[str, Callable[[], list[Finding]]], ...]:
+    def rules(self) -> tuple[tuple[str, Callable[[], list[Finding]]], ...]:
         """The rules in the order they are asked: root causes first."""
         return (("waveform", self._waveform), ("wiring", self._wiring), ("no_frames", self._no_frames),
                 ("echo", self._echo), ("silent_after_rate", self._silent_after_rate), ("silent", self._silent),
@@ -456,10 +456,10 @@ class WiringDoctor:
 
     def findings(self) -> list[Finding]:
         """What the traffic shows so far, most severe first."""
-        kept = self._kept
+        kept = self.stored
         # root causes first: what they explain is not raised with them (the table's ``hides``)
         out = unexplained(kept[name] if kept is not None and name in kept else rule()
-                          for name, rule in self._rules())
+                          for name, rule in self.rules())
         for f in out:
             key = f.key
             if key not in self._first_seen:
@@ -478,7 +478,7 @@ class WiringDoctor:
         is read (``READING_RULES``: the fixes name the command and its inputs) or
         what a logic analyser measured are left out: they are worked out when read,
         from the wiring signs the recording keeps beside this."""
-        rules = {name: [_finding_state(f) for f in rule()] for name, rule in self._rules()
+        rules = {name: [_finding_state(f) for f in rule()] for name, rule in self.rules()
                  if name not in READING_RULES}
         return {"rules": rules, "events": self.events, "first_t": self.first_t, "last_t": self.last_t}
 
@@ -495,7 +495,7 @@ class WiringDoctor:
         doctor.first_t = None if state["first_t"] is None else float(state["first_t"])
         doctor.last_t = None if state["last_t"] is None else float(state["last_t"])
         rules = state["rules"]
-        doctor._kept = {name: [Finding(**f) for f in rules[name]] for name, _rule in doctor._rules()
+        doctor.stored = {name: [Finding(**f) for f in rules[name]] for name, _rule in doctor.rules()
                         if name not in READING_RULES}
         return doctor
 
