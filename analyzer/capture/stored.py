@@ -14,11 +14,15 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
+import numpy as np
 import orjson
+
+from dissectors.commands import BAUD_CODES
+from dissectors.event import COMMAND, FRAME, RATE
 
 from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.signs import WiringSigns
-from ..formats.store import EventStore, StoreChunk
+from ..formats.store import CHECKSUM_OK, FRAMED, KIND_CODE, EventStore, StoreChunk
 from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
 from ..sources.mcapfile import McapSource
 from .capture import Capture
@@ -72,6 +76,33 @@ class StoredEvents:
             return WiringSigns.of_state(lines, orjson.loads(self.record["wiring_signs"]))
         except (KeyError, TypeError, ValueError, IndexError, AttributeError):
             return None
+
+
+_RATE_SETTING = (KIND_CODE[COMMAND], KIND_CODE[FRAME])
+_RATE_CODES = np.array([ord(f"{code:X}") for code in BAUD_CODES], "u1")   # the hex digit after "C"
+
+
+def sets_a_rate(chunk: StoreChunk) -> bool:
+    """Does the chunk hold a rate change, or a frame that asks for one (``C0``-``C7``,
+    Table 4: ``rate.rate_set``'s rule, on the columns)? Following a rate warns as it
+    decodes, which the columns do not keep: such a recording is decoded."""
+    cols = chunk.columns
+    kind = np.frombuffer(cols["kind"], "u1")
+    if not len(kind):
+        return False
+    if (kind == KIND_CODE[RATE]).any():
+        return True
+    flags = np.frombuffer(cols["flags"], "u1")
+    ends = np.frombuffer(cols["end"], cols["end"].typecode).astype("i8")
+    starts = np.concatenate(([ends[-1] - len(chunk.raw)], ends[:-1])) - (ends[-1] - len(chunk.raw))
+    lengths = np.diff(np.concatenate(([0], ends - (ends[-1] - len(chunk.raw)))))
+    # a frame with a good checksum and a two-byte payload (7 bytes of frame around it, Table 1)
+    rows = np.flatnonzero(np.isin(kind, _RATE_SETTING) & ((flags & FRAMED) != 0) & ((flags & CHECKSUM_OK) != 0)
+                          & (lengths == 9))
+    if not len(rows):
+        return False
+    raw = np.frombuffer(chunk.raw, "u1")
+    return bool(((raw[starts[rows] + 6] == ord("C")) & np.isin(raw[starts[rows] + 7], _RATE_CODES)).any())
 
 
 def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:

@@ -14,11 +14,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..analysis.filter import Predicate
-from ..analysis.rate import RATE_MARK
 from ..analysis.stats import Stats
 from ..capture import Capture
-from ..capture.stored import stored_events
-from ..formats.store import KIND_CODE
+from ..capture.stored import sets_a_rate, stored_events
+from ..formats.store import EventStore
 from ..formats.store_filter import matching
 from ..formats.store_ipc import ColumnsError
 from ..formats.store_stats import stats_of
@@ -40,14 +39,16 @@ def stored_stats(capture: Capture, keep: Predicate | None, command: str = "stats
     signs = stored.signs(tuple(capture.lines))
     if signs is None:
         return None
+    store = EventStore()
     try:
-        store = stored.store()
+        for chunk in stored.chunks(None):
+            if sets_a_rate(chunk):
+                return None
+            store.append_chunk(chunk)
     except ColumnsError as e:
         warn(f"{capture.source.description}: stored columns not read ({e}): decoding the raw bytes")
         return None
     n = len(store)
-    if KIND_CODE["rate"] in store.kind or RATE_MARK.search(store.raw):
-        return None
     rows = None if keep is None else matching(keep, store, 0, n)
     stats = stats_of(store, n, None if rows is None else np.asarray(rows))
     info = CaptureInfo.of(capture, command=command)

@@ -19,17 +19,14 @@ import numpy as np
 import pyarrow as pa
 
 from ..analysis.doctor import Invocation
-from ..analysis.rate import RATE_MARK
 from ..capture import Capture
-from ..capture.stored import stored_events
+from ..capture.stored import sets_a_rate, stored_events
 from ..formats.parquet_columns import StoredRows, Tables, stored_batches, tables_of
-from ..formats.store import KIND_CODE, StoreChunk
+from ..formats.store import StoreChunk
 from ..formats.store_ipc import ColumnsError, Joiner
 from ..info import CaptureInfo
 from ..listeners.wiring_check import warning_text, wiring_findings
 from ..writers.parquet import ROWS_PER_GROUP, ParquetDatasetWriter
-
-_RATE = KIND_CODE["rate"]
 
 
 class Undecodable(Exception):
@@ -114,7 +111,7 @@ def export_stored(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWri
     def chunks() -> Iterator[tuple[StoreChunk, Tables, tuple[np.ndarray, np.ndarray]]]:
         """The chunks with their tables and positions, as the joiner reads them."""
         for chunk in stored.chunks(joiner):
-            if _RATE in chunk.columns["kind"] or RATE_MARK.search(chunk.raw):
+            if sets_a_rate(chunk):
                 raise Undecodable()
             yield chunk, tables_of(joiner.known()), joiner.positions
     behind = _WrittenBehind(writer)
