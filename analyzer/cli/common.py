@@ -17,7 +17,7 @@ from ..errors import UsageError
 from ..info import CaptureInfo
 from ..listeners import NotePrinter
 from ..listeners.wiring_check import WiringCheck
-from ..outfile import one_line
+from ..outfile import OutputRefused, one_line
 from ..runner import Listener, TapRunner
 from ..sources import registry
 
@@ -245,6 +245,28 @@ def iso_time(text: str) -> float:
 
 def add_filter_arg(p: argparse.ArgumentParser, help: str) -> None:
     p.add_argument("--filter", "-Y", metavar="EXPR", help=help)
+
+
+def add_fields_arg(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fields", metavar="COLUMNS",
+                   help="CSV: the columns, comma-separated, in their order (default: every event column, "
+                        "then every field of the command table; docs/json-lines.md, \"CSV\")")
+
+
+def fields_option(fields: str | None, csv: bool, where: str) -> dict[str, str]:
+    """The writer option of ``--fields`` (CSV only: given for another format, one
+    line saying so); an unknown column is the writer's one line, said before any
+    input is read."""
+    if fields is None:
+        return {}
+    if not csv:
+        raise UsageError(f"--fields chooses the columns of CSV, not of {where}")
+    from ..writers.csv_table import chosen_columns
+    try:
+        chosen_columns(fields)
+    except OutputRefused as e:
+        raise UsageError(str(e)) from None
+    return {"fields": fields}
 
 
 def build_filter(expr: str | None) -> Predicate | None:

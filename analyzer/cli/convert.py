@@ -21,13 +21,13 @@ from ..errors import UsageError
 from ..info import CaptureInfo
 from ..outfile import check_output, show
 from ..writers import WRITERS, open_writer, writer_class
-from .common import Subcommands, add_input_args, open_inputs, run_tap
+from .common import Subcommands, add_fields_arg, add_input_args, fields_option, open_inputs, run_tap
 
 
 def register(sub: Subcommands) -> None:
-    p = sub.add_parser("convert", help="convert a capture to MCAP, JSON Lines or pcapng (" + ", ".join(WRITERS) + ")",
+    p = sub.add_parser("convert", help="convert a capture to MCAP, JSON Lines, pcapng or CSV (" + ", ".join(WRITERS) + ")",
                        description="Convert a capture (any input decode reads: see INPUT) to MCAP "
-                                   "(re-dissectable, Foxglove-readable), JSON Lines or pcapng (Wireshark); the "
+                                   "(re-dissectable, Foxglove-readable), JSON Lines, pcapng (Wireshark) or CSV; the "
                                    "output's suffix chooses: " + ", ".join(WRITERS) + ".")
     add_input_args(p)
     p.add_argument("-o", "--output", required=True, metavar="OUT" + "|OUT".join(WRITERS))
@@ -37,15 +37,17 @@ def register(sub: Subcommands) -> None:
                         "docs/mcap.md)")
     p.add_argument("--site", metavar="NAME", help="where the capture was made, kept in a recording's metadata "
                                                    "(gimbalscope export puts it in the dataset's site column)")
+    add_fields_arg(p)
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     check_output(args.output, args.inputs, force=args.force)   # first: an output over an input is worst
     writer_class(args.output)                                    # then: a format we write
-    options = {}
+    suffix = os.path.splitext(args.output)[1].lower()
+    options: dict[str, object] = dict(fields_option(args.fields, suffix == ".csv", show(args.output)))
     if args.lean:
-        if os.path.splitext(args.output)[1].lower() != ".mcap":
+        if suffix != ".mcap":
             raise UsageError(f"--lean is for MCAP recordings (.mcap), not {show(args.output)}")
         options["lean"] = True
     capture = open_inputs(args)

@@ -11,27 +11,39 @@ import argparse
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..writers import FORMATS, open_format
-from .common import Subcommands, add_filter_arg, add_input_args, build_filter, open_inputs, run_tap
+from .common import (
+    Subcommands,
+    add_fields_arg,
+    add_filter_arg,
+    add_input_args,
+    build_filter,
+    fields_option,
+    open_inputs,
+    run_tap,
+)
 
 COLOR = {"auto": None, "always": True, "never": False}   # --color: None = when standard output is a terminal
 
 
 def register(sub: Subcommands) -> None:
     p = sub.add_parser("decode", help="print every event of a capture",
-                       description="Decode a capture: one line per event, or JSON Lines.")
+                       description="Decode a capture: one line per event, JSON Lines or CSV.")
     add_input_args(p)
     p.add_argument("--format", choices=tuple(FORMATS), default="text")
     add_filter_arg(p, 'show only matching events, e.g. \'status == "nak" or problems\'')
+    add_fields_arg(p)
     p.add_argument("--color", choices=("auto", "always", "never"), default="auto")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
+    fields = fields_option(args.fields, args.format == "csv", f"--format {args.format}")
     capture = open_inputs(args)
     info = CaptureInfo.of(capture, command="decode")
     # the writer of the format, to standard output, as convert picks one for a file
-    options = {"color": COLOR[args.color]} if args.format == "text" else {}
+    options: dict[str, object] = {"color": COLOR[args.color]} if args.format == "text" else {}
+    options.update(fields)
     writer = open_format(args.format, info, **options)
     # no bar when the lines go to the terminal: they show the progress themselves
     run_tap(capture, "decode", EventPrinter(writer, keep), info=info, progress=True, streams_stdout=True,

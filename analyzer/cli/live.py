@@ -36,10 +36,12 @@ from .common import (
     Subcommands,
     UsageError,
     add_channels_arg,
+    add_fields_arg,
     add_filter_arg,
     add_sample_stream_args,
     add_serial_args,
     build_filter,
+    fields_option,
     options_from,
     positive_float,
 )
@@ -53,7 +55,8 @@ def register(sub: Subcommands) -> None:
     p.add_argument("ports", nargs="*", metavar="PORT", help="one or two ports")
     add_serial_args(p, files=False)
     add_samples_args(p)
-    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    p.add_argument("--format", choices=("text", "jsonl", "csv"), default="text")
+    add_fields_arg(p)
     add_filter_arg(p, "show only matching events (everything is still recorded)")
     add_record_args(p)
     add_foxglove_arg(p)
@@ -210,7 +213,8 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     """Run a live capture to the end, printing events and notes, with the wiring
     doctor alongside (SIGINT/SIGTERM stop it cleanly)."""
     keep = build_filter(args.filter)
-    sink = open_format(args.format, info, flush_each=True)   # every event as it comes
+    sink = open_format(args.format, info, flush_each=True,   # every event as it comes
+                       **fields_option(args.fields, args.format == "csv", f"--format {args.format}"))
     recorder, servers = open_outputs(capture, info, args, record)
     # the servers beside the recorder: both hear the doctor's notes after the same events
     listeners = [l for l in (recorder, *servers, DoctorListener(), EventPrinter(sink, keep), NotePrinter())

@@ -20,10 +20,12 @@ from ..writers import open_format
 from .common import (
     Subcommands,
     UsageError,
+    add_fields_arg,
     add_filter_arg,
     add_quiet_arg,
     add_serial_args,
     build_filter,
+    fields_option,
     open_inputs,
     run_tap,
 )
@@ -50,7 +52,8 @@ def register(sub: Subcommands) -> None:
     add_quiet_arg(p)
     add_serial_args(p)
     p.add_argument("--speed", type=speed, default=1.0, metavar="N|max", help="pace factor (default 1) or max")
-    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    p.add_argument("--format", choices=("text", "jsonl", "csv"), default="text")
+    add_fields_arg(p)
     add_filter_arg(p, "show only matching events")
     add_foxglove_arg(p)
     add_tui_args(p)
@@ -69,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
     if wants_tui(args):
         return replay_in_tui(capture, info, args)
     servers = open_servers(capture, info, args)
-    sink = open_format(args.format, info, flush_each=True)   # every event as it comes
+    sink = open_format(args.format, info, flush_each=True,   # every event as it comes
+                       **fields_option(args.fields, args.format == "csv", f"--format {args.format}"))
     # the server after the printer: it is paced as the printer is
     run_tap(capture, "replay", EventPrinter(sink, keep, pace=pacer(args.speed)), *servers, info=info)
     return 0

@@ -4,6 +4,8 @@ export and a Spark export of the same INPUTs export the same captures.
 
 - ``a+b``: the files of one capture (two raw dumps; the parts of a recording),
   unless a file is named so.
+- The parts of one recording given as files of their own, in any order: one
+  capture, by the ``capture_id`` their metadata names (``by_recording``).
 - A folder: each capture in it, in name order. The numbered parts of a recording
   in parts (``tap-0001.mcap``, ``tap-0002.mcap``, as ``live --record --split``
   names them) are one capture; every other file is one. Hidden files and an
@@ -52,7 +54,46 @@ def captures_of(inputs: list[str]) -> list[tuple[str, ...]]:
             continue
         listed = _listing(text)
         out += [(text,)] if listed is None else grouped(listed)
-    return out
+    return by_recording(out)
+
+
+def by_recording(captures: list[tuple[str, ...]]) -> list[tuple[str, ...]]:
+    """``captures`` with the parts of one recording given as files of their own
+    (``tap-0001.mcap tap-0002.mcap``, in any order) made one capture: those whose
+    metadata names the same ``capture_id`` (one per run of a tap) and a part
+    number, in part order, at the place of the first. Parts of other recordings,
+    and files that say nothing of it, stay apart."""
+    runs: dict[str, list[tuple[int, str]]] = {}
+    out: list[tuple[str, ...] | list[tuple[int, str]]] = []
+    for capture in captures:
+        run = _part_of(capture[0]) if len(capture) == 1 else None
+        if run is None:
+            out.append(capture)
+            continue
+        capture_id, number = run
+        if capture_id not in runs:
+            runs[capture_id] = []
+            out.append(runs[capture_id])   # its place: where its first part is
+        runs[capture_id].append((number, capture[0]))
+    return [tuple(p for _, p in sorted(c)) if isinstance(c, list) else c for c in out]
+
+
+def _part_of(path: str) -> tuple[str, int] | None:
+    """(capture_id, part number) of a local MCAP file that is a part of a recording
+    in parts (its ``gimbalscope`` metadata says both), else None."""
+    local = uris.local_path(path)
+    if local is None or not local.lower().endswith(".mcap"):
+        return None
+    from ..sources.mcapfile import read_metadata  # a light reader: no decoding
+
+    try:
+        with open(local, "rb") as f:
+            meta, _why = read_metadata(f, os.fstat(f.fileno()).st_size)
+    except OSError:
+        return None   # the export says what is wrong with it when it reads it
+    if not meta or not meta.get("capture_id") or not meta.get("part", "").isdigit():
+        return None
+    return meta["capture_id"], int(meta["part"])
 
 
 def _listing(text: str) -> list[str] | None:

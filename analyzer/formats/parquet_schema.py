@@ -18,7 +18,7 @@ from collections.abc import Iterable
 
 import pyarrow as pa
 
-from dissectors.commands import field_types
+from .field_columns import field_columns
 
 # each table's columns before the field columns; order is the files' column order
 TIME = pa.timestamp("us", tz="UTC")   # microseconds: what Spark reads (it refuses nanoseconds)
@@ -87,12 +87,9 @@ FINDING_COLUMNS: list[tuple[str, pa.DataType]] = [
 
 
 def _field_columns(taken: set[str]) -> list[tuple[str, str, pa.DataType]]:
-    """(field name, column name, type) for every field of the command table."""
-    out = []
-    for name, ft in field_types().items():
-        kind = pa.list_(_ARROW[ft.items]) if ft.items is not None else _ARROW[ft.type]
-        out.append((name, f"field_{name}" if name in taken else name, kind))
-    return out
+    """(field name, column name, Arrow type) for every field of the command table."""
+    return [(name, column, pa.list_(_ARROW[ft.items]) if ft.items is not None else _ARROW[ft.type])
+            for name, column, ft in field_columns(taken)]
 
 
 EVENT_FIELDS = _field_columns({n for n, _ in EVENT_COLUMNS})

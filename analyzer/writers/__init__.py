@@ -33,6 +33,7 @@ WRITERS: dict[str, str] = {
     ".jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
     ".ndjson": "analyzer.writers.jsonl:JsonLinesWriter",
     ".pcapng": "analyzer.writers.pcapng:PcapngWriter",
+    ".csv": "analyzer.writers.csv_table:CsvWriter",
 }
 
 
@@ -40,6 +41,7 @@ WRITERS: dict[str, str] = {
 FORMATS: dict[str, str] = {
     "text": "analyzer.writers.text:TextWriter",
     "jsonl": "analyzer.writers.jsonl:JsonLinesWriter",
+    "csv": "analyzer.writers.csv_table:CsvWriter",
 }
 
 

@@ -119,13 +119,24 @@ def test_export_of_separate_captures_is_not_refused(tmp_path):
     assert "exported 3 of 3 captures" in r.stderr
 
 
-@pytest.mark.parametrize("name", ["out.txt", "fleet.parquet", "dataset.csv"])
+@pytest.mark.parametrize("name", ["out.txt", "fleet.parquet", "dataset.json"])
 def test_export_refuses_a_new_folder_named_like_a_file(tmp_path, name):
     out = tmp_path / name
     r = run_cli("export", SOCAT_LOG, "-o", out)
     assert r.returncode == 2
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and f"{out}: {out.suffix} is a file's suffix" in lines[0]
+    assert not out.exists()
+
+
+def test_export_to_a_csv_file_names_convert(tmp_path):
+    # CSV is one capture's table: convert writes it
+    out = tmp_path / "dataset.csv"
+    r = run_cli("export", SOCAT_LOG, "-o", out)
+    assert r.returncode == 2
+    assert r.stderr.strip().splitlines() == [(f"gimbalscope: error: {out}: export writes a dataset folder or a "
+                                             f".pcapng file; for one .csv file use: gimbalscope convert CAPTURE "
+                                             f"-o {out}")]
     assert not out.exists()
 
 

@@ -174,7 +174,7 @@ def test_every_writer_says_what_it_wrote_in_one_line(tmp_path):
 
 
 def test_the_formats_are_registry_entries_to_standard_output(capsysbinary):
-    assert list(FORMATS) == ["text", "jsonl"]   # the first is decode's default
+    assert list(FORMATS) == ["text", "jsonl", "csv"]   # the first is decode's default
     w = open_format("jsonl", None)
     assert isinstance(w, JsonLinesWriter) and w.name == "standard output"
     ev = Event("A", 0, NOISE, b"\x00")
