@@ -14,7 +14,7 @@ Prints:
   5. CPU share of `gimbalscope live A B --record` while two ptys carry saturated
      115200-baud traffic (target < 20% of one core)
 
-    python3 bench/mcap_bench.py [--events 300000] [--live-seconds 10] [--opening REC.mcap [--runs 1]]
+    python3 bench/mcap_bench.py [--events 300000] [--live-seconds 10] [--opening REC.mcap [--runs 1] [--no-decode]]
 """
 
 from __future__ import annotations
@@ -85,14 +85,14 @@ def columns_bytes(path: str) -> int:
     return total
 
 
-def opening(path: str, n: int, runs: int = 3) -> None:
+def opening(path: str, n: int, runs: int = 3, decode: bool = True) -> None:
     """Commands on the recording, reading its stored columns against decoding its
     raw bytes (--redecode): each the fastest of ``runs``, in a process of its own."""
     print(f"4. opening the recording of {n:,} events (each the fastest of {runs}), stored columns against "
           "--redecode (targets: stats and export >= 10x; decode reads no columns):")
     folder = tempfile.mkdtemp(prefix="gimbalscope-mcap-bench-export-")
     export = ["export", "-j", "1", "-o", os.path.join(folder, "ds")]
-    for args in (["stats", "--format", "json"], export, ["decode", "--format", "jsonl"]):
+    for args in (["stats", "--format", "json"], export, *([["decode", "--format", "jsonl"]] if decode else [])):
         stored = min(run_measured([*args, path])[0] for _ in range(runs))
         decoded = min(run_measured([*args, path, "--redecode"])[0] for _ in range(runs))
         name = "export -j 1" if args is export else " ".join(args)
@@ -152,10 +152,11 @@ def main() -> None:
     ap.add_argument("--opening", metavar="RECORDING",
                     help="only figure 4, on this recording (made with its columns: e.g. tui_bench's 1M or 10M one)")
     ap.add_argument("--runs", type=int, default=3, help="figure 4: each the fastest of RUNS")
+    ap.add_argument("--no-decode", action="store_true", help="figure 4 without decode (which reads no columns)")
     args = ap.parse_args()
     if args.opening:
         from tui_bench import recorded_events
-        opening(args.opening, recorded_events(args.opening) or 0, args.runs)
+        opening(args.opening, recorded_events(args.opening) or 0, args.runs, not args.no_decode)
         return
     tmp = tempfile.mkdtemp(prefix="gimbalscope-mcap-bench-")
     tr = saturated(int(args.events / EVENTS_PER_COMMAND))

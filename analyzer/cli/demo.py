@@ -10,7 +10,7 @@ import threading
 
 from ..capture import Options, open_live
 from ..simulation import scenario
-from .common import Subcommands, UsageError, add_filter_arg, non_negative_float, non_negative_int
+from .common import Subcommands, UsageError, add_fields_arg, add_filter_arg, non_negative_float, non_negative_int
 from .live import add_foxglove_arg, add_record_args, add_tui_args, tap, wants_tui
 
 
@@ -28,7 +28,8 @@ def register(sub: Subcommands) -> None:
                         "12 s when printing")
     add_record_args(p)
     add_foxglove_arg(p)
-    p.add_argument("--format", choices=("text", "jsonl"), default="text")
+    p.add_argument("--format", choices=("text", "jsonl", "csv"), default="text")
+    add_fields_arg(p)
     add_filter_arg(p, "show only matching events")
     p.add_argument("--clean", action="store_true", help="no injected faults")
     p.add_argument("--fault", action="append", default=[], metavar="NAME", choices=sorted(scenario.FAULTS),
