@@ -18,6 +18,7 @@ a character) is an error that says it is cut short, and where.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import struct
@@ -69,6 +70,14 @@ class SigrokSession(PackedSamples):
     def __init__(self, inp: Input) -> None:
         self.input = inp
         self.members = _Members(inp)
+        try:
+            self._read_metadata(inp)
+        except BaseException:
+            self.members.close()
+            raise
+
+    def _read_metadata(self, inp: Input) -> None:
+        """The session's metadata: its channels, rate and the sample files' names."""
         self.exhausted = False      # the samples were read to their end (or to the damage)
         self.edges_seen = 0
         meta_text = self.members.read("metadata")
@@ -146,6 +155,7 @@ class SigrokSession(PackedSamples):
             self.problem = self.members.problem
 
     def close(self) -> None:
+        self.members.close()
         self.input.close()
 
 
@@ -157,11 +167,12 @@ class _Members:
         self.inp = inp
         self.problem: str | None = None
         self.cut = False       # the file ends inside the zip: it was cut short
-        path, _temp = inp.as_regular_file()
+        path, self.temporary = inp.as_regular_file()   # a pipe's or a compressed file's copy: removed on close
         self.path = path
+        self.zip: zipfile.ZipFile | None = None
         try:
             self.size = os.path.getsize(path)
-            self.zip: zipfile.ZipFile | None = zipfile.ZipFile(path)
+            self.zip = zipfile.ZipFile(path)
             self.names = self.zip.namelist()
             self.local: dict[str, tuple[int, int, int, int]] = {}
         except zipfile.BadZipFile:
@@ -170,7 +181,20 @@ class _Members:
             self.names = list(self.local)
             self.problem = f"{inp.name}: the zip is cut short or damaged (no central directory): read up to there"
         except OSError as e:
+            self.close()
             raise CaptureError(f"{inp.name}: cannot read: {e.strerror or e}") from None
+        except BaseException:
+            self.close()
+            raise
+
+    def close(self) -> None:
+        """Close the zip, and remove the copy that stood in for a pipe or a compressed file."""
+        if self.zip is not None:
+            self.zip.close()
+        if self.temporary:
+            self.temporary = False
+            with contextlib.suppress(OSError):
+                os.unlink(self.path)
 
     def read(self, name: str) -> bytes | None:
         if name not in self.names:

@@ -76,11 +76,16 @@ class USBSerialSource(Source):
         self.path = path
         if temporary:
             self.on_close(lambda: _remove(path))
-        cut: list[str] = []
-        found = survey(self._urbs(cut.append))
-        found.cut = cut[0] if cut else None
-        instrument = settings.instrument
-        self.choice: Choice = choose(found, self.name, instrument.usb_device, instrument.adapter)
+        try:   # a capture refused here is never closed: its copy goes now
+            cut: list[str] = []
+            found = survey(self._urbs(cut.append))
+            found.cut = cut[0] if cut else None
+            instrument = settings.instrument
+            self.choice: Choice = choose(found, self.name, instrument.usb_device, instrument.adapter)
+        except BaseException:
+            if temporary:
+                _remove(path)
+            raise
         for note in self.choice.notes:
             self.warn_later(note)
         dev = self.choice.device
