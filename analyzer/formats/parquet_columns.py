@@ -112,7 +112,8 @@ class StoredRows:
         self.capture = capture
         self.site = site
         self.start_time = start_time
-        self._memo: dict[tuple[int, int, bytes], dict[str, Any]] = {}   # (kind, entry, payload) -> fields
+        # (kind code, command code, payload) -> its fields: the joiner's codes stay one capture's
+        self._memo: dict[tuple[int, int, bytes], dict[str, Any]] = {}
         self._open: pa.Table | None = None   # the open transaction's rows: its command and what came after
 
     # ------------------------------------------------------------------ events
@@ -194,9 +195,9 @@ class StoredRows:
             "request": _masked(request, request != 0, pa.int64()),
             "raw": _binary(chunk.raw, offsets),
         }
-        nulls = {kind: pa.nulls(n, kind) for kind in {k for _n, _c, k in S.EVENT_FIELDS}}
+        nulls = {arrow_type: pa.nulls(n, arrow_type) for _n, _c, arrow_type in S.EVENT_FIELDS}
         columns = [arrays[name] for name, _ in S.EVENT_COLUMNS]
-        columns += [fields.columns.get(name, nulls[kind]) for name, _column_name, kind in S.EVENT_FIELDS]
+        columns += [fields.columns.get(name, nulls[arrow_type]) for name, _c, arrow_type in S.EVENT_FIELDS]
         batch = pa.RecordBatch.from_arrays(columns, schema=S.EVENTS)
         # what the transactions are made of: the batch's own columns, and which rows have each field
         window = pa.table({"number": arrays["number"], "kind": pa.array(kind), "request": pa.array(request),
