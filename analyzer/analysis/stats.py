@@ -59,6 +59,7 @@ from dissectors.event import (
 from dissectors.problems import Problem
 
 _LOG_STEP = math.log(1.01)
+_VECTOR_FROM = 64   # samples from which ``Latency.extend`` buckets with numpy
 CHECKSUM_CATEGORIES = frozenset((P_CHECKSUM, P_LENGTH))   # what ``Stats.checksum_errors`` counts
 KIND_ORDER = (COMMAND, ACK, NAK, NIC, RESULT, NOISE)   # the order reports list kinds in
 BATCH = 2048   # events counted at a time by ``Stats.add``: numpy's cost a call spread over them
@@ -110,11 +111,26 @@ class Latency:
             self.buckets[math.floor(math.log(x) / _LOG_STEP)] += 1
 
     def extend(self, xs: Iterable[float]) -> None:
-        """Add the samples ``xs``: each through ``add`` (numpy's log, a last digit
-        off math's now and then, would move a sample on a bucket's edge)."""
-        add = self.add
-        for x in xs:
-            add(x)
+        """Add the samples ``xs``, as ``add`` adds each. Many at once are bucketed
+        with numpy, whose log is a last digit off math's now and then: the samples
+        that fall that near a bucket's edge are bucketed again with math's."""
+        values = np.asarray(xs if isinstance(xs, np.ndarray) else list(xs), dtype="f8")
+        if len(values) < _VECTOR_FROM or np.isnan(values).any():
+            add = self.add
+            for x in values.tolist():
+                add(x)
+            return
+        self.n += len(values)
+        self.min = min(self.min, float(values.min()))
+        self.max = max(self.max, float(values.max()))
+        positive = values[values > 1e-9]
+        self.zero += len(values) - len(positive)
+        scaled = np.log(positive) / _LOG_STEP
+        buckets = np.floor(scaled)
+        for i in np.flatnonzero(np.abs(scaled - np.rint(scaled)) < 1e-6).tolist():
+            buckets[i] = math.floor(math.log(float(positive[i])) / _LOG_STEP)
+        found, counts = np.unique(buckets.astype("i8"), return_counts=True)
+        self.buckets.update(dict(zip(found.tolist(), counts.tolist(), strict=True)))
 
     def quantile(self, q: float) -> float | None:
         """Nearest-rank quantile: the ceil(q·n)-th smallest sample (to bucket precision)."""
@@ -466,7 +482,7 @@ def _latencies(table: dict[str, Counts], key: Coded, rows: np.ndarray, latency: 
     codes, xs = codes[order], latency[rows][order]
     starts = np.flatnonzero(np.concatenate(([True], codes[1:] != codes[:-1])))
     for code, part in zip(codes[starts].tolist(), np.split(xs, starts[1:])):
-        which(_entry(table, key.values[code] or "?")).extend(part.tolist())
+        which(_entry(table, key.values[code] or "?")).extend(part)
 
 
 def _entry(table: dict[str, Counts], key: str) -> Counts:
