@@ -25,7 +25,8 @@ def gzipped(tmp_path, data: bytes, name: str) -> str:
 
 @pytest.mark.parametrize("what", ["whole", "cut short", "no session"])
 def test_no_copy_is_left_behind(tmp_path, what):
-    data = open(SESSION, "rb").read()
+    with open(SESSION, "rb") as f:
+        data = f.read()
     if what == "cut short":
         data = data[: len(data) // 3]
     elif what == "no session":   # sigrok's version member, and no metadata
