@@ -23,7 +23,7 @@ from dissectors.event import COMMAND, FRAME, RATE
 from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.signs import WiringSigns
 from ..formats.store import CHECKSUM_OK, FRAMED, KIND_CODE, EventStore, StoreChunk
-from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
+from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version, raw_offsets
 from ..sources.mcapfile import McapSource
 from .capture import Capture
 
@@ -46,10 +46,14 @@ class StoredEvents:
     chunks: Callable[[Joiner | None], Iterator[StoreChunk]]
     record: dict[str, str]   # the columns' record (docs/mcap.md)
 
-    def store(self) -> EventStore:
-        """Every event in one store (``ColumnsError`` as ``chunks``)."""
+    def store(self, refuse: Callable[[StoreChunk], bool] | None = None) -> EventStore | None:
+        """Every event in one store (``ColumnsError`` as ``chunks``); None as soon
+        as ``refuse`` says a chunk is not to be read from the columns (the rest is
+        then not read)."""
         store = EventStore()
         for chunk in self.chunks(None):
+            if refuse is not None and refuse(chunk):
+                return None
             store.append_chunk(chunk)
         return store
 
@@ -93,9 +97,8 @@ def sets_a_rate(chunk: StoreChunk) -> bool:
     if (kind == KIND_CODE[RATE]).any():
         return True
     flags = np.frombuffer(cols["flags"], "u1")
-    ends = np.frombuffer(cols["end"], cols["end"].typecode).astype("i8")
-    starts = np.concatenate(([ends[-1] - len(chunk.raw)], ends[:-1])) - (ends[-1] - len(chunk.raw))
-    lengths = np.diff(np.concatenate(([0], ends - (ends[-1] - len(chunk.raw)))))
+    offsets = raw_offsets(chunk)
+    starts, lengths = offsets[:-1], np.diff(offsets)
     # a frame with a good checksum and a two-byte payload (7 bytes of frame around it, Table 1)
     rows = np.flatnonzero(np.isin(kind, _RATE_SETTING) & ((flags & FRAMED) != 0) & ((flags & CHECKSUM_OK) != 0)
                           & (lengths == 9))

@@ -17,7 +17,6 @@ from ..analysis.filter import Predicate
 from ..analysis.stats import Stats
 from ..capture import Capture
 from ..capture.stored import sets_a_rate, stored_events
-from ..formats.store import EventStore
 from ..formats.store_filter import matching
 from ..formats.store_ipc import ColumnsError
 from ..formats.store_stats import stats_of
@@ -39,14 +38,12 @@ def stored_stats(capture: Capture, keep: Predicate | None, command: str = "stats
     signs = stored.signs(tuple(capture.lines))
     if signs is None:
         return None
-    store = EventStore()
     try:
-        for chunk in stored.chunks(None):
-            if sets_a_rate(chunk):
-                return None
-            store.append_chunk(chunk)
+        store = stored.store(refuse=sets_a_rate)
     except ColumnsError as e:
         warn(f"{capture.source.description}: stored columns not read ({e}): decoding the raw bytes")
+        return None
+    if store is None:
         return None
     n = len(store)
     rows = None if keep is None else matching(keep, store, 0, n)

@@ -45,6 +45,7 @@ from .store import (
     StoreChunk,
     natural_fields,
 )
+from .store_ipc import raw_offsets
 
 _POSITION_COMMANDS = ("P", "P?")   # whose fields the position columns hold (store_ipc.py)
 _MEMO_MAX = 65_536                  # distinct payloads' fields kept between batches
@@ -142,9 +143,7 @@ class StoredRows:
         start = chunk.start
         kind = _column(cols["kind"])
         flags = _column(cols["flags"])
-        ends = _column(cols["end"]).astype("i8")
-        first = int(ends[-1]) - len(chunk.raw) if n else 0
-        offsets = np.concatenate(([0], ends - first)).astype("i8")
+        offsets = raw_offsets(chunk)
         starts, stops = offsets[:-1], offsets[1:]
         raw = np.frombuffer(chunk.raw, "u1")
         timed = (flags & UNTIMED) == 0

@@ -99,6 +99,15 @@ def nanoseconds(seconds: np.ndarray) -> np.ndarray:
     return ns.astype("i8")
 
 
+def raw_offsets(chunk: StoreChunk) -> np.ndarray:
+    """Where each of the chunk's events starts in ``chunk.raw``, and where the last
+    one ends (n + 1 offsets): its ``end`` column counts from the capture's first raw byte."""
+    column = chunk.columns["end"]
+    ends = np.frombuffer(column, dtype=np.dtype(column.typecode)).astype("i8") if len(column) else np.zeros(0, "i8")
+    first = int(ends[-1]) - len(chunk.raw) if len(ends) else 0   # the raw bytes before the chunk's
+    return np.concatenate(([0], ends - first))
+
+
 def encode(chunk: StoreChunk, tables: Tables, decoder: str,
            positions: tuple[np.ndarray, np.ndarray] | None = None) -> bytes:
     """One message: the events of ``chunk`` and the whole ``tables`` so far;
@@ -119,9 +128,7 @@ def encode(chunk: StoreChunk, tables: Tables, decoder: str,
     }
     for name, _type, dtype in _COLUMNS[3:]:
         values[name] = np.asarray(cols[name], dtype=dtype) if n else np.zeros(0, dtype)
-    ends = np.asarray(cols["end"], dtype="i8") if n else np.zeros(0, "i8")
-    first = int(ends[-1]) - len(chunk.raw) if n else 0   # the raw bytes before the chunk's
-    offsets = np.concatenate(([0], ends - first)).astype("i4")
+    offsets = raw_offsets(chunk).astype("i4")
     arrays = [na.c_array_from_buffers(arrow_type, n, [None, values[name]]) for name, arrow_type, _d in _COLUMNS]
     arrays.append(na.c_array_from_buffers(na.binary(), n, [None, offsets, chunk.raw]))
     arrays.append(_sparse_text(n, chunk.start, {i: [[p.id.name if isinstance(p, Problem) else None, str(p)]

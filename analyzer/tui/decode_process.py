@@ -28,7 +28,6 @@ import dataclasses
 import os
 import threading
 import time
-from array import array
 from collections.abc import Callable
 from functools import partial
 from typing import TYPE_CHECKING
@@ -150,8 +149,7 @@ def _send_stored(stored: StoredEvents, runner: TapRunner, sender: worker_process
     try:
         for chunk in stored.chunks(joiner):
             line_codes += chunk.lines
-            ends = chunk.columns["end"]
-            counted = _bytes_by_line(chunk, line_codes, ends)
+            counted = _bytes_by_line(chunk, line_codes)
             for line, n in counted.items():
                 if line in lines:
                     lines[line].bytes += n
@@ -164,12 +162,13 @@ def _send_stored(stored: StoredEvents, runner: TapRunner, sender: worker_process
                           read=read(sent), total=size))
 
 
-def _bytes_by_line(chunk: StoreChunk, line_codes: list[str | None], ends: array) -> dict[str | None, int]:
+def _bytes_by_line(chunk: StoreChunk, line_codes: list[str | None]) -> dict[str | None, int]:
     """The raw bytes of the chunk's events, by line."""
     import numpy as np
 
-    end = np.frombuffer(ends, ends.typecode).astype("i8")
-    lengths = np.diff(end, prepend=int(end[-1]) - len(chunk.raw)) if len(end) else end
+    from ..formats.store_ipc import raw_offsets
+
+    lengths = np.diff(raw_offsets(chunk))
     codes = np.frombuffer(chunk.columns["line"], chunk.columns["line"].typecode)
     if not len(codes):
         return {}
