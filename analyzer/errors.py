@@ -90,7 +90,7 @@ class ExtcapError(Exception):
 
 
 class ServeError(Exception):
-    """The Foxglove address cannot be served (busy, or not this machine's); one line."""
+    """An address cannot be served (busy, or not this machine's): Foxglove's or the web TUI's; one line."""
 
 
 class KeymapError(ValueError):

@@ -29,6 +29,7 @@ from ..info import CaptureInfo
 from ..listeners import DoctorListener, EventPrinter, NotePrinter
 from ..outfile import check_output
 from ..runner import Listener, TapRunner
+from ..screen import has_screen
 from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
@@ -187,8 +188,9 @@ def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
 def wants_tui(args: argparse.Namespace) -> bool:
     """The TUI unless --no-tui, JSON Lines, or output that is not a terminal (a pipe
     or a file gets the printed events, as grep and jq expect). Standard input must
-    be a terminal too (a logic analyser's piped samples were moved aside for it)."""
-    return not args.no_tui and args.format == "text" and sys.stdout.isatty() and sys.stdin.isatty()
+    be a terminal too (a logic analyser's piped samples were moved aside for it),
+    unless the screen is a browser tab (``gimbalscope serve``)."""
+    return not args.no_tui and args.format == "text" and has_screen()
 
 
 def tap(capture: Capture, args: argparse.Namespace, record: str | None, command: str = "live") -> int:

@@ -6,8 +6,8 @@ shows at once."""
 from __future__ import annotations
 
 import argparse
-import sys
 
+from ..screen import has_screen
 from .common import Subcommands, UsageError, add_filter_arg, add_input_args, build_filter, open_inputs
 
 
@@ -27,7 +27,7 @@ def run(args: argparse.Namespace) -> int:
     # check, so it can be fixed in one go, and before the screen opens
     keymap = keymap_from(args)
     build_filter(args.filter)
-    if not (sys.stdout.isatty() and sys.stdin.isatty()):
+    if not has_screen():
         raise UsageError("view needs a terminal (for scripts: gimbalscope decode)")
     capture = open_inputs(args)
     return open_tui(capture, args, mode="view", keymap=keymap)

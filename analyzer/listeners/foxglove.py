@@ -47,6 +47,7 @@ from ..errors import ServeError
 from ..formats import mcap_schemas as S
 from ..formats.mcap_messages import Messages
 from ..info import CaptureInfo
+from ..netaddress import show_address
 from ..output import dumps
 from ..runner import INFO, RECORDING, WARNING, Listener, Note, TapRunner
 from ..sources import Chunk
@@ -66,11 +67,6 @@ FLUSH_SECONDS = 0.03   # a burst's span: well under what a person sees as lag
 # The SDK logs through Python's logging; with no handler configured its lines
 # would land raw on standard error, over the TUI. They are told as notes instead.
 SDK_LOGGER = "foxglove"
-
-
-def show_address(host: str, port: int) -> str:
-    """``host:port``, an IPv6 host in brackets."""
-    return f"[{host}]:{port}" if ":" in host else f"{host}:{port}"
 
 
 def fixed_topics(lines: tuple[str, ...]) -> list[tuple[str, str]]:

@@ -20,10 +20,10 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 LAYERS: list[tuple[str, tuple[str, ...]]] = [
     ("the protocol: frames, fields, commands, events", ("dissectors",)),
     (("foundations: version, extras, docs, errors, lines, output files, capture info, styles, words, templates, URIs,"
-      " work in another process"),
+      " screens, network addresses, work in another process"),
      ("analyzer.version", "analyzer.extras", "analyzer.docs", "analyzer.errors", "analyzer.lines", "analyzer.outfile",
       "analyzer.info", "analyzer.styles", "analyzer.words", "analyzer.templates", "analyzer.uris",
-      "analyzer.worker_process")),
+      "analyzer.screen", "analyzer.netaddress", "analyzer.worker_process")),
     ("analysis of events, the physical layer (the software UART), and the simulator",
      ("analyzer.analysis", "analyzer.physical", "analyzer.simulation")),
     ("formats that readers and writers share", ("analyzer.formats", "analyzer.output")),
