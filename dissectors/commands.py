@@ -20,6 +20,13 @@ NONE = "none"          # ACK only
 DUE = "due"            # ACK + result
 OPTIONAL = "optional"  # a result may come (rev 1.9 commands whose format is not given)
 
+# What sending a command does to a gimbal (docs/talk.md, "What may be sent"):
+QUERY = "query"      # only asks: harmless, what `probe` sends
+STOP = "stop"        # stops a motion: always allowed, as a controller's emergency key is
+MOTION = "motion"    # moves the mount or the lens
+CONFIG = "config"    # changes the address, the rate, a stored setting, a relay or an output
+EFFECTS = (QUERY, STOP, MOTION, CONFIG)
+
 # Table 4, C0…C7; C8…CF are reserved for future rates.
 BAUD_CODES = {0: 1200, 1: 2400, 2: 4800, 3: 9600, 4: 19200, 5: 38400, 6: 57600, 7: 115200}
 
@@ -37,6 +44,7 @@ class Command:
     result_timeout: float | None = None  # seconds; None = the pairing default
     reserved: bool = False       # the spec marks this code "Reserved"
     notes: str = ""
+    effect: str = ""             # QUERY, STOP, MOTION or CONFIG: set from EFFECT_OF below
 
     def command_id(self, values: dict) -> str:
         return self.id.format(**values) if "{" in self.id else self.id
@@ -334,6 +342,42 @@ for _code, _name, _due in (
 
 BY_ID = {c.id: c for c in COMMANDS}
 
+
+
+# ---------------------------------------------------------------- what each command does
+# Read from the tables' descriptions. A command whose format the document does not
+# give (§1.2) and that may set something is CONFIG: without its format, sending it
+# cannot be known to be harmless. `*x?r` reads the auxiliary port's buffer and so
+# empties it: CONFIG too. Lens motions (focus, zoom) are MOTION, as the mount's are.
+EFFECT_OF = {
+    QUERY: ("AW", "B?", "D?", "E?", "I?", "G?", "LR", "L?", "AP?", "AT?", "A?", "HV", "P?", "P?nn",
+            "RP?", "RT?", "R?", "S?nn", "V?", "*x{aux_port}n", "VS", "F?", "Z?", "C?", "*dA", "*di", "*do", "*dl"),
+    STOP: ("HA", "HS", "PS", "PT", "TS", "FS", "ZS"),
+    MOTION: ("IX", "HO", "P", "PL", "PR", "Pnn", "TD", "TU", "VM", "FF", "FN", "V", "ZI", "ZO", "ZA-ZF",
+             "HP", "VP", "*mr"),
+    CONFIG: ("#NN", "C", "GRP", "GRT", "L0", "L1", "L2", "L3", "L8", "L9", "LA", "LB", "LC", "LS", "AP", "AT",
+             "RP", "RT", "Snn", "SP", "ST", "CN", "CX", "F", "FA", "FX", "Z", "*x{aux_port}c", "*x{aux_port}t",
+             "*x{aux_port}r", "*x{aux_port}f", "*dm", "*me", "*mp", "*mu", "*sa", "*sgr", "*sgp", "*sl"),
+}
+
+
+def _set_effects() -> None:
+    """Each command's ``effect`` from ``EFFECT_OF``: a command missing from it, or
+    named twice, stops the import (the table is incomplete)."""
+    effect_of: dict[str, str] = {}
+    for effect, ids in EFFECT_OF.items():
+        for id in ids:
+            if id in effect_of:
+                raise ValueError(f"command {id!r} has two effects: {effect_of[id]} and {effect}")
+            effect_of[id] = effect
+    table = {c.id for c in COMMANDS}
+    if set(effect_of) != table:
+        raise ValueError(f"EFFECT_OF and COMMANDS differ: {sorted(set(effect_of) ^ table)}")
+    for c in COMMANDS:
+        object.__setattr__(c, "effect", effect_of[c.id])
+
+
+_set_effects()
 
 
 @dataclass(frozen=True)

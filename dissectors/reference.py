@@ -23,17 +23,20 @@ def render() -> str:
         "# Command and field reference",
         "",
         "Generated from `dissectors/commands.py` by `python -m dissectors.reference`; do not edit by hand.",
-        "Every field name here is the one used in JSON Lines, `--filter`, statistics, MCAP recordings and the TUI.",
+        "Every field name here is the one used in JSON Lines, `--filter`, statistics, MCAP recordings and the TUI,",
+        "and by `gimbalscope send` (`send PORT P --to 1.1.3 azimuth_deg=10 elevation_deg=-5`). The effect says",
+        "what sending it does: `query` only asks, `stop` stops a motion, `motion` moves the mount or the lens",
+        "(sent with `--allow-motion`), `config` changes the address, rate, settings or outputs (`--allow-config`).",
         "",
-        "| id | name | payload | fields | result | result fields | spec |",
-        "|---|---|---|---|---|---|---|",
+        "| id | name | effect | payload | fields | result | result fields | spec |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for c in COMMANDS:
         due = {DUE: "due", OPTIONAL: "optional"}.get(c.result_due, "—")
         res_layouts = " or ".join(f"`{r.describe()}`" for r in c.result) or "—"
         res_fields = "; ".join(_fields(r) for r in c.result) or "—"
         name = c.name + (" (reserved)" if c.reserved else "") + (f"; {c.notes}" if c.notes else "")
-        lines.append(f"| `{c.id}` | {name} | `{c.layout.describe()}` | {_fields(c.layout)} | {due}: {res_layouts} "
+        lines.append(f"| `{c.id}` | {name} | {c.effect} | `{c.layout.describe()}` | {_fields(c.layout)} | {due}: {res_layouts} "
                      f"| {res_fields} | {c.ref} |")
     lines += ["", "Derived fields (computed from the decoded ones): "
               + ", ".join(f"`{n}`" for n in DERIVED_FIELDS) + ".", ""]

@@ -90,6 +90,23 @@ def command_timeout(text: str) -> tuple[str, float]:
     raise argparse.ArgumentTypeError(f"{text!r}: expected CMD=SECONDS, seconds a finite number above 0, e.g. IX=90")
 
 
+def parse_address(text: str, top: int = 254) -> tuple[int, int, int]:
+    """``G.P.D``, each 0..``top`` (an argparse type: a bad one is refused while parsing).
+    Gimbals have addresses up to 254; 255 is the wildcard a controller may send to."""
+    try:
+        g, p, d = (int(x) for x in text.split("."))
+        if not all(0 <= v <= top for v in (g, p, d)):
+            raise ValueError
+        return g, p, d
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected GROUP.PORT.DEVICE, each 0..{top}") from None
+
+
+def destination(text: str) -> tuple[int, int, int]:
+    """``--to G.P.D``: a gimbal's address, or 255 (the wildcard) at any level."""
+    return parse_address(text, top=255)
+
+
 def add_input_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("inputs", nargs="+", metavar="INPUT", help=registry.input_help())
     add_quiet_arg(p)

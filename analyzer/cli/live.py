@@ -80,9 +80,12 @@ def add_tui_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--keymap", metavar="FILE.toml", help="TUI key bindings: binding id = \"keys\"")
 
 
-def add_record_args(p: argparse.ArgumentParser) -> None:
+def add_record_args(p: argparse.ArgumentParser, force: bool = True) -> None:
+    """--record and its options; ``force``: with --force (a command whose --force
+    says more than replacing the recording adds its own)."""
     p.add_argument("--record", metavar="FILE.mcap", help="record raw bytes and events to MCAP")
-    p.add_argument("--force", action="store_true", help="with --record: replace FILE.mcap if it exists")
+    if force:
+        p.add_argument("--force", action="store_true", help="with --record: replace FILE.mcap if it exists")
     p.add_argument("--rotate-mb", type=positive_float, metavar="MB", help="with --record: a new file every MB megabytes of messages (before compression)")
     p.add_argument("--rotate-minutes", type=positive_float, metavar="MIN", help="with --record: a new file every MIN minutes")
     p.add_argument("--lean", action="store_true",

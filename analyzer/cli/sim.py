@@ -26,23 +26,12 @@ from ..simulation.bus import GimbalBus
 from ..simulation.controller import SimController
 from ..simulation.gimbal import Faults, GimbalModel
 from ..simulation.link import VirtualLink
-from .common import Subcommands, UsageError, non_negative_float, positive_int, probability
+from .common import Subcommands, UsageError, non_negative_float, parse_address, positive_int, probability
 
 DEFAULT_ADDRESS = (1, 1, 1)
 # what only gimbals do: refused when the command runs a controller alone
 GIMBAL_OPTIONS = {"drop_acks": "--drop-acks", "late": "--late", "wrong_baud": "--wrong-baud",
                   "ignore_rate": "--ignore-rate"}
-
-
-def parse_address(text: str) -> tuple[int, int, int]:
-    """``--address G.P.D`` (an argparse type: a bad one is refused while parsing)."""
-    try:
-        g, p, d = (int(x) for x in text.split("."))
-        if not all(0 <= v <= 254 for v in (g, p, d)):
-            raise ValueError
-        return g, p, d
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected GROUP.PORT.DEVICE, each 0..254") from None
 
 
 def register(sub: Subcommands) -> None:
