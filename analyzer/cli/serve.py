@@ -39,7 +39,8 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--host", default=DEFAULT_HOST,
                    help=f"the address to listen on (default {DEFAULT_HOST}: this machine only; 0.0.0.0: every "
                         "network, with no password)")
-    p.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"the TCP port (default {DEFAULT_PORT}; 0: any free one)")
+    p.add_argument("--port", type=tcp_port, default=DEFAULT_PORT,
+                   help=f"the TCP port (default {DEFAULT_PORT}; 0: any free one)")
     p.add_argument("--public-url", metavar="URL",
                    help="the address browsers reach this server by, when a proxy serves it under another "
                         "(default: the address each browser used)")
@@ -52,8 +53,6 @@ def run(args: argparse.Namespace) -> int:
     from ..tui.web_server import TuiWebServer, bind
 
     served = checked(args.command, args.args)
-    if not 0 <= args.port <= 65535:
-        raise UsageError(f"--port {args.port}: a TCP port is 0 to 65535")
     try:
         sock = bind(args.host, args.port)
     except ServeError as e:
@@ -71,6 +70,17 @@ def run(args: argparse.Namespace) -> int:
     print(f"gimbalscope: reachable by {who_reaches(args.host)}", file=sys.stderr, flush=True)
     server.serve()
     return 0
+
+
+def tcp_port(text: str) -> int:
+    """``--port`` (an argparse type): 0 to 65535."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid int value: {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r}: a TCP port is 0 to 65535")
+    return port
 
 
 def checked(command: str, argv: list[str]) -> argparse.Namespace:

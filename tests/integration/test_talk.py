@@ -147,7 +147,7 @@ def test_send_encodes_named_fields_in_their_units():
 ])
 def test_send_exit_status_and_retries(answers, retries, code, sent, said):
     with responder(*answers) as gimbal:
-        out = run_cli("send", gimbal.port, "HS", "--to", "1.1.3", "--retries", retries, "--ack-timeout", "0.3")
+        out = run_cli("send", gimbal.port, "HS", "--to", "1.1.3", "--retries", retries)
         heard = frames_in(gimbal.heard)
     assert out.returncode == code, out.stderr
     assert heard == [frame((1, 1, 3), 0, "HS")] * sent
@@ -215,8 +215,8 @@ def test_a_rate_change_switches_our_side_after_the_ack():
 # ------------------------------------------------------------------ probe
 def test_probe_finds_the_simulated_gimbals_and_their_rate():
     with simulated(19200, (1, 1, 3), (1, 1, 5)) as port:
-        out = run_cli("probe", port, "--addresses", "1.1.1-1.1.6", "--ack-timeout", "0.25", "--format", "json",
-                      timeout=PATIENCE * 3)
+        # the protocol's own ACK timeout: a loaded machine still answers well within it
+        out = run_cli("probe", port, "--addresses", "1.1.3-1.1.5", "--format", "json", timeout=PATIENCE * 3)
     assert out.returncode == 0, out.stderr
     report = json.loads(out.stdout)
     assert report["rates_tried"] == [9600, 19200, 38400, 57600, 115200, 4800, 2400, 1200]
