@@ -66,6 +66,24 @@ def write_error(path: str | os.PathLike, e: OSError) -> OutputError:
     return OutputError(f"{show(path)}: cannot write: {reason(e)}")
 
 
+def user_data_folder() -> str:
+    """The user's data folder as XDG (and GLib) name it: ``$XDG_DATA_HOME``, else
+    ``~/.local/share``; installers put what other tools load under it."""
+    return os.environ.get("XDG_DATA_HOME") or os.path.join(os.path.expanduser("~"), ".local", "share")
+
+
+def install_text(path: str, text: str, mode: int | None = None) -> None:
+    """An installer's file: ``text`` written beside ``path`` and renamed onto it,
+    so a tool reading the folder never sees half of it; ``mode``: its permission
+    bits (an executable). Raises OSError."""
+    tmp = path + ".tmp"
+    with open(tmp, "w", encoding="utf-8") as f:
+        f.write(text)
+    if mode is not None:
+        os.chmod(tmp, mode)
+    os.replace(tmp, path)
+
+
 def install_into(install: Callable[[str | None], list[str]], folder: str | None) -> list[str]:
     """Run an installer (``install(folder)`` writes files into ``folder``, or its
     tool's own folder for None) and return what it wrote; a folder that is a

@@ -1,7 +1,7 @@
-"""Generated source files (the Wireshark dissector, the sigrok decoder) are
-templates with ``@@NAME@@`` placeholders, filled from the command table: one
-way of filling them, which refuses a placeholder left unfilled rather than
-writing a file that fails inside the other tool."""
+"""Generated source files (the Wireshark dissector, the sigrok decoder, the
+Saleae analyzer) are templates with ``@@NAME@@`` placeholders, filled from the
+command table: one way of filling them, which refuses a placeholder left
+unfilled rather than writing a file that fails inside the other tool."""
 
 from __future__ import annotations
 

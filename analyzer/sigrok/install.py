@@ -9,20 +9,13 @@ from __future__ import annotations
 
 import os
 
+from ..outfile import install_text, user_data_folder
 from .decoder import DECODER_ID, init_source, pd_source
 
 
 def user_decoders_folder() -> str:
     """libsigrokdecode's per-user decoders folder."""
-    data = os.environ.get("XDG_DATA_HOME") or os.path.join(os.path.expanduser("~"), ".local", "share")
-    return os.path.join(data, "libsigrokdecode", "decoders")
-
-
-def _write(path: str, text: str) -> None:
-    tmp = path + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write(text)
-    os.replace(tmp, path)
+    return os.path.join(user_data_folder(), "libsigrokdecode", "decoders")
 
 
 def install(folder: str | None = None) -> list[str]:
@@ -32,6 +25,6 @@ def install(folder: str | None = None) -> list[str]:
     written = []
     for name, text in (("__init__.py", init_source()), ("pd.py", pd_source())):
         path = os.path.join(package, name)
-        _write(path, text)
+        install_text(path, text)
         written.append(path)
     return written

@@ -1,14 +1,12 @@
 """The text of the sigrok decoder's ``pd.py``, with ``@@NAME@@`` placeholders that
-``analyzer.sigrok.decoder`` fills from the command and problem tables.
+``analyzer.sigrok.decoder`` fills: the version, and the portable frame decoder
+(``analyzer.portable.frame_decoder``: deframing, dissection and pairing, the
+command and problem tables as data), which the Saleae analyzer embeds too.
 
 It runs inside libsigrokdecode's embedded Python, which cannot import
-gimbalscope: everything it needs is in the file. The deframing follows
-``dissectors.deframer`` decision for decision (docs/decoding.md, "Deframing"),
-with one simplification that a sampled capture allows: a silence longer than
-the frame gap ends a burst, no frame spans one, so each burst is deframed on
-its own and its end is what the deframer calls "final". The dissection follows
-``dissectors.dissect``; the derive and summary functions are the table's own,
-copied in by the generator.
+gimbalscope: everything it needs is in the file. What is sigrok's own is here:
+the uart decoder's packets in, a sampled capture's silences (the frame gap in
+samples), and the annotations and Python output out.
 """
 
 TEMPLATE = r'''##
@@ -29,432 +27,17 @@ TEMPLATE = r'''##
 
 from __future__ import annotations
 
-import re
-
 import sigrokdecode as srd
 
-START, ACK, NAK, NIC = 0xF8, 0x06, 0x15, 0x3F
-SIMPLE = {ACK: 'ack', NAK: 'nak', NIC: 'nic'}
-WILDCARD = 0xFF
-MAX_FRAME = 256 + 7
-NOISE_PIECE = 4096
 RX, TX = 0, 1
 
-# ---------------------------------------------------------------- the tables
-# problem id -> (category text, severity); a problem is (severity, "category: detail")
-PROBLEMS = @@PROBLEMS@@
+@@FRAME_DECODER@@
 
 
-class Category:
-    def __init__(self, name):
-        self.text, self.severity = PROBLEMS[name]
-
-    def problem(self, detail=''):
-        return (self.severity, self.text + ': ' + detail if detail else self.text)
-
-
-CHECKSUM, LENGTH, TRUNCATED, NOISE = (Category(n) for n in ('CHECKSUM', 'LENGTH', 'TRUNCATED', 'NOISE'))
-MALFORMED, OUT_OF_RANGE, RESERVED = (Category(n) for n in ('MALFORMED', 'OUT_OF_RANGE', 'RESERVED'))
-LOWERCASE_HEX, UNKNOWN_COMMAND, ORPHAN = (Category(n) for n in ('LOWERCASE_HEX', 'UNKNOWN_COMMAND', 'ORPHAN'))
+# ---------------------------------------------------------------- the UART's errors
 LINE_ERRORS = {'INVALID STOPBIT': Category('LINE_FRAMING'), 'PARITY ERROR': Category('LINE_PARITY'),
                'BREAK': Category('LINE_BREAK')}
 LINE_DETAILS = {'INVALID STOPBIT': 'framing error', 'PARITY ERROR': 'parity error', 'BREAK': 'break'}
-
-BAUD_CODES = @@BAUD_CODES@@
-ERROR_BITS = @@ERROR_BITS@@
-STATUS_BITS = @@STATUS_BITS@@
-
-# The command table (Tables 4-18): per command its parameter layout and its
-# result layouts; a layout is its regular expression with a group per field.
-COMMANDS = @@COMMANDS@@
-
-# the table's derive functions and summary filling, as gimbalscope has them
-@@FUNCTIONS@@
-
-DERIVES = {@@DERIVE_NAMES@@}
-
-for _c in COMMANDS:
-    for _l in (_c['layout'],) + tuple(_c['results']):
-        _l['rx'] = re.compile(_l['regex'], re.DOTALL)
-        _l['lead_rx'] = re.compile(_l['lead'], re.DOTALL) if _l['lead'] is not None else None
-BY_FIRST = {}
-for _c in COMMANDS:
-    BY_FIRST.setdefault(_c['layout']['prefix'][0], []).append(_c)
-UNKNOWN_CODE = re.compile(rb'\*[A-Za-z]{1,3}|[\s\S]{1,2}')
-
-
-# ---------------------------------------------------------------- dissection
-def payload_text(payload):
-    """Printable ASCII kept, anything else (and the backslash) as \\xNN."""
-    return ''.join(chr(b) if 0x20 <= b < 0x7F and b != 0x5C else '\\x%02x' % b for b in payload)
-
-
-def decode_field(f, raw):
-    codec = f['codec']
-    if codec == 'hex':
-        v = int(raw, 16)
-        if f['signed'] and v & 0x8000:
-            v -= 0x10000
-        return v / f['divisor'] if f['divisor'] else v
-    if codec == 'decimal':
-        return int(raw)
-    if codec == 'choice':
-        return f['choices'].get(raw)
-    text = raw.decode('latin-1')
-    return text.strip() if f['strip'] else text
-
-
-def check_field(f, value):
-    if f['codec'] == 'choice' and value is None:
-        allowed = ', '.join('%s (%s)' % (k.decode('latin-1'), v) for k, v in f['choices'].items())
-        return OUT_OF_RANGE.problem('%s is none of %s' % (f['name'], allowed))
-    if f['valid'] is not None and isinstance(value, (int, float)):
-        lo, hi = f['valid']
-        if not lo <= value <= hi:
-            return OUT_OF_RANGE.problem('%s %s outside %s..%s' % (f['name'], value, lo, hi))
-    return None
-
-
-def match(layout, payload):
-    """(values, problems, spans) when ``payload`` fits ``layout``, else None;
-    spans: (field, first, end) character offsets in the payload."""
-    m = layout['rx'].fullmatch(payload)
-    if m is None:
-        return None
-    values, problems, spans, lower = {}, [], [], False
-    for k, f in enumerate(layout['fields'], 1):
-        raw = m.group(k)
-        values[f['name']] = value = decode_field(f, raw)
-        spans.append((f['name'], m.start(k), m.end(k)))
-        problem = check_field(f, value)
-        if problem:
-            problems.append(problem)
-        lower = lower or (f['hex'] and raw != raw.upper())
-    if lower:
-        problems.append(LOWERCASE_HEX.problem('numbers must be upper-case ASCII hex (\u00a71.4.1.2)'))
-    if layout['derive'] is not None:
-        extra = DERIVES[layout['derive']](values)
-        if extra:
-            problems.extend(extra)
-    return values, problems, spans
-
-
-def lead_ok(layout, rest):
-    rx = layout['lead_rx']
-    return rx is not None and bool(rest) and rx.match(rest[:1]) is not None
-
-
-def closer(a, b, n):
-    wa, wb = a['width'], b['width']
-    return (abs(wa - n) if wa is not None else 1000) < (abs(wb - n) if wb is not None else 1000)
-
-
-def dissect_command(payload):
-    """(entry or None, command code, values, problems, spans), as dissectors.dissect."""
-    candidates = BY_FIRST.get(payload[0], ()) if payload else ()
-    for c in candidates:
-        m = match(c['layout'], payload)
-        if m is not None:
-            values, problems, spans = m
-            if c['reserved']:
-                problems.insert(0, RESERVED.problem('%s is marked reserved (%s)' % (c['id'], c['ref'])))
-            cid = c['id'].format(**values) if '{' in c['id'] else c['id']
-            return c, cid, values, problems, spans
-    best = None
-    for c in candidates:
-        lit = c['layout']['prefix']
-        if not payload.startswith(lit):
-            continue
-        if len(lit) < 2 and not lead_ok(c['layout'], payload[len(lit):]):
-            continue
-        blit = best['layout']['prefix'] if best is not None else b''
-        if best is None or len(lit) > len(blit) or (
-                len(lit) == len(blit) and closer(c['layout'], best['layout'], len(payload))):
-            best = c
-    if best is not None:
-        cid = best['id'] if '{' not in best['id'] else best['id'].replace('{aux_port}', payload[2:3].decode('latin-1'))
-        why = MALFORMED.problem('expected %s (%s)' % (best['layout']['describe'], best['ref']))
-        return best, cid, {}, [why], []
-    m = UNKNOWN_CODE.match(payload)
-    code = payload_text(m.group(0)) if m else ''
-    return None, code, {}, [UNKNOWN_COMMAND.problem("'%s' is not in protocol rev 1.9" % code)], []
-
-
-def dissect_result(entry, payload):
-    """(values, problems, spans) of a result answering ``entry``."""
-    for layout in entry['results']:
-        m = match(layout, payload)
-        if m is not None:
-            return m
-    if not entry['results'] or entry['due'] == 'none':
-        return {}, [MALFORMED.problem('%s has no result (%s)' % (entry['id'], entry['ref']))], []
-    expected = ' or '.join(l['describe'] for l in entry['results'])
-    return {}, [MALFORMED.problem('expected %s (%s)' % (expected, entry['ref']))], []
-
-
-def result_fits(entry, payload):
-    return any(layout['rx'].fullmatch(payload) for layout in entry['results'])
-
-
-def address_fits(cmd, dst, src):
-    """Does a result to ``dst`` from group ``src`` come back from the command's
-    destination? Groups swapped, port and device kept (Table 3)."""
-    cg, cp, cd = cmd['dst']
-    rg, rp, rd = dst
-    if rg != cmd['src'] or (src != cg and cg != WILDCARD) or (rp != cp and cp != WILDCARD):
-        return False
-    return rd == cd or cd == WILDCARD or rd == 0
-
-
-def address(a):
-    return '%d.%d.%d' % tuple(a)
-
-
-def command_summary(entry, values, problems, payload):
-    """A command's text after its code, as gimbalscope's output.summary words it."""
-    if entry is not None and values:
-        return summarize(entry['summary'], values)
-    if entry is not None and not (problems and problems[0][1].startswith(MALFORMED.text)):
-        return entry['name'].lower()
-    return "'%s'" % payload_text(payload)
-
-
-def result_summary(entry, values, payload):
-    if entry is not None and values:
-        return summarize(entry['result_summary'], values)
-    return "'%s'" % payload_text(payload)
-
-
-def show_value(value, unit):
-    if isinstance(value, list):
-        value = ', '.join(map(str, value)) if value else 'none'
-    return '%s %s' % (value, unit) if unit else str(value)
-
-
-# ---------------------------------------------------------------- deframing
-def printable_share(data):
-    return sum(1 for b in data if 0x20 <= b < 0x7F) / len(data) if data else 0.0
-
-
-class LineDeframer:
-    """One line's bytes into events, as dissectors.deframer.Deframer decides them.
-
-    Bytes come with their sample spans; ``finish`` is called at a silence longer
-    than the frame gap (and at a break), which no frame spans. Events go to
-    ``emit(kind, first, end, problem)`` with absolute byte offsets; ``self.base``
-    is the offset of ``self.buf[0]``."""
-
-    def __init__(self, line, emit):
-        self.line = line
-        self.simple = line != 'A'        # ACK/NAK/NIC only travel device to controller
-        self.emit = emit
-        self.buf = bytearray()
-        self.base = 0
-        self.i = 0                        # where deframing resumes, in buf
-        self.noise_start = None           # absolute offset of a pending noise run
-
-    def feed(self, value):
-        self.buf.append(value)
-        self.deframe(False)
-
-    def finish(self):
-        self.deframe(True)
-
-    def deframe(self, final):
-        buf = self.buf
-        n = len(buf)
-        i = self.i
-        while i < n:
-            b = buf[i]
-            if b == START:
-                nxt = self.try_frame(i, final)
-                if nxt is None:
-                    break
-                i = nxt
-            elif self.simple and b in SIMPLE:
-                self.flush_noise(i)
-                self.emit(SIMPLE[b], self.base + i, self.base + i + 1, None)
-                i += 1
-            else:
-                self.noise(i, i + 1)
-                i += 1
-        if final:
-            self.flush_noise(n)
-        keep = i if self.noise_start is None else min(i, self.noise_start - self.base)
-        del buf[:keep]
-        self.base += keep
-        self.i = i - keep
-
-    # offsets below are indexes into buf
-    def checks(self, p, end):
-        buf = self.buf
-        return sum(buf[p + 1:end - 1]) & 0xFF == buf[end - 1]
-
-    def valid_at(self, q, final):
-        buf, n = self.buf, len(self.buf)
-        need = q + 6 if n - q < 6 else q + (buf[q + 5] or 256) + 7
-        if need > n:
-            return -1 if final else None
-        return need if self.checks(q, need) else -1
-
-    def try_frame(self, p, final):
-        buf, n = self.buf, len(self.buf)
-        if n - p < 6:
-            if not final:
-                return None       # the header is still arriving
-            return self.broken(p, n, TRUNCATED.problem('header cut after %d bytes' % (n - p)))
-        length = buf[p + 5] or 256
-        total = length + 7
-        if n - p >= total:
-            if self.checks(p, p + total):
-                if buf.find(START, p + 6, p + total - 1) != -1:
-                    # a start byte in an ASCII payload: the checksum may match by chance
-                    q = self.frame_inside_suspect(p, total, final)
-                    if q is None:
-                        return None
-                    if q >= 0:
-                        return self.broken(p, q, CHECKSUM.problem(
-                            'frame that only checks out by chance, resynchronised on the frame at offset %d'
-                            % (self.base + q)))
-                self.flush_noise(p)
-                self.emit('frame', self.base + p, self.base + p + total, None)
-                return p + total
-        elif not final:
-            return None           # the frame is still arriving
-        return self.bad_frame(p, length, final)
-
-    def frame_inside_suspect(self, p, total, final):
-        buf = self.buf
-        q = buf.find(START, p + 6, p + total - 1)
-        while q != -1:
-            v = self.valid_at(q, final)
-            if v is None:
-                return None
-            if v > 0 or self.plausible_inside(q, p + total):
-                return q
-            q = buf.find(START, q + 1, p + total - 1)
-        return -1
-
-    def plausible_inside(self, q, end_limit):
-        buf = self.buf
-        if end_limit - q < 8:
-            return False
-        end = q + (buf[q + 5] or 256) + 7
-        return end <= end_limit and printable_share(buf[q + 6:end - 1]) >= 0.75
-
-    def bad_frame(self, p, length, final):
-        buf, n = self.buf, len(self.buf)
-        total = length + 7
-        # 1. a valid frame starting inside it wins
-        limit = min(p + total, n)
-        q = buf.find(START, p + 1, limit)
-        while q != -1:
-            v = self.valid_at(q, final)
-            if v is None:
-                return None
-            if v > 0:
-                return self.before_resync(p, q, length)
-            q = buf.find(START, q + 1, limit)
-        # 2. the length byte was corrupted: an end before the next start byte checks out
-        repaired = self.length_repair(p, length, final)
-        if repaired is None:
-            return None
-        if repaired > 0:
-            m = repaired - p - 7
-            self.flush_noise(p)
-            self.emit('frame', self.base + p, self.base + repaired, LENGTH.problem(
-                'says %d, frame carries %d payload bytes (the checksum holds with %d)' % (length, m, m)))
-            return repaired
-        # 3. no better reading: a complete frame with a bad checksum, or a cut one
-        if n >= p + total:
-            return self.checksum_failed(p, total, final)
-        return self.cut_short(p, total)
-
-    def checksum_failed(self, p, total, final):
-        buf, n = self.buf, len(self.buf)
-        end = p + total
-        if end < n:
-            nxt = buf[end]
-            bounded = nxt == START or (self.simple and nxt in SIMPLE)
-        elif final:
-            bounded = True        # a silence follows: the length byte held
-        else:
-            return None           # the next byte decides
-        if not bounded and printable_share(buf[p + 6:end - 1]) < 0.75:
-            return self.noise(p, p + 1)
-        self.flush_noise(p)
-        want = sum(buf[p + 1:end - 1]) & 0xFF
-        self.emit('frame', self.base + p, self.base + end, CHECKSUM.problem(
-            'expected 0x%02x, got 0x%02x' % (want, buf[end - 1])))
-        return end
-
-    def cut_short(self, p, total):
-        n = len(self.buf)
-        if printable_share(self.buf[p + 6:n]) < 0.75:
-            return self.noise(p, p + 1)
-        return self.broken(p, n, TRUNCATED.problem('%d of %d bytes, then silence' % (n - p, total)))
-
-    def before_resync(self, p, q, length):
-        buf = self.buf
-        m = q - p - 7
-        if 1 <= m <= 256 and printable_share(buf[p + 6:q - 1]) == 1.0:
-            implied = (sum(buf[p + 1:p + 5]) + (m & 0xFF) + sum(buf[p + 6:q - 1])) & 0xFF
-            if implied == buf[q - 1]:
-                self.flush_noise(p)
-                self.emit('frame', self.base + p, self.base + q, LENGTH.problem(
-                    'says %d, frame carries %d payload bytes (the checksum holds with %d)' % (length, m, m)))
-                return q
-        return self.broken(p, q, CHECKSUM.problem(
-            'broken frame, resynchronised on the frame at offset %d' % (self.base + q)))
-
-    def length_repair(self, p, length, final):
-        buf, n = self.buf, len(self.buf)
-        hard = n if final else None
-        stop = p + MAX_FRAME
-        if hard is not None:
-            stop = min(stop, hard)
-        elif n < stop:
-            return None           # not enough bytes yet to rule out every candidate end
-        head = sum(buf[p + 1:p + 5])
-        ends = []
-        e = buf.find(START, p + 8, stop)
-        while e != -1:
-            ends.append(e)
-            e = buf.find(START, e + 1, stop)
-        if hard is not None and hard <= p + MAX_FRAME:
-            ends.append(hard)
-        for e in ends:
-            m = e - p - 7
-            if not 1 <= m <= 256 or m == length:
-                continue
-            payload = buf[p + 6:e - 1]
-            if (head + (m & 0xFF) + sum(payload)) & 0xFF == buf[e - 1] and printable_share(payload) == 1.0:
-                return e
-        return 0
-
-    def broken(self, p, stop, problem):
-        """Bytes [p, stop) are a frame that cannot be read: one noise event."""
-        self.flush_noise(p)
-        self.emit('noise', self.base + p, self.base + stop, problem)
-        return stop
-
-    def noise(self, p, q):
-        """Bytes [p, q) are noise: extend the pending run, cut every NOISE_PIECE bytes."""
-        ns = self.noise_start if self.noise_start is not None else self.base + p
-        while ns + NOISE_PIECE < self.base + q:
-            self.noise_start = ns
-            self.flush_noise(ns + NOISE_PIECE - self.base)
-            ns += NOISE_PIECE
-        self.noise_start = ns
-        return q
-
-    def flush_noise(self, upto):
-        ns = self.noise_start
-        if ns is not None and ns < self.base + upto:
-            k = self.base + upto - ns
-            self.emit('noise', ns, self.base + upto,
-                      NOISE.problem('%d byte%s outside any frame' % (k, '' if k == 1 else 's')))
-        self.noise_start = None
 
 
 # ---------------------------------------------------------------- the decoder
@@ -510,10 +93,7 @@ class Decoder(srd.Decoder):
         self.char_samples = {}     # UART side -> samples one character takes
         self.bad_start = {RX: False, TX: False}
         self.line_error = {RX: None, TX: None}
-        self.awaiting_ack = None   # the latest command not yet ACKed or NAKed
-        self.acked = None          # the latest ACKed one (a NIC follows its ACK)
-        self.awaiting_result = []  # commands that may still get a result, oldest first
-        self.controller_groups = set()
+        self.talk = Conversation()   # which command each answer belongs to
 
     def start(self):
         self.out_ann = self.register(srd.OUTPUT_ANN)
@@ -594,6 +174,7 @@ class Decoder(srd.Decoder):
         if kind == 'frame':
             self.frame(d.line, raw, byte_spans, problems)
         elif kind == 'noise':
+            self.talk.other()
             shown = ' '.join('%02x' % b for b in raw[:12]) + (' ...' if len(raw) > 12 else '')
             texts = ['noise %d byte%s: %s' % (len(raw), '' if len(raw) == 1 else 's', shown), 'noise']
             self.annotate(ss, es, 'noise', texts, d.line, {'raw': raw, 'problems': problems})
@@ -603,69 +184,23 @@ class Decoder(srd.Decoder):
             self.problem(ss, es, p)
 
     def simple_response(self, kind, line, ss, es, raw):
-        cmd = self.awaiting_ack if kind != 'nic' else self.acked
-        if kind == 'ack' and self.awaiting_ack is not None:
-            self.acked = self.awaiting_ack
-        if kind != 'nic':
-            self.awaiting_ack = None
+        cmd, found = self.talk.answering(kind)
         about = ' %s %s' % (cmd['command'], address(cmd['dst'])) if cmd is not None else ''
         self.annotate(ss, es, kind, [kind + about, kind], line,
-                      {'raw': raw, 'command': cmd['command'] if cmd else None})
+                      {'raw': raw, 'command': cmd['command'] if cmd else None, 'problems': found})
+        for p in found:
+            self.problem(ss, es, p)
 
     def frame(self, line, raw, spans, problems):
-        dst, src, payload = (raw[1], raw[2], raw[3]), raw[4], raw[6:-1]
-        kind = 'command' if line == 'A' else 'result' if line == 'B' else self.classify(dst, src, payload)
-        if kind == 'command':
-            entry, code, values, found, fspans = dissect_command(payload)
-            device = address(dst)
-            text = command_summary(entry, values, problems + found, payload)
-            cmd = {'entry': entry, 'command': code, 'dst': dst, 'src': src}
-            self.awaiting_ack = cmd
-            if entry is not None and entry['results']:
-                self.awaiting_result = self.awaiting_result[-15:] + [cmd]
-        else:
-            cmd = self.answered(dst, src, payload)
-            if cmd is not None:
-                values, found, fspans = dissect_result(cmd['entry'], payload)
-                code, device = cmd['command'], address(cmd['dst'])
-                text = result_summary(cmd['entry'], values, payload)
-            else:
-                values, fspans, code, device = {}, [], '?', address((src, dst[1], dst[2]))
-                found = [ORPHAN.problem('no command seen awaits a result from %s' % device)]
-                text = "'%s'" % payload_text(payload)
-        problems = problems + list(found)
-        head = '%s %s %s' % (kind, code, device)
-        self.annotate(spans[0][0], spans[-1][1], kind, [head + ' ' + text, head, '%s %s' % (kind, code)], line,
-                      {'command': code, 'device': device, 'fields': values, 'problems': problems, 'raw': raw})
-        self.fields(raw, spans, values, fspans)
+        said = self.talk.frame(line, raw, problems)
+        kind, code, found = said['kind'], said['command'], said['found']
+        head = '%s %s %s' % (kind, code, said['device'])
+        self.annotate(spans[0][0], spans[-1][1], kind, [head + ' ' + said['summary'], head, '%s %s' % (kind, code)],
+                      line, {'command': code, 'device': said['device'], 'fields': said['values'],
+                             'problems': problems + found, 'raw': raw})
+        self.fields(raw, spans, said['values'], said['spans'])
         for p in found:
             self.problem(spans[0][0], spans[-1][1], p)
-
-    def classify(self, dst, src, payload):
-        """A single-line tap's frame: command or result (analysis.pairing._classify)."""
-        for cmd in reversed(self.awaiting_result):
-            if address_fits(cmd, dst, src) and result_fits(cmd['entry'], payload):
-                return 'result'
-        groups = self.controller_groups
-        if groups and src != dst[0]:
-            if src in groups and dst[0] not in groups:
-                return 'command'
-            if dst[0] in groups and src not in groups:
-                return 'result'
-        if dissect_command(payload)[0] is None:
-            return 'result'
-        groups.add(src)
-        return 'command'
-
-    def answered(self, dst, src, payload):
-        """The command a result answers: the latest awaiting one whose address and
-        result layout fit it, else the latest whose address fits."""
-        fitting = [c for c in self.awaiting_result if address_fits(c, dst, src)]
-        for cmd in reversed(fitting):
-            if result_fits(cmd['entry'], payload):
-                self.awaiting_result.remove(cmd)
-                return cmd
-        return fitting[-1] if fitting else None
 
     def fields(self, raw, spans, values, fspans):
         """The header's and the payload's fields on the Fields row, each over its bytes."""
@@ -685,9 +220,7 @@ class Decoder(srd.Decoder):
         self.put(ss, es, self.out_python, [kind, line, info])
 
     def problem(self, ss, es, problem):
-        severity, text = problem
+        severity, text = problem[:2]
         self.put(ss, es, self.out_ann, [SEVERITY_CLASS[severity], [text, text.split(':')[0]]])
 
-
-UNITS = @@UNITS@@
 '''

@@ -41,8 +41,12 @@ _ESCAPES = {"\\0": 0, "\\a": 7, "\\b": 8, "\\t": 9, "\\n": 10, "\\v": 11, "\\f":
             "\\\\": 92, "\\'": 39, '\\"': 34, "\\e": 27}
 _HEX_ESCAPE = re.compile(r"^\\x([0-9a-fA-F]{2})$")
 _RADIX = {"0x": 16, "0b": 2}   # a number's prefix, and its radix
+# an ``error`` cell's word -> the line error it is (any other text: a framing error); the Saleae
+# analyzer (analyzer/saleae) words Logic 2's errors alike
 FAULTS = (("framing", problems.LINE_FRAMING), ("parity", problems.LINE_PARITY), ("break", problems.LINE_BREAK),
           ("overrun", problems.LINE_OVERRUN))
+OTHER_FAULT = problems.LINE_FRAMING
+REPORTED_BY = "reported by Saleae's Async Serial analyzer"
 
 
 def byte_of(text: str) -> int:
@@ -74,8 +78,8 @@ def fault_of(text: str) -> problems.Problem | None:
         return None
     for word, case in FAULTS:
         if word in low:
-            return case.problem(f"{text.strip()} error reported by Saleae's Async Serial analyzer")
-    return problems.LINE_FRAMING.problem(f"{text.strip()!r} reported by Saleae's Async Serial analyzer")
+            return case.problem(f"{text.strip()} error {REPORTED_BY}")
+    return OTHER_FAULT.problem(f"{text.strip()!r} {REPORTED_BY}")
 
 
 class AsyncSerialTable(Source):

@@ -16,6 +16,7 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
+from ..outfile import install_text
 from .lua import generate
 
 LUA_NAME = "gimbal.lua"
@@ -71,11 +72,7 @@ def launcher() -> str:
 
 def _write(path: str, text: str, mode: int) -> None:
     os.makedirs(os.path.dirname(path), exist_ok=True)
-    tmp = path + ".tmp"
-    with open(tmp, "w", encoding="utf-8") as f:
-        f.write(text)
-    os.chmod(tmp, mode)
-    os.replace(tmp, path)
+    install_text(path, text, mode)
 
 
 def install(folder: str | None = None) -> list[str]:

@@ -100,7 +100,7 @@ def test_dissects_commands_as_gimbalscope(pd, payload):
     theirs = dissect_command(payload)
     assert (entry["id"] if entry else None, code, values) == (
         theirs.entry.id if theirs.entry else None, theirs.command, theirs.fields)
-    assert [text for _, text in problems] == list(theirs.problems)
+    assert [p[1] for p in problems] == list(theirs.problems)
 
 
 def test_summaries_as_gimbalscope(pd):
@@ -160,3 +160,30 @@ def test_a_silence_cuts_a_frame(pd):
     texts = [data[1][0] for _, _, data in anns if data[0] in (0, 5, 7)]
     assert texts == ["noise 8 bytes: f8 01 01 02 00 09 50 30", "truncated frame: 8 of 16 bytes, then silence",
                      "command P 1.1.2 go to az +40.00° el -10.00°"]
+
+
+def test_one_wire_pairs_as_gimbalscope(pd):
+    """The single-line sample through the decoder: each event's kind, command,
+    fields and problems are gimbalscope's, answers named by the command they
+    answer (the pairing is the portable decoder's, analyzer/portable)."""
+    with open(os.path.join(CAPTURES, "demo-bus.bin"), "rb") as f:
+        data = f.read()
+    dec = pd.Decoder()
+    dec.out = []
+    dec.options = {"lines": "single-line", "frame_gap_ms": 0}
+    dec.start()
+    dec.metadata(10000, 1_000_000)
+    for k, b in enumerate(data):
+        dec.decode(k * 10, k * 10 + 9, ["FRAME", pd.RX, (b, True)])
+    dec.silence(pd.RX)
+    events = [data for _, _, output, data in dec.out if output == "python"]
+    ours = [(kind, info.get("command"), info.get("fields", {}), [p[1] for p in info.get("problems", [])])
+            for kind, _line, info in events]
+    exchange = (P.UNANSWERED, P.NO_RESULT, P.RETRANSMISSION, P.LATE)   # what only time tells
+    theirs = [(ev.kind,
+               ev.command if ev.kind in ("command", "result") else ev.transaction.command if ev.transaction else None,
+               ev.fields or {}, [p for p in ev.problems if not any(info.matches(p) for info in exchange)])
+              for ev in analyzer.open(os.path.join(CAPTURES, "demo-bus.bin"))]
+    theirs = [(kind, "?" if kind == "result" and cmd is None else cmd, fields, problems)
+              for kind, cmd, fields, problems in theirs]
+    assert ours == theirs
