@@ -163,12 +163,13 @@ class FoxgloveServer(Listener):
                 self._wait_for(ev, speed)
             event(ev)
         # a live tap's idle ticks come here too; a paced replay's last events must not
-        # wait for a next step that may not come until the screen closes
+        # wait for a next step that may not come until the screen closes, nor a new
+        # topic's first message for a next message once a client has subscribed
         now = time.monotonic()
         if self._reads_due is not None and now >= self._reads_due:   # lean: as a live recording flushes
             self._messages.flush_reads()
             self._reads_due = now + FLUSH_INTERVAL
-        if self._burst and (speed is not None or now >= self._due):
+        if (self._burst or self._first) and (speed is not None or now >= self._due):
             self._flush()
 
     def on_note(self, note: Note) -> None:
