@@ -11,8 +11,8 @@ starts. A recording that fails (a full disk) is said once and stopped, and the
 tap goes on printing (analyzer/writers/mcap.py).
 
 ``--foxglove`` serves the same topics live to the Foxglove app
-(analyzer/listeners/foxglove.py); an address that cannot be served is refused
-before the tap starts too.
+(analyzer/listeners/foxglove.py), the lean profile's with ``--lean``; an address
+that cannot be served is refused before the tap starts too.
 """
 
 from __future__ import annotations
@@ -138,18 +138,19 @@ def _names_an_input(text: str) -> bool:
 
 
 def open_servers(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
-                 speed: float | None = None) -> list[Listener]:
+                 speed: float | None = None, lean: bool = False) -> list[Listener]:
     """The --foxglove server, serving from now on (so a client can connect before
     the tap starts), or nothing; an address that cannot be served is a one-line
     error before anything starts. ``speed``: the server paces the events itself
-    (a replay in the TUI)."""
+    (a replay in the TUI). ``lean``: the tap records lean (--lean), and the server
+    sends the lean profile's topics."""
     address = args.foxglove
     if address is None:
         return []
     from ..listeners.foxglove import FoxgloveServer, ServeError
 
     try:
-        return [FoxgloveServer(info, *address, speed=speed)]
+        return [FoxgloveServer(info, *address, speed=speed, lean=lean)]
     except ServeError as e:
         capture.source.close()
         raise UsageError(f"--foxglove {e}") from None
@@ -159,7 +160,7 @@ def open_outputs(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
                  record: str | None) -> tuple[McapWriter | None, list[Listener]]:
     """The --record writer and the --foxglove server, both checked before the tap
     starts; the server first, so a refused address leaves no recording behind."""
-    servers = open_servers(capture, info, args)
+    servers = open_servers(capture, info, args, lean=args.lean)
     try:
         return open_recorder(capture, info, args, record), servers
     except BaseException:

@@ -36,7 +36,7 @@ from __future__ import annotations
 import time
 from binascii import b2a_base64
 from collections.abc import Callable
-from typing import Any
+from typing import Any, NamedTuple
 
 from dissectors.event import NO_ACK, NOISE, ST_NAK, Event
 from dissectors.wire import payload_text
@@ -57,6 +57,28 @@ _OPTIONAL_AFTER_FIELDS = ("txn", "status", "latency")
 # time between its first and last read (docs/mcap.md, "Lean recordings")
 READS_PER_MESSAGE = 64
 READS_SPAN = 1.0
+
+
+class Topic(NamedTuple):
+    """A topic every recording (or live server) of a profile has from the start."""
+
+    topic: str
+    key: str                    # its schema's, in ``schemas.ALL_SCHEMAS``
+    metadata: dict[str, str]    # its channel's
+
+
+def fixed_topics(lines: tuple[str, ...], lean: bool = False) -> list[Topic]:
+    """The topics of a tap on ``lines`` that exist from the start, in the default
+    profile or the lean one (module doc), in the order their channels are made:
+    the raw bytes (a topic per line, or a lean recording's one topic of reads,
+    whose metadata says which lines), events (not lean), transactions and log. A
+    gimbal's position topic comes when the gimbal is first seen."""
+    if lean:
+        first = [Topic(S.READS_TOPIC, "reads", {"lines": ",".join(lines)})]
+    else:
+        first = [*(Topic(S.RAW_TOPIC.format(line=line), "raw", {}) for line in lines),
+                 Topic(S.EVENTS_TOPIC, "event", {})]
+    return [*first, Topic(S.TRANSACTIONS_TOPIC, "txn", {}), Topic(S.LOG_TOPIC, "log", {})]
 
 
 def base64(data: bytes) -> str:

@@ -222,7 +222,7 @@ PROFILES = (DEFAULT, LEAN)
 
 @cache
 def encoded_by_key(key: str) -> bytes:
-    return encoded(SCHEMAS[key])
+    return encoded(ALL_SCHEMAS[key])
 
 
 def encoded(schema: dict) -> bytes:

@@ -8,12 +8,14 @@ mapped as the MCAP recording maps them (``message_clock``, ``log_level`` in
 analyzer/writers/mcap.py).
 
 The server is foxglove-sdk's: it runs in threads of its own and sends to each
-client what it subscribed to. This listener builds the messages and logs them,
-serialised, on the server's channels; a message no client subscribed to is not
-serialised, except the first message of a topic made mid-run (a gimbal's
-positions): it is kept until a client, told of the topic, has subscribed. Each
-server has a context of its own, so two servers in one process
-(tests) never share channels.
+client what it subscribed to. It listens on 127.0.0.1 only, behind a front on the
+address given (analyzer/listeners/foxglove_front.py), which takes clients offering
+the protocol's former name as well as the SDK's, and relays them. This listener
+builds the messages and logs them, serialised, on the server's channels; a
+message no client subscribed to is not serialised, except the first message of a
+topic made mid-run (a gimbal's positions): it is kept until a client, told of the
+topic, has subscribed. Each server has a context of its own, so two servers in
+one process (tests) never share channels.
 
 Messages are logged in bursts, at most every ``FLUSH_SECONDS``: the SDK wakes its
 threads for every log call, and one wake-up per burst instead of per message cut
@@ -25,6 +27,11 @@ The server starts when the listener is made, before the tap reads anything: an
 address that cannot be served is an error before the tap starts (``ServeError``).
 It stops when the run ends, or when ``close()`` is called from another thread.
 
+With ``lean`` (``live --lean``: the tap records lean recordings) it serves the lean
+profile's topics, those of the recording (``fixed_topics``), with its batches of
+reads: a batch goes out when full, or at the latest as a live recording would
+flush it (``FLUSH_INTERVAL``).
+
 A replay in the TUI reads its file flat out (the screen paces itself): there the
 listener paces the events itself (``speed``), or a client would get the whole
 recording at once, before it could subscribe.
@@ -35,6 +42,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import socket
 import threading
 import time
 
@@ -45,13 +53,14 @@ from dissectors.event import Event
 
 from ..errors import ServeError
 from ..formats import mcap_schemas as S
-from ..formats.mcap_messages import Messages
+from ..formats.mcap_messages import Messages, fixed_topics
 from ..info import CaptureInfo
 from ..netaddress import show_address
 from ..output import dumps
 from ..runner import INFO, RECORDING, WARNING, Listener, Note, TapRunner
 from ..sources import Chunk
-from ..writers.mcap import log_level, message_clock
+from ..writers.mcap import FLUSH_INTERVAL, log_level, message_clock
+from . import foxglove_front
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -64,24 +73,19 @@ BACKLOG = 16384
 
 FLUSH_SECONDS = 0.03   # a burst's span: well under what a person sees as lag
 
-# The SDK logs through Python's logging; with no handler configured its lines
-# would land raw on standard error, over the TUI. They are told as notes instead.
-SDK_LOGGER = "foxglove"
-
-
-def fixed_topics(lines: tuple[str, ...]) -> list[tuple[str, str]]:
-    """The topics of every tap, as (topic, schema key): a raw topic per line, events,
-    transactions, log. A device's position topic comes when it is first seen."""
-    raw = [(S.RAW_TOPIC.format(line=line), "raw") for line in lines]
-    return [*raw, (S.EVENTS_TOPIC, "event"), (S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")]
+# The SDK and the front log through Python's logging; with no handler configured
+# their lines would land raw on standard error, over the TUI. They are told as
+# notes instead.
+LOGGERS = ("foxglove", foxglove_front.LOGGER.name)
 
 
 class FoxgloveServer(Listener):
     """Serves the run ``info`` describes on ``host:port`` (port 0: any free port);
-    with ``speed``, events go out at their recorded pace, ``speed`` times faster."""
+    with ``speed``, events go out at their recorded pace, ``speed`` times faster;
+    with ``lean``, the lean profile's topics (module doc)."""
 
     def __init__(self, info: CaptureInfo, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *,
-                 speed: float | None = None) -> None:
+                 speed: float | None = None, lean: bool = False) -> None:
         self.info = info
         self._closing = threading.Lock()
         self._closed = threading.Event()   # ends a paced wait
@@ -89,19 +93,26 @@ class FoxgloveServer(Listener):
         self._started = time.monotonic()
         self._context = foxglove.Context()
         server = _start(self._context, host, port)
+        try:
+            front = _front(host, port, server.port)
+        except BaseException:
+            server.stop()
+            raise
         self._server: WebSocketServer | None = server   # None once closed
-        self.address = show_address(host, server.port)
+        self._front: foxglove_front.Front | None = front
+        self.address = show_address(host, front.port)
         self._channels: dict[str, foxglove.Channel] = {}
-        for topic, key in fixed_topics(info.lines):
-            self._channel(topic, key)
-        self._messages = Messages(self._emit, **message_clock(info))
+        for topic, key, metadata in fixed_topics(info.lines, lean):
+            self._channel(topic, key, metadata)
+        self._messages = Messages(self._emit, **message_clock(info), lean=lean)
+        self._reads_due = time.monotonic() + FLUSH_INTERVAL if lean else None
         self._burst: list[tuple[foxglove.Channel, bytes, int]] = []
         # the first message of a topic made mid-run (a gimbal's positions), kept until a
         # client has subscribed: clients hear of the topic with it, and subscribe after
         self._first: dict[str, tuple[bytes, int]] = {}
         self._due = time.monotonic() + FLUSH_SECONDS
         self._runner: TapRunner | None = None
-        self._sdk_notes: _SdkNotes | None = None
+        self._notes: _ServerNotes | None = None
 
     @property
     def url(self) -> str:
@@ -118,18 +129,23 @@ class FoxgloveServer(Listener):
         self._closed.set()
         with self._closing:
             server, self._server = self._server, None
-            notes, self._sdk_notes = self._sdk_notes, None
+            front, self._front = self._front, None
+            notes, self._notes = self._notes, None
+        if front is not None:   # its clients first: their relays end before the server they relay
+            front.stop()
         if server is not None:
             server.stop()
         if notes is not None:
-            logging.getLogger(SDK_LOGGER).removeHandler(notes)
+            for name in LOGGERS:
+                logging.getLogger(name).removeHandler(notes)
 
     # ------------------------------------------------------------ listener
     def on_start(self, runner: TapRunner) -> None:
         self._runner = runner
         self._started = time.monotonic()
-        self._sdk_notes = _SdkNotes(runner)
-        logging.getLogger(SDK_LOGGER).addHandler(self._sdk_notes)
+        self._notes = _ServerNotes(runner)
+        for name in LOGGERS:
+            logging.getLogger(name).addHandler(self._notes)
         # an output's word about itself: not a message of the topics (writers/mcap.py, log_level)
         runner.post(self.announcement, INFO, origin=RECORDING)
 
@@ -143,8 +159,13 @@ class FoxgloveServer(Listener):
                 self._wait_for(ev, speed)
             event(ev)
         # a live tap's idle ticks come here too; a paced replay's last events must not
-        # wait for a next step that may not come until the screen closes
-        if self._burst and (speed is not None or time.monotonic() >= self._due):
+        # wait for a next step that may not come until the screen closes, nor a new
+        # topic's first message for a next message once a client has subscribed
+        now = time.monotonic()
+        if self._reads_due is not None and now >= self._reads_due:   # lean: as a live recording flushes
+            self._messages.flush_reads()
+            self._reads_due = now + FLUSH_INTERVAL
+        if (self._burst or self._first) and (speed is not None or now >= self._due):
             self._flush()
 
     def on_note(self, note: Note) -> None:
@@ -172,11 +193,11 @@ class FoxgloveServer(Listener):
             self._closed.wait(delay)
 
     # ------------------------------------------------------------ channels
-    def _channel(self, topic: str, key: str) -> foxglove.Channel:
-        schema = S.SCHEMAS[key]
+    def _channel(self, topic: str, key: str, metadata: dict[str, str] | None = None) -> foxglove.Channel:
+        schema = S.ALL_SCHEMAS[key]
         channel = self._channels[topic] = foxglove.Channel(
             topic, schema=foxglove.Schema(name=schema["title"], encoding="jsonschema", data=S.encoded_by_key(key)),
-            message_encoding="json", context=self._context)
+            message_encoding="json", context=self._context, metadata=metadata or None)
         return channel
 
     def _emit(self, topic: str, key: str, ts: int, msg: dict) -> None:
@@ -208,16 +229,32 @@ class FoxgloveServer(Listener):
 
 
 def _start(context: foxglove.Context, host: str, port: int) -> WebSocketServer:
+    """The SDK's server, on 127.0.0.1 at a port of the system's choosing: only the
+    front (``_front``) connects to it. ``host:port``, the address served, names the
+    failure."""
     try:
-        return foxglove.start_server(name=NAME, host=host, port=port, context=context,
+        return foxglove.start_server(name=NAME, host="127.0.0.1", port=0, context=context,
                                      message_backlog_size=BACKLOG)
     except (RuntimeError, ValueError, OSError) as e:
+        raise ServeError(f"{show_address(host, port)}: cannot serve: the server did not start: {_reason(e)}") \
+            from None
+
+
+def _front(host: str, port: int, sdk_port: int) -> foxglove_front.Front:
+    """The front on the address served, for the SDK's server on ``sdk_port``."""
+    try:
+        return foxglove_front.Front(host, port, sdk_port)
+    except (OSError, ValueError) as e:
         raise ServeError(f"{show_address(host, port)}: cannot serve: {_reason(e)}") from None
 
 
 def _reason(e: BaseException) -> str:
-    """A few words from the SDK's error: 'FoxgloveError: Failed to bind port:
-    Address already in use (os error 98)' is 'address already in use'."""
+    """A few words from binding's error or the SDK's: 'FoxgloveError: Failed to bind
+    port: Address already in use (os error 98)' is 'address already in use'."""
+    if isinstance(e, socket.gaierror):
+        return "unknown host"
+    if isinstance(e, OSError) and e.errno:
+        return os.strerror(e.errno).lower()
     text = str(e)
     code = re.search(r"\(os error (\d+)\)", text)
     if code:
@@ -229,8 +266,9 @@ def _reason(e: BaseException) -> str:
     return text[:1].lower() + text[1:]
 
 
-class _SdkNotes(logging.Handler):
-    """The SDK's warnings and errors (a client gone without closing) as the tap's notes."""
+class _ServerNotes(logging.Handler):
+    """The SDK's and the front's warnings and errors (a client gone without
+    closing) as the tap's notes: one line each."""
 
     def __init__(self, runner: TapRunner) -> None:
         super().__init__(logging.WARNING)

@@ -45,7 +45,7 @@ from dissectors.event import Event
 
 from ..errors import RecordingError
 from ..formats import mcap_schemas as S
-from ..formats.mcap_messages import Messages
+from ..formats.mcap_messages import Messages, fixed_topics
 from ..formats.store_ipc import MEDIA_TYPE, VERSION
 from ..lines import Chunk
 from ..outfile import reason, show
@@ -204,15 +204,8 @@ class McapRecorder:
         self._channels: dict[str, int] = {}
         # the fixed topics exist from the start, also in a recording without messages;
         # a device's position topic when it is first seen
-        if self.lean:   # one topic for the reads of every line; which lines, in its metadata
-            self._channels[S.READS_TOPIC] = self._writer.register_channel(
-                S.READS_TOPIC, "json", self._schemas["reads"], metadata={"lines": ",".join(lines)})
-        else:
-            for line in lines:
-                self._channel(S.RAW_TOPIC.format(line=line), "raw")
-            self._channel(S.EVENTS_TOPIC, "event")
-        for topic, key in ((S.TRANSACTIONS_TOPIC, "txn"), (S.LOG_TOPIC, "log")):
-            self._channel(topic, key)
+        for topic, key, channel_metadata in fixed_topics(lines, self.lean):
+            self._channel(topic, key, channel_metadata)
         self._columns: ColumnBatches | None = None
         if self.columns:   # schemaless: the Arrow IPC stream carries its schema
             self._columns_channel = self._writer.register_channel(
@@ -226,8 +219,9 @@ class McapRecorder:
         if metadata:   # written first, so a killed recording still says what it is
             self._writer.add_metadata(S.METADATA_NAME, encodable(metadata))
 
-    def _channel(self, topic: str, key: str) -> int:
-        channel = self._channels[topic] = self._writer.register_channel(topic, "json", self._schemas[key])
+    def _channel(self, topic: str, key: str, metadata: dict[str, str] | None = None) -> int:
+        channel = self._channels[topic] = self._writer.register_channel(topic, "json", self._schemas[key],
+                                                                        metadata=metadata or {})
         return channel
 
     # ---------------------------------------------------------------- input

@@ -26,6 +26,7 @@ from websockets.exceptions import ConnectionClosed
 from websockets.sync.client import connect
 
 import analyzer
+from analyzer.formats import mcap_schemas as S
 from analyzer.info import CaptureInfo
 from analyzer.listeners.foxglove import FoxgloveServer
 from analyzer.simulation.traffic import generate
@@ -33,7 +34,7 @@ from analyzer.tui.run import make_app, stop_feed
 from tests.child import PATIENCE, Child, wait_for
 from tests.conftest import SOCAT_LOG, frame, run_cli
 
-SUBPROTOCOL = "foxglove.sdk.v1"   # what the SDK's server accepts (it refuses foxglove.websocket.v1)
+SUBPROTOCOL = "foxglove.sdk.v1"   # what the SDK's server accepts; its front also takes foxglove.websocket.v1
 REFUSED = re.compile(r"Unknown channel ID: (\d+)")
 PARAMETERS = "does not support parameters"   # the answer to a request for parameters
 DEVICES = ("1.1.1", "1.1.2", "1.2.1")   # analyzer.simulation.traffic's gimbals
@@ -45,6 +46,16 @@ def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+def assert_listenable(port: int) -> None:
+    """Nothing listens on ``port``: a new server can, binding as servers do (asyncio's,
+    the SDK's) with SO_REUSEADDR, which a listening socket stops and a connection
+    the old server closed (TIME_WAIT, on the side that closed first) does not."""
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        s.bind(("127.0.0.1", port))
+        s.listen()
 
 
 @contextlib.contextmanager
@@ -145,12 +156,14 @@ class Client:
 
 
 @contextlib.contextmanager
-def client(port: int):
-    with connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], open_timeout=PATIENCE,
+def client(port: int, last_fixed: str = "/events", subprotocol: str = SUBPROTOCOL):
+    """A client subscribed to the fixed channels (``last_fixed`` advertised: all of
+    them), offering ``subprotocol``."""
+    with connect(f"ws://127.0.0.1:{port}", subprotocols=[subprotocol], open_timeout=PATIENCE,
                  max_size=None) as ws:
-        assert ws.subprotocol == SUBPROTOCOL
+        assert ws.subprotocol == subprotocol
         c = Client(ws)
-        wait_for(lambda: "/events" in c.schemas, "the fixed channels")
+        wait_for(lambda: last_fixed in c.schemas, "the fixed channels")
         c.sync()   # subscribed before any traffic
         yield c
 
@@ -339,8 +352,7 @@ def test_the_tui_serves_a_replay_at_its_pace(tmp_path):
     with client(port) as c:   # subscribed before the replay starts: it gets every event
         asyncio.run(drive(c))
     assert c.messages["/events"] == want
-    with socket.socket() as s:   # stopped with the screen
-        s.bind(("127.0.0.1", port))
+    assert_listenable(port)   # stopped with the screen
 
 
 def test_the_server_listens_only_while_it_serves():
@@ -349,6 +361,47 @@ def test_the_server_listens_only_while_it_serves():
     tap = Tap("demo", "--seconds", "0", "--no-tui", "--foxglove", f"127.0.0.1:{port}")
     tap.wait_serving(port)
     assert tap.stop()[0] == 0, "".join(tap.err)
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", port))
+    assert_listenable(port)
 
+
+
+def test_a_lean_tap_serves_the_lean_topics(tmp_path):
+    """``live --record --lean --foxglove``: the server advertises the lean profile's
+    topics, those of the recording, with its schemas; the same positions and
+    transactions, and the same reads, batched as the server's flushes fall."""
+    port = free_port()
+    rec = tmp_path / "rec.mcap"
+    new_gimbal = (1, 2, 2)   # not in the generated traffic: its topic's arrival says the last report came
+    with two_lines() as (fds, pa, pb):
+        tap = Tap("live", pa, pb, "--no-tui", "--record", rec, "--lean", "--foxglove", f"127.0.0.1:{port}")
+        try:
+            tap.wait_serving(port)
+            with client(port, last_fixed=S.LOG_TOPIC) as c:
+                assert set(c.schemas) == {S.READS_TOPIC, S.TRANSACTIONS_TOPIC, S.LOG_TOPIC}
+                write_paced(fds, generate(60, seed=3, bit_error_rate=0.02, noise_rate=0.02).writes)
+                write_exchanges(fds, position_query(new_gimbal, "7FFF0123"))
+                wait_for(lambda: c.messages["/gimbal/1.2.2/position"], "the last report")
+                assert tap.stop()[0] == 0, "".join(tap.err)
+        finally:
+            tap.stop()
+    assert not c.bad and not any("Traceback" in line for line in tap.err), "".join(tap.err)
+    with open(rec, "rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    schemas = {ch.topic: summary.schemas[ch.schema_id].name for ch in summary.channels.values()}
+    assert c.schemas == schemas and S.EVENTS_TOPIC not in schemas
+    want = recorded(rec)
+    for topic in (*(f"/gimbal/{d}/position" for d in DEVICES), "/gimbal/1.2.2/position"):
+        assert c.messages[topic] == want[topic], topic
+    # what the tap said as it stopped (its last transaction, reads and notes) may not
+    # have come; every read did, but for those, in the recording's order
+    for topic in (S.TRANSACTIONS_TOPIC, S.LOG_TOPIC):
+        got = c.messages[topic]
+        assert got and got == want[topic][:len(got)], topic
+    got_reads, want_reads = reads(c.messages[S.READS_TOPIC]), reads(want[S.READS_TOPIC])
+    assert len(got_reads) >= 10 and got_reads == want_reads[:len(got_reads)]   # (a busy tap reads more at once)
+
+
+def reads(messages: list[tuple[int, bytes]]) -> list[dict]:
+    """The reads of /serial/reads messages, in order."""
+    return [read for _t, m in messages for read in json.loads(m)["reads"]]
