@@ -16,17 +16,15 @@ import base64
 import contextlib
 import json
 import os
-import shutil
 import subprocess
 import threading
 from collections import defaultdict
 
-import pytest
 from mcap.reader import make_reader
 
 from analyzer.simulation.traffic import generate
 from tests.child import PATIENCE, wait_for
-from tests.conftest import ROOT, SOCAT_LOG, run_cli
+from tests.conftest import SOCAT_LOG, run_cli
 from tests.integration.test_foxglove_live import (
     DEVICES,
     Client,
@@ -39,10 +37,9 @@ from tests.integration.test_foxglove_live import (
     write_exchanges,
     write_paced,
 )
+from tests.interop.node import JS_DIR, node_with
 
-JS_DIR = os.path.join(ROOT, "tests", "interop", "js")
 LIVE = os.path.join(JS_DIR, "live.mjs")
-INSTALL = "npm ci --prefix tests/interop/js --no-audit --no-fund"
 PACKAGES = ("@foxglove/ws-protocol", "ws")
 OLD, NEW = "foxglove.websocket.v1", "foxglove.sdk.v1"
 FIXED = {"/serial/A/raw", "/serial/B/raw", "/events", "/transactions", "/log"}
@@ -53,12 +50,7 @@ class JsClient:
     """``node live.mjs ws://127.0.0.1:PORT SUBPROTOCOL``, what it prints read as it comes."""
 
     def __init__(self, port: int, subprotocol: str) -> None:
-        node = shutil.which("node")
-        if node is None:
-            pytest.fail(f"node is not installed: install Node.js 20 or later with npm, then run `{INSTALL}`")
-        missing = [p for p in PACKAGES if not os.path.isdir(os.path.join(JS_DIR, "node_modules", p))]
-        if missing:
-            pytest.fail(f"{', '.join(missing)} not installed in tests/interop/js: run `{INSTALL}` (.ci/run does)")
+        node = node_with(*PACKAGES)
         self.proc = subprocess.Popen([node, LIVE, f"ws://127.0.0.1:{port}", subprotocol], stdout=subprocess.PIPE,
                                      stderr=subprocess.PIPE, text=True)
         self.subprotocol: str | None = None

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 from collections import Counter
 from pathlib import Path
@@ -22,25 +21,19 @@ from mcap.reader import make_reader
 import analyzer
 from analyzer.formats.mcap_schemas import COLUMNS_RECORD, COLUMNS_TOPIC
 from analyzer.simulation.traffic import generate
-from tests.conftest import ROOT, SOCAT_LOG
+from tests.conftest import SOCAT_LOG
 from tests.integration.test_mcap_parts import record
 from tests.integration.test_recorded_columns import converted
+from tests.interop.node import JS_DIR, node_with
 
-JS_DIR = os.path.join(ROOT, "tests", "interop", "js")
 READ = os.path.join(JS_DIR, "read.mjs")
-INSTALL = "npm ci --prefix tests/interop/js --no-audit --no-fund"
 PACKAGES = ("@mcap/core", "@foxglove/wasm-zstd")
 ARROW_ENCODING = "arrow.ipc"
 
 
 def mcap_core(path: str) -> dict:
     """What read.mjs found, by the index (``indexed``) and front to back (``stream``)."""
-    node = shutil.which("node")
-    if node is None:
-        pytest.fail(f"node is not installed: install Node.js 20 or later with npm, then run `{INSTALL}`")
-    missing = [p for p in PACKAGES if not os.path.isdir(os.path.join(JS_DIR, "node_modules", p))]
-    if missing:
-        pytest.fail(f"{', '.join(missing)} not installed in tests/interop/js: run `{INSTALL}` (.ci/run does)")
+    node = node_with(*PACKAGES)
     out = subprocess.run([node, READ, path], capture_output=True, text=True, timeout=300, check=False)
     assert out.returncode == 0, out.stderr
     return json.loads(out.stdout)
