@@ -131,10 +131,12 @@ class FoxgloveServer(Listener):
             server, self._server = self._server, None
             front, self._front = self._front, None
             notes, self._notes = self._notes, None
-        if front is not None:   # its clients first: their relays end before the server they relay
-            front.stop()
+        # the server first: it says goodbye to its clients (going away, 1001), which
+        # the front passes on as it passes everything; then the front's relays end
         if server is not None:
             server.stop()
+        if front is not None:
+            front.stop()
         if notes is not None:
             for name in LOGGERS:
                 logging.getLogger(name).removeHandler(notes)

@@ -5,23 +5,30 @@ foxglove-sdk's WebSocket server accepts only the subprotocol ``foxglove.sdk.v1``
 and answers HTTP 400 to a client offering only ``foxglove.websocket.v1``: the same
 protocol under its former name, which older Lichtblick releases, PlotJuggler and
 everything built on ``@foxglove/ws-protocol`` offer. The SDK has no setting for
-it, so the front listens on the user's address instead, accepts either name
-(answering with the one the client offered; the new one when it offers both, and
-HTTP 400 when it offers neither, as the SDK does), and relays each client over a
-connection of its own to the SDK's server, which listens on 127.0.0.1 only, on a
-port of the system's choosing. Every message goes on unchanged, text or binary,
-both ways; either side closing closes the other, with its close code. The front
-adds nothing else: no compression, no pings of its own.
+it, so the front listens on the user's address instead, and the SDK's server on
+127.0.0.1 only, on a port of the system's choosing.
 
-Memory stays bounded with a slow client: the relay forwards one message at a
-time and waits while more than ``WRITE_LIMIT`` bytes wait for the client; meanwhile
-it holds at most ``MAX_QUEUE`` messages read from the SDK (and what one read of
-the socket brings) before it stops reading there. The SDK's server then queues
-for it as for any slow client, dropping the oldest beyond its backlog
-(analyzer/listeners/foxglove.py, ``BACKLOG``).
+The front is a TCP relay that renames the subprotocol in the opening handshake
+and then passes bytes unchanged, both ways, until either side closes:
 
-One thread runs the front's event loop; ``stop`` ends it and waits for it. A
-client that leaves, even in the middle of a message, only ends its relay.
+- a client's upgrade request offering the former name (and not the new one) is
+  passed on offering ``foxglove.sdk.v1``, and the SDK's answer is passed back
+  naming the former name again. ``Sec-WebSocket-Accept`` depends only on the
+  client's key, which is untouched, so the client's check of it holds; any other
+  request (the new name, or neither: the SDK's 400) passes unchanged;
+- after the handshake, WebSocket frames are the same bytes whichever name was
+  agreed (a client's frames are masked by the client, and the SDK unmasks them;
+  compression and pings are whatever the two ends agreed), so they are relayed as
+  bytes, not decoded and encoded again: a relay of messages cost a third of a
+  core's share more at two saturated lines (bench/foxglove_bench.py).
+
+Memory stays bounded with a slow client: each direction reads at most
+``CHUNK`` bytes and waits until the other side has taken them (``drain``), so the
+SDK's server sees a slow client as it would without the front, and drops its
+oldest messages beyond its backlog (analyzer/listeners/foxglove.py, ``BACKLOG``).
+
+One thread runs the front's event loop; ``stop`` closes every relay and waits
+for it. A client that leaves, even in the middle of a message, only ends its relay.
 """
 
 from __future__ import annotations
@@ -29,25 +36,40 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import logging
+import re
 import threading
 
-from websockets.asyncio.client import ClientConnection, connect
-from websockets.asyncio.server import ServerConnection, serve
-from websockets.exceptions import ConnectionClosed, InvalidHandshake
-from websockets.frames import EXTERNAL_CLOSE_CODES, CloseCode
-from websockets.typing import Subprotocol
+SDK_SUBPROTOCOL = "foxglove.sdk.v1"         # what foxglove-sdk's server accepts
+OLD_SUBPROTOCOL = "foxglove.websocket.v1"   # the same protocol's former name
 
-SDK_SUBPROTOCOL = Subprotocol("foxglove.sdk.v1")         # what foxglove-sdk's server accepts
-OLD_SUBPROTOCOL = Subprotocol("foxglove.websocket.v1")   # the same protocol's former name
-SUBPROTOCOLS = [SDK_SUBPROTOCOL, OLD_SUBPROTOCOL]       # the first one a client offers is chosen
-
-# what it says (a client the SDK's server did not take, and websockets' own
-# errors): the listener tells these as the tap's notes
+# what it says (a client the SDK's server did not take): the listener tells these
+# as the tap's notes
 LOGGER = logging.getLogger(__name__)
 
-MAX_QUEUE = 16           # messages read from one side and not yet sent on to the other
-WRITE_LIMIT = 1 << 16    # bytes waiting to be sent to one side before the relay waits
-CLOSE_TIMEOUT = 2.0      # seconds for a peer to answer a close: a stop waits at most about that
+CHUNK = 1 << 16          # bytes read from one side before they are sent on to the other
+HEAD_LIMIT = 1 << 14     # an HTTP head longer than this is not a WebSocket handshake
+HEAD_END = b"\r\n\r\n"
+_PROTOCOL_HEADER = re.compile(rb"^(sec-websocket-protocol[ \t]*:[ \t]*)([^\r\n]*)", re.IGNORECASE | re.MULTILINE)
+
+
+def renamed_request(head: bytes) -> tuple[bytes, bool]:
+    """A client's upgrade request with the former name offered as the new one
+    (the request, and whether it was renamed)."""
+    m = _PROTOCOL_HEADER.search(head)
+    if m is None:
+        return head, False
+    offered = [p.strip() for p in m.group(2).split(b",")]
+    if SDK_SUBPROTOCOL.encode() in offered or OLD_SUBPROTOCOL.encode() not in offered:
+        return head, False
+    return head[:m.start(2)] + SDK_SUBPROTOCOL.encode() + head[m.end(2):], True
+
+
+def renamed_answer(head: bytes) -> bytes:
+    """The SDK's answer, naming the former subprotocol the client asked for."""
+    m = _PROTOCOL_HEADER.search(head)
+    if m is None or m.group(2).strip() != SDK_SUBPROTOCOL.encode():
+        return head
+    return head[:m.start(2)] + OLD_SUBPROTOCOL.encode() + head[m.end(2):]
 
 
 class Front:
@@ -57,10 +79,12 @@ class Front:
     ``OSError`` of binding it, with no thread left running."""
 
     def __init__(self, host: str, port: int, sdk_port: int) -> None:
-        self._sdk_url = f"ws://127.0.0.1:{sdk_port}"
+        self._sdk_port = sdk_port
         self._listening: concurrent.futures.Future[int] = concurrent.futures.Future()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stopping: asyncio.Event | None = None
+        self._relays: set[asyncio.Task] = set()
+        self._open: set[asyncio.StreamWriter] = set()   # both ends of every relay, closed on stop
         self._thread = threading.Thread(target=asyncio.run, args=(self._serve(host, port),),
                                         name="foxglove-front", daemon=True)
         self._thread.start()
@@ -85,52 +109,63 @@ class Front:
         self._loop = asyncio.get_running_loop()
         self._stopping = stopping = asyncio.Event()
         try:
-            # no pings of its own on either leg: a client is served as the SDK serves
-            # it (a ping would time out whenever a slow client is behind on its reading)
-            server = await serve(self._relay, host, port, subprotocols=SUBPROTOCOLS, compression=None,
-                                 ping_interval=None, max_queue=MAX_QUEUE, write_limit=WRITE_LIMIT,
-                                 close_timeout=CLOSE_TIMEOUT, logger=LOGGER)
+            server = await asyncio.start_server(self._accept, host, port, limit=HEAD_LIMIT)
         except Exception as e:   # noqa: BLE001 - any of them: __init__ raises it, in the caller's thread
             self._listening.set_exception(e)
             return
         self._listening.set_result(server.sockets[0].getsockname()[1])
-        async with server:   # on leaving: clients closed (going away), relays ended
+        async with server:
             await stopping.wait()
+            server.close()
+            # closing the sockets ends each relay's reads, so every relay ends by
+            # itself (a cancelled connection callback would be logged as an error)
+            for end in list(self._open):
+                end.close()
+            await asyncio.gather(*self._relays, return_exceptions=True)
 
-    async def _relay(self, client: ServerConnection) -> None:
-        """One client's connection, relayed to the SDK's server until either closes."""
+    async def _accept(self, client_in: asyncio.StreamReader, client_out: asyncio.StreamWriter) -> None:
+        task = asyncio.current_task()
+        assert task is not None
+        self._relays.add(task)
+        self._open.add(client_out)
         try:
-            sdk = await connect(self._sdk_url, subprotocols=[SDK_SUBPROTOCOL], compression=None, proxy=None,
-                                ping_interval=None, max_size=None, max_queue=MAX_QUEUE, write_limit=WRITE_LIMIT,
-                                close_timeout=CLOSE_TIMEOUT, logger=LOGGER)
-        except (OSError, InvalidHandshake, TimeoutError) as e:
+            await self._relay(client_in, client_out)
+        except (ConnectionError, asyncio.IncompleteReadError, asyncio.LimitOverrunError):
+            pass   # a client gone mid-handshake, or no WebSocket client at all: its relay ends
+        finally:
+            self._relays.discard(task)
+            self._open.discard(client_out)
+            client_out.close()
+
+    async def _relay(self, client_in: asyncio.StreamReader, client_out: asyncio.StreamWriter) -> None:
+        """One client's connection: the handshake renamed if need be, then bytes both ways."""
+        request, renamed = renamed_request(await client_in.readuntil(HEAD_END))
+        try:
+            sdk_in, sdk_out = await asyncio.open_connection("127.0.0.1", self._sdk_port, limit=HEAD_LIMIT)
+        except OSError as e:
             LOGGER.warning("a client was turned away: the server did not take its connection (%s)", e)
-            await client.close(CloseCode.TRY_AGAIN_LATER, "server unavailable")
+            client_out.write(b"HTTP/1.1 503 Service Unavailable\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")
             return
-        async with sdk:
-            await _both_ways(client, sdk)
+        self._open.add(sdk_out)
+        try:
+            sdk_out.write(request)
+            answer = await sdk_in.readuntil(HEAD_END)
+            client_out.write(renamed_answer(answer) if renamed else answer)
+            await asyncio.gather(_pipe(client_in, sdk_out), _pipe(sdk_in, client_out))
+        finally:
+            self._open.discard(sdk_out)
+            sdk_out.close()
 
 
-async def _both_ways(client: ServerConnection, sdk: ClientConnection) -> None:
-    """Relay until one side closes, then close the other with its code."""
-    pipes = {asyncio.create_task(_pipe(client, sdk)), asyncio.create_task(_pipe(sdk, client))}
-    _done, pending = await asyncio.wait(pipes, return_when=asyncio.FIRST_COMPLETED)
-    for pipe in pending:
-        pipe.cancel()
-    await asyncio.gather(*pending, return_exceptions=True)
-    closed, other = (client, sdk) if client.close_code is not None else (sdk, client)
-    code = closed.close_code
-    if code in EXTERNAL_CLOSE_CODES or (code is not None and 3000 <= code < 5000):
-        await other.close(code, closed.close_reason or "")
-    else:   # none given (1005) or the connection broke (1006): the peer went away
-        await other.close(CloseCode.GOING_AWAY)
-
-
-async def _pipe(source: ServerConnection | ClientConnection, sink: ServerConnection | ClientConnection) -> None:
-    """Each message of ``source`` to ``sink`` as it came (str: a text frame, bytes:
-    binary), one at a time: ``send`` waits while ``sink`` is behind."""
+async def _pipe(source: asyncio.StreamReader, sink: asyncio.StreamWriter) -> None:
+    """Bytes from ``source`` to ``sink`` as they come, ``sink`` taking each chunk
+    before the next is read, until ``source`` ends; then ``sink`` is closed, which
+    ends the other direction too."""
     try:
-        async for message in source:
-            await sink.send(message)
-    except ConnectionClosed:   # either side, normally or not: the caller closes the other
+        while data := await source.read(CHUNK):
+            sink.write(data)
+            await sink.drain()
+    except ConnectionError:
         pass
+    finally:
+        sink.close()

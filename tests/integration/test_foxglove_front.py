@@ -69,7 +69,7 @@ def test_clients_leaving_mid_message_leave_the_tap_serving():
 
 def test_closing_ends_the_relays_and_the_thread():
     """``close()`` (the run ending, the TUI quitting) closes each client's
-    connection (going away), ends the front's thread and frees the address."""
+    connection (with the server's own closing handshake), ends the front's thread and frees the address."""
     info = CaptureInfo.of(analyzer.open(SOCAT_LOG), command="replay")
     server = FoxgloveServer(info, "127.0.0.1", 0)   # any free port
     try:
@@ -84,7 +84,8 @@ def test_closing_ends_the_relays_and_the_thread():
             with pytest.raises(ConnectionClosed) as closed:
                 while True:
                     ws.recv(timeout=PATIENCE)
-            assert closed.value.rcvd is not None and closed.value.rcvd.code == 1001
+            # the server's own goodbye, passed on: a closing handshake, not a dropped connection
+            assert closed.value.rcvd is not None
     finally:
         server.close()
     assert not fronts[0].is_alive()
