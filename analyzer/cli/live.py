@@ -23,6 +23,7 @@ import re
 import signal
 import sys
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from ..capture import Capture, open_live
 from ..info import CaptureInfo
@@ -47,6 +48,9 @@ from .common import (
     positive_float,
 )
 
+if TYPE_CHECKING:
+    from ..talk.session import TalkSession
+
 
 def register(sub: Subcommands) -> None:
     p = sub.add_parser("live", help="tap serial lines live",
@@ -62,7 +66,18 @@ def register(sub: Subcommands) -> None:
     add_record_args(p)
     add_foxglove_arg(p)
     add_tui_args(p)
+    add_talk_args(p)
     p.set_defaults(run=run)
+
+
+def add_talk_args(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("talking from the TUI (docs/talk.md, \"From the TUI\")")
+    g.add_argument("--talk", action="store_true",
+                   help="one port, both directions: the TUI's : prompt sends commands on it (in send's words); "
+                        "what is sent is line A, what comes back line B")
+    g.add_argument("--allow-motion", action="store_true", help="with --talk: allow commands that move the gimbal")
+    g.add_argument("--allow-config", action="store_true",
+                   help="with --talk: allow commands that change the gimbal's address, rate, settings or outputs")
 
 
 def add_samples_args(p: argparse.ArgumentParser) -> None:
@@ -197,8 +212,10 @@ def wants_tui(args: argparse.Namespace) -> bool:
     return not args.no_tui and args.format == "text" and has_screen()
 
 
-def tap(capture: Capture, args: argparse.Namespace, record: str | None, command: str = "live") -> int:
-    """Run a live capture: the TUI, or printed events (see ``wants_tui``)."""
+def tap(capture: Capture, args: argparse.Namespace, record: str | None, command: str = "live",
+        talk: TalkSession | None = None) -> int:
+    """Run a live capture: the TUI, or printed events (see ``wants_tui``); ``talk``:
+    the port the TUI's prompt sends on (``--talk``)."""
     info = CaptureInfo.of(capture, command=command, site=args.site)
     if not wants_tui(args):
         return tap_and_print(capture, info, args, record)
@@ -212,7 +229,7 @@ def tap(capture: Capture, args: argparse.Namespace, record: str | None, command:
     recorder, servers = open_outputs(capture, info, args, record)
     return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder, record_path=record,
                    record_lean=args.lean,
-                   info=info, keymap=keymap, listeners=servers)
+                   info=info, keymap=keymap, listeners=servers, talk=talk)
 
 
 def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace, record: str | None) -> int:
@@ -258,8 +275,31 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("give one or two ports, or --samples - for a logic analyser's stream")
     if len(args.ports) > 2:
         raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
+    if args.talk:
+        return run_talking(args)
+    if args.allow_motion or args.allow_config:
+        raise UsageError("--allow-motion and --allow-config go with --talk (a tap never sends)")
     capture = open_live(args.ports, options_from(args))
     return tap(capture, args, args.record)
+
+
+def run_talking(args: argparse.Namespace) -> int:
+    """``--talk``: the one port as both lines, the TUI's prompt sending on it."""
+    from ..talk.link import TalkLink
+    from ..talk.safety import Allowed
+    from ..talk.session import TalkSession
+
+    if len(args.ports) != 1:
+        raise UsageError("--talk takes one port: what is sent on it is line A, what comes back line B")
+    if not wants_tui(args):
+        raise UsageError("--talk sends from the TUI's : prompt: it needs the TUI (a terminal, or gimbalscope serve)")
+    options = options_from(args)
+    link = TalkLink(args.ports[0], baud=options.baud, data_bits=options.data_bits, parity=options.parity,
+                    stop_bits=options.stop_bits)
+    capture = Capture(link, options)
+    capture.inputs = (args.ports[0],)
+    session = TalkSession(link, Allowed(motion=args.allow_motion, config=args.allow_config))
+    return tap(capture, args, args.record, talk=session)
 
 
 def run_samples(args: argparse.Namespace) -> int:

@@ -17,8 +17,6 @@ from collections.abc import Sequence
 from types import FrameType
 from typing import TYPE_CHECKING
 
-from dissectors.encode import EncodeError
-
 from ..errors import UsageError
 from .common import (
     Subcommands,
@@ -85,78 +83,17 @@ def add_permission_args(p: argparse.ArgumentParser) -> None:
                    help="allow commands that change the gimbal's address, rate, settings or outputs")
 
 
-def parse_values(pairs: list[str]) -> dict[str, str]:
-    values: dict[str, str] = {}
-    for pair in pairs:
-        name, sep, value = pair.partition("=")
-        if not sep or not name:
-            raise UsageError(f"{pair!r}: fields are given as FIELD=VALUE (azimuth_deg=10)")
-        values[name] = value
-    return values
-
-
-def parse_raw(text: str) -> bytes:
-    try:
-        data = bytes.fromhex(text.replace(":", " "))
-    except ValueError:
-        raise UsageError(f"--raw {text!r}: hex bytes, e.g. 'F8 01 01 03 00 02 44 3F 8A'") from None
-    if not data:
-        raise UsageError("--raw: no bytes given")
-    return data
-
-
 def frame_to_send(args: argparse.Namespace) -> bytes:
-    """The frame the command line asks for, refused as a UsageError when it may not be sent."""
-    from dissectors.encode import EncodeError, encode
+    """The frame the command line asks for, refused as a UsageError (one line, exit 2)
+    when it may not or cannot be sent (analyzer/talk/request.py)."""
+    from ..talk.request import Asked, TalkError, field_values, frame_for
+    from ..talk.safety import Allowed
 
-    from ..talk.safety import Allowed, refusal
-
-    allowed = Allowed(motion=args.allow_motion, config=args.allow_config)
-    if args.raw is not None:
-        if args.command is not None or args.values or args.to is not None:
-            raise UsageError("--raw sends the bytes as given: no COMMAND, fields or --to with it")
-        data = parse_raw(args.raw)
-        payload = data[6:-1] if len(data) >= 8 and data[0] == 0xF8 and data[5] == len(data) - 7 else None
-        why = refusal(payload, allowed)
-        if why:
-            raise UsageError(f"--raw: {why}")
-        return data
-    if args.command is None:
-        raise UsageError("give a COMMAND (a code of the command table) or --raw HEX")
-    if args.to is None:
-        raise UsageError("--to G.P.D: the address of the gimbal to send to")
     try:
-        request = encode(args.command, parse_values(args.values))
-    except EncodeError as e:
-        raise UsageError(f"{e}{did_you_mean(e)}") from None
-    why = refusal(request.payload, allowed)
-    if why:
-        raise UsageError(why)
-    return request.frame(args.to)
-
-
-def did_you_mean(e: EncodeError) -> str:
-    """The clause a filter's mistake gets (``; did you mean azimuth_deg?``): a field
-    without its unit or spelt nearly right, a code in the wrong case or nearly
-    right; else, for an unknown command, where every code is listed."""
-    import difflib
-
-    from dissectors.commands import field_types
-
-    from ..analysis.filter_hints import Vocabulary, choices
-
-    if not e.valid or not e.given:
-        return ""
-    if e.kind == "field":
-        units = {name: t.unit for name, t in field_types().items() if name in e.valid}
-        words = Vocabulary(e.valid, units, (), e.valid)
-        sure = words.exact(e.given)
-        near = [sure[0]] if sure else words.near(e.given)
-        return choices(near) if near else ""
-    same = [code for code in e.valid if code.upper() == e.given.upper()]
-    near = same or difflib.get_close_matches(e.given, e.valid, n=3, cutoff=0.6)
-    # codes quoted: most end in a question mark
-    return choices([f"'{code}'" for code in near]) if near else "; every code is in docs/fields.md"
+        return frame_for(Asked(args.command, field_values(args.values), args.to, args.raw,
+                               Allowed(motion=args.allow_motion, config=args.allow_config)))
+    except TalkError as e:
+        raise UsageError(str(e)) from None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -24,6 +24,9 @@ class Allowed:
         return {MOTION: self.motion, CONFIG: self.config}.get(effect, True)
 
 
+ASK_ONLY = Allowed()   # asking and stopping only: what nothing on the command line adds to
+
+
 def refusal(payload: bytes | None, allowed: Allowed) -> str | None:
     """The one line refusing to send a frame of ``payload``, or None when it may be
     sent. A payload that is no command of the table (``--raw``; None: no frame at

@@ -27,11 +27,13 @@ from .feed import FeedBatch, ScreenFeed
 from .model import CaptureModel
 from .screens.capture import CaptureScreen
 from .screens.redraw import Redrawn
-from .widgets import EventList, RecordControl
+from .widgets import EventList, RecordControl, TalkBar
 
 if TYPE_CHECKING:
     from textual.app import SystemCommand
     from textual.screen import Screen
+
+    from ..talk.session import TalkSession
 
 PACE = 0.1   # seconds between a playing replay's steps
 
@@ -58,7 +60,9 @@ class GimbalscopeApp(App):
         Binding("m", "mark", "Mark", show=False, id="app.mark"),
         Binding("apostrophe", "jump('mark', 1)", "Next mark", show=False, id="app.next_mark"),
         Binding("ctrl+f", "open('search')", "Search", show=False, id="app.search"),
-        Binding("ctrl+g,colon", "open('goto')", "Go to #", show=False, id="app.goto"),
+        Binding("ctrl+g", "open('goto')", "Go to #", show=False, id="app.goto"),
+        # live --talk: the talk prompt; elsewhere the go-to prompt, as ":" has always been
+        Binding("colon", "talk", "Send / go to #", show=False, id="app.talk"),
         Binding("n", "jump('hit', 1)", "Next hit", show=False, id="app.search_next"),
         Binding("N", "jump('hit', -1)", "Prev hit", show=False, id="app.search_prev"),
         Binding("end,G", "follow", "Follow", id="app.follow"),
@@ -88,7 +92,7 @@ class GimbalscopeApp(App):
 
     def __init__(self, model: CaptureModel, feed_factory: Callable[[Callable[[FeedBatch], None]], ScreenFeed], *,
                  mode: str, source: str, settings: str = "", record_path: str | None = None,
-                 keymap: dict[str, str] | None = None) -> None:
+                 keymap: dict[str, str] | None = None, talk: TalkSession | None = None) -> None:
         """``feed_factory(deliver)``: the capture's feed, made once the screen has
         mounted, which hands its batches to ``deliver``."""
         super().__init__()
@@ -96,6 +100,7 @@ class GimbalscopeApp(App):
         self._feed_factory = feed_factory
         self.feed: ScreenFeed | None = None
         self.mode = mode                 # live, replay, view
+        self.talk = talk                 # live --talk: the port the : prompt sends on
         self.keymap = keymap or {}       # binding id -> keys (--keymap), as the help screen shows them
         self.last: FeedBatch | None = None
         self._pace: Timer | None = None  # a replay's steps (``_tick``), running only while it plays
@@ -214,6 +219,27 @@ class GimbalscopeApp(App):
     def action_open(self, bar: str) -> None:
         """The filter bar, or the search or go-to prompt."""
         self.main.open_bar(bar)
+
+    def action_talk(self) -> None:
+        """The talk prompt when the tap may talk (``live --talk``), else the go-to prompt."""
+        self.main.open_bar("talk" if self.talk is not None else "goto")
+
+    @on(TalkBar.Send)
+    def _send(self, message: TalkBar.Send) -> None:
+        if self.talk is not None:
+            # in a thread of its own: a long frame at a low rate takes a while to write
+            self.run_worker(partial(self._send_line, self.talk, message.line), thread=True, group="talk")
+
+    def _send_line(self, talk: TalkSession, line: str) -> None:
+        from ..errors import CaptureError
+        from ..talk.request import TalkError
+
+        try:
+            sent = talk.send(line)
+        except (TalkError, CaptureError) as e:
+            self.call_from_thread(self.notify, str(e), severity="error", timeout=8)
+            return
+        self.call_from_thread(self.notify, str(sent), timeout=3)
 
     def action_jump(self, to: str, step: int) -> None:
         self.main.jump(to, step)

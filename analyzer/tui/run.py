@@ -28,6 +28,7 @@ from .feed_choice import Loading, choose_feed, early_decoding
 from .model import CaptureModel
 
 if TYPE_CHECKING:
+    from ..talk.session import TalkSession
     from ..writers.mcap import McapWriter
     from .app import GimbalscopeApp
 
@@ -105,7 +106,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
              recorder: McapWriter | None = None, record_path: str | None = None, record_lean: bool = False,
              info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
              filter_text: str | None = None, listeners: Sequence[Listener] = (),
-             decoding: Worker | None = None) -> GimbalscopeApp:
+             decoding: Worker | None = None, talk: TalkSession | None = None) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
     follow off). The capture starts when the app mounts, fed as feed_choice.py
     chooses, with ``recorder`` (``--record``), ``listeners`` (the ``--foxglove``
@@ -113,7 +114,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
     ``recorder`` and ``listeners`` were made with. ``record_lean``: the record
     key writes lean recordings (``live --lean``, docs/mcap.md). ``decoding``: the
     file's decoding process, started already (``early_decoding``): the feed
-    adopts it."""
+    adopts it. ``talk``: the port the ``:`` prompt sends on (``live --talk``)."""
     from .app import GimbalscopeApp  # the screen's imports: after run_app has started the decoding
 
     model = CaptureModel(follow=mode != "view")
@@ -130,7 +131,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
 
     source = " + ".join(ports) if ports else info.source
     return GimbalscopeApp(model, make_feed, mode=mode, source=source, settings=info.serial_settings,
-                          record_path=record_path, keymap=keymap)
+                          record_path=record_path, keymap=keymap, talk=talk)
 
 
 def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[str]:

@@ -156,7 +156,8 @@ def test_help_shows_keys_as_typed_and_as_the_keymap_binds_them(tmp_path):
             assert rows["app.seek_forward"] == ">" and rows["app.seek_back"] == "<"
             assert rows["app.seek_forward_1"] == "." and rows["app.seek_back_1"] == ","
             assert rows["app.next_mark"] == "'" and rows["app.filter"] == "/" and rows["app.help"] == "?"
-            assert rows["app.goto"] == "^g or :" and rows["app.quit"] == "q or ^c"   # as the footer shows ctrl
+            assert rows["app.goto"] == "^g" and rows["app.quit"] == "q or ^c"   # as the footer shows ctrl
+            assert rows["app.talk"] == ":"   # live --talk's prompt, the go-to prompt elsewhere
             assert rows["app.next_error"] == "x"                                  # the keymap's key
             assert "greater_than_sign" not in help_text(app) and "full_stop" not in help_text(app)
         stop_feed(app)

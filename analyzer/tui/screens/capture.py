@@ -27,6 +27,7 @@ from ..widgets import (
     RecordControl,
     SearchBar,
     StatusBar,
+    TalkBar,
     TimelineView,
 )
 from ..widgets.background_sweep import Work
@@ -60,6 +61,7 @@ class CaptureScreen(Screen):
         self.filter_bar = FilterBar(id="filterbar")
         self.search_bar = SearchBar(id="search")
         self.goto_bar = GotoBar(id="goto")
+        self.talk_bar = TalkBar(id="talk")
         self.record = RecordControl(record_path)
         self.sweep = BackgroundSweep()
         self._detail_due = False   # following: the lower panes catch up on a timer (_detail_later)
@@ -74,6 +76,7 @@ class CaptureScreen(Screen):
         yield self.filter_bar
         yield self.search_bar
         yield self.goto_bar
+        yield self.talk_bar
         yield self.record
         yield self.sweep
         yield Footer()
@@ -211,6 +214,8 @@ class CaptureScreen(Screen):
             self.search_bar.open()
         elif name == "goto":
             self.goto_bar.open()
+        elif name == "talk":
+            self.talk_bar.open()
 
     @on(FilterBar.Closed)
     @on(Prompt.Closed)

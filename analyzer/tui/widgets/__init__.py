@@ -1,6 +1,6 @@
 """The TUI's widgets, one a module, each with its own messages: the panes
 (event list, detail tree, hex, timeline), the status bar, the filter bar, the
-search and go-to prompts, and two that draw nothing (the record control, the
+search, go-to and talk prompts, and two that draw nothing (the record control, the
 background sweep). Each reads the ``CaptureModel`` or what it is handed; none
 holds events of its own or reaches into the app."""
 
@@ -13,7 +13,8 @@ from .hex_view import HexView
 from .record import RecordControl
 from .search import SearchBar
 from .status_bar import StatusBar
+from .talk_bar import TalkBar
 from .timeline_view import TimelineView
 
 __all__ = ["BackgroundSweep", "DetailTree", "EventList", "FilterBar", "GotoBar", "HexView", "RecordControl",
-           "SearchBar", "StatusBar", "TimelineView"]
+           "SearchBar", "StatusBar", "TalkBar", "TimelineView"]

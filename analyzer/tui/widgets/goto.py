@@ -1,4 +1,4 @@
-"""The go-to prompt (``ctrl+g``, ``:``): an event number; Enter asks to go
+"""The go-to prompt (``ctrl+g``; ``:`` where the tap does not talk): an event number; Enter asks to go
 there (``Go``); anything but a number rings the bell."""
 
 from __future__ import annotations
