@@ -268,7 +268,10 @@ _kind(DEAD_LINK, ERROR,
                "b_garbled": "line B carries {bytes} but no answer to a command",      # bytes: "1 byte"
                "line_garbled": "the line carries {bytes} but no answer to a command",
                "check_wire": _CHECK_WIRE_B,
-               "check_baud": "check the baud rate and the devices' addresses"},
+               "check_baud": "check the baud rate and the devices' addresses",
+               # what send and probe say when they talk and nothing answers (docs/talk.md)
+               "check_talking": "check the gimbal's power, the wiring (our TX to its RX, its TX to our RX, "
+                                "ground), the rate (gimbalscope probe tries each) and the address (probe finds it)"},
       hides=CONTROLLER)
 _kind(SILENT_AFTER_RATE, ERROR,
       "a device that answered stops answering once the link's rate was changed (it ACKed and did not "

@@ -100,11 +100,11 @@ def run(args: argparse.Namespace) -> int:
     if interrupted:
         print("gimbalscope probe: stopped (Ctrl-C): what was found so far is above", file=sys.stderr, flush=True)
     if not any(f.answer != "garbled" for f in found):
-        from .send import SILENCE_ADVICE
+        from .send import silence_advice
         garbled = any(f.answer == "garbled" for f in found)
         print(f"gimbalscope probe: nothing answered on {args.port}"
               + ("; something garbled came back: another rate, or two devices answering at once" if garbled else "")
-              + f": {SILENCE_ADVICE}", file=sys.stderr, flush=True)
+              + f": {silence_advice()}", file=sys.stderr, flush=True)
         return 1
     return 0
 

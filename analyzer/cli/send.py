@@ -34,8 +34,12 @@ if TYPE_CHECKING:
     from ..runner import TapRunner
     from ..talk.conversation import Outcome
 
-SILENCE_ADVICE = ("check the gimbal's power, the wiring (our TX to its RX, its TX to our RX, ground), the rate "
-                  "(gimbalscope probe tries each) and the address (probe finds it)")
+
+def silence_advice() -> str:
+    """The doctor's advice for a link where nothing answers, worded for talking to it."""
+    from ..analysis.findings import DEAD_LINK, FINDINGS
+
+    return FINDINGS[DEAD_LINK].phrase("check_talking")
 
 
 def register(sub: Subcommands) -> None:
@@ -166,5 +170,5 @@ def describe(outcome: Outcome) -> str:
         return f"ACK{latency} but no result in time{tries}"
     garbled = f"; {outcome.garbled} garbled frames came back (another rate?)" if outcome.garbled else ""
     if status == NO_ACK:
-        return f"no answer{tries}{garbled}: {SILENCE_ADVICE}"
+        return f"no answer{tries}{garbled}: {silence_advice()}"
     return f"{status}{tries}"

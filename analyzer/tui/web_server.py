@@ -32,6 +32,7 @@ from ..netaddress import show_address
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8000
+SHUTDOWN_SECONDS = 1.0   # Ctrl-C: what an open tab's session is given to end before it is cancelled
 
 
 def bind(host: str, port: int) -> socket.socket:
@@ -112,6 +113,9 @@ class TuiWebServer(Server):
         asyncio.set_event_loop(loop)
         for stop in (2, 15):   # SIGINT, SIGTERM
             loop.add_signal_handler(stop, self.request_exit)
+        # open tabs hold their handlers until they close: on a stop, each is given
+        # SHUTDOWN_SECONDS, then cancelled, which quits its session (aiohttp waits a minute)
         web.run_app(self._make_app(), sock=self.sock, handle_signals=False, loop=loop,
+                    shutdown_timeout=SHUTDOWN_SECONDS,
                     print=lambda *_args: None)
         sys.stdout.flush()
