@@ -244,8 +244,9 @@ def found_and_phrase_calls() -> list[tuple[str, FindingKind, str | None, set[str
     the table entry, the phrase or None for ``found``, the fields passed). The entry
     is ``FINDINGS[ID]`` in the call, or a local variable set to it in the function."""
     trees = []
-    for name in ("doctor.py", "signs.py"):   # the doctor's rules, and the wiring signs it rests on
-        with open(os.path.join(ROOT, "analyzer", "analysis", name), encoding="utf-8") as f:
+    # the doctor's rules, the wiring signs it rests on, and send's word for a silent link
+    for name in ("analysis/doctor.py", "analysis/signs.py", "cli/send.py"):
+        with open(os.path.join(ROOT, "analyzer", *name.split("/")), encoding="utf-8") as f:
             trees.append((name, ast.parse(f.read())))
 
     def entry(node, local):
