@@ -144,4 +144,6 @@ def did_you_mean(e: EncodeError) -> str:
     same = [code for code in e.valid if code.upper() == e.given.upper()]
     near = same or difflib.get_close_matches(e.given, e.valid, n=3, cutoff=0.6)
     # codes quoted: most end in a question mark
-    return choices([f"'{code}'" for code in near]) if near else "; every code is in docs/fields.md"
+    if near:
+        return choices([f"'{code}'" for code in near])
+    return f"; the table's codes: {', '.join(e.valid)} (docs/fields.md)"

@@ -18,7 +18,7 @@ from contextlib import contextmanager
 import pytest
 
 from analyzer.simulation.bus import GimbalBus
-from analyzer.simulation.gimbal import GimbalModel
+from analyzer.simulation.gimbal import Faults, GimbalModel
 from analyzer.simulation.link import VirtualLink
 from tests.child import PATIENCE, Child
 from tests.conftest import frame, run_cli
@@ -92,11 +92,12 @@ def responder(*answers):
 
 
 @contextmanager
-def simulated(baud: int, *addresses):
-    """The simulator's gimbals behind a virtual link at ``baud``: the controller's port."""
+def simulated(baud: int, *addresses, faults: Faults | None = None, wrong_baud: int | None = None):
+    """The simulator's gimbals behind a virtual link at ``baud`` (with the gimbals'
+    ``faults``; answering at ``wrong_baud``): the controller's port."""
     link = VirtualLink(baud=baud)
-    bus = GimbalBus(link.device_port, [GimbalModel(a, serial=f"SN{k:04d}") for k, a in enumerate(addresses, 1)],
-                    baud)
+    gimbals = [GimbalModel(a, serial=f"SN{k:04d}", faults=faults or Faults()) for k, a in enumerate(addresses, 1)]
+    bus = GimbalBus(link.device_port, gimbals, baud, wrong_baud=wrong_baud)
     bus.start()
     try:
         yield link.controller_port
@@ -162,7 +163,7 @@ def test_send_exit_status_and_retries(answers, retries, code, sent, said):
     (["#NN", "--to", "255.255.255", "new_address=4"], "add --allow-config"),
     (["C", "--to", "1.1.3", "rate_code=4", "--allow-motion"],
      "changes the gimbal's address, rate, settings or outputs: it would set data rate 19200 bps"),
-    (["Q?", "--to", "1.1.3"], "unknown command 'Q?'"),
+    (["QQ", "--to", "1.1.3"], "unknown command 'QQ'; the table's codes: #NN, AW, B?, C, D?,"),
     (["p?", "--to", "1.1.3"], "did you mean 'P?'?"),
     (["P", "--to", "1.1.3", "azimuth=1", "elevation_deg=0", "--allow-motion"], "did you mean azimuth_deg?"),
     (["P", "--to", "1.1.3", "--allow-motion"], "needs azimuth_deg [deg], elevation_deg [deg]"),
@@ -210,6 +211,28 @@ def test_a_rate_change_switches_our_side_after_the_ack():
         # the gimbal switched too: asked at the new rate it answers, at the old one it cannot
         assert run_cli("send", port, "D?", "--to", "1.1.3", "--baud", "19200").returncode == 0
         assert run_cli("send", port, "D?", "--to", "1.1.3", "--baud", "9600", "--ack-timeout", "0.3").returncode == 1
+
+
+def test_the_simulators_faults_read_as_a_controller_would_see_them():
+    # dropped ACKs: every try goes unanswered, and send says what to check
+    with simulated(9600, (1, 1, 3), faults=Faults(drop_ack=1.0)) as port:
+        out = run_cli("send", port, "D?", "--to", "1.1.3", "--retries", "2", "--format", "jsonl")
+    assert out.returncode == 1 and "no answer (try 3 of 3)" in out.stderr
+    assert [e["status"] for e in jsonl(out.stdout) if e["kind"] == "command"] == ["no_ack"] * 3
+    # an answer 0.8 s late: past the protocol's 0.5 s, in time for a patient controller
+    with simulated(9600, (1, 1, 3), faults=Faults(late=1.0)) as port:
+        assert run_cli("send", port, "HS", "--to", "1.1.3").returncode == 1
+        assert run_cli("send", port, "HS", "--to", "1.1.3", "--ack-timeout", "3").returncode == 0
+
+
+def test_probe_of_a_gimbal_at_a_wrong_rate_says_garbled():
+    # the line runs at 9600 and the gimbal answers at 19200: what comes back is no answer
+    with simulated(9600, (1, 1, 3), wrong_baud=19200) as port:
+        out = run_cli("probe", port, "--addresses", "1.1.3", "--baud", "9600", "--format", "json")
+    assert out.returncode == 1
+    report = json.loads(out.stdout)
+    assert report["devices"] == [] and {"address": "1.1.3", "baud": 9600} in report["garbled"]
+    assert "something garbled came back: another rate" in out.stderr
 
 
 # ------------------------------------------------------------------ probe
