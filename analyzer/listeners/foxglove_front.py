@@ -27,8 +27,9 @@ Memory stays bounded with a slow client: each direction reads at most
 SDK's server sees a slow client as it would without the front, and drops its
 oldest messages beyond its backlog (analyzer/listeners/foxglove.py, ``BACKLOG``).
 
-One thread runs the front's event loop; ``stop`` closes every relay and waits
-for it. A client that leaves, even in the middle of a message, only ends its relay.
+One thread runs the front's event loop; ``stop`` waits for every relay to end
+(each passes the server's goodbye on, then is cut after ``GOODBYE_SECONDS``) and
+for the thread. A client that leaves, even in the middle of a message, only ends its relay.
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ LOGGER = logging.getLogger(__name__)
 CHUNK = 1 << 16          # bytes read from one side before they are sent on to the other
 HEAD_LIMIT = 1 << 14     # an HTTP head longer than this is not a WebSocket handshake
 HEAD_END = b"\r\n\r\n"
+GOODBYE_SECONDS = 1.0    # on stop: what the relays are given to pass the server's goodbye on and end
 _PROTOCOL_HEADER = re.compile(rb"^(sec-websocket-protocol[ \t]*:[ \t]*)([^\r\n]*)", re.IGNORECASE | re.MULTILINE)
 
 
@@ -117,10 +119,16 @@ class Front:
         async with server:
             await stopping.wait()
             server.close()
-            # closing the sockets ends each relay's reads, so every relay ends by
-            # itself (a cancelled connection callback would be logged as an error)
+            # The SDK's server stops first and says goodbye to each relay, which
+            # passes it on and ends by itself: give them that long. Then what is left
+            # is cut (aborted: a client that stopped reading would hold a graceful
+            # close forever, and the tap's exit with it). Cut sockets end each relay's
+            # reads, so every relay still ends by itself (a cancelled connection
+            # callback would be logged as an error).
+            if self._relays:
+                await asyncio.wait(set(self._relays), timeout=GOODBYE_SECONDS)
             for end in list(self._open):
-                end.close()
+                end.transport.abort()
             await asyncio.gather(*self._relays, return_exceptions=True)
 
     async def _accept(self, client_in: asyncio.StreamReader, client_out: asyncio.StreamWriter) -> None:

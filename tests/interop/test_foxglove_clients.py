@@ -196,9 +196,9 @@ def test_replay_serves_old_and_new_names(tmp_path):
     assert run_cli("convert", SOCAT_LOG, "-o", rec).returncode == 0
     want = [m for _t, m in recorded(rec)["/events"]]
     port = free_port()
-    # at a tenth of its pace: over a minute for the clients to start (node starts
-    # slowly on a loaded machine), and the tap stopped once they have enough
-    tap = Tap("replay", rec, "--speed", "0.1", "--no-tui", "--foxglove", f"127.0.0.1:{port}")
+    # at a quarter of its pace: half a minute for the clients to start, and the
+    # tap stopped once they have enough
+    tap = Tap("replay", rec, "--speed", "0.25", "--no-tui", "--foxglove", f"127.0.0.1:{port}")
     try:
         tap.wait_serving(port)
         with js_client(port, OLD) as old, js_client(port, NEW) as new:
