@@ -6,6 +6,7 @@ from __future__ import annotations
 import ipaddress
 
 WILDCARDS = ("0.0.0.0", "::", "")   # bound to every interface
+LOCAL_HOST = "127.0.0.1"   # where a server of ours listens unless told: this machine only
 
 
 def show_address(host: str, port: int) -> str:

@@ -88,6 +88,19 @@ def format_address(address: Sequence[int | None]) -> str:
     return text
 
 
+def parse_address(text: str, top: int = 255) -> tuple[int, int, int]:
+    """``"1.1.2"`` -> ``(1, 1, 2)``: ``format_address`` the other way. ValueError
+    for anything but three whole numbers 0..``top`` (255 is the wildcard; gimbals
+    have addresses up to 254)."""
+    parts = text.split(".")
+    if len(parts) != 3:
+        raise ValueError(text)
+    g, p, d = (int(x) for x in parts)
+    if not all(0 <= v <= top for v in (g, p, d)):
+        raise ValueError(text)
+    return g, p, d
+
+
 class PairingRecord(Protocol):
     """What a reader of any event may ask of its pairing record
     (``Event.transaction``): pairing's ``analyzer.analysis.pairing.Transaction``,

@@ -9,6 +9,8 @@ import sys
 from collections.abc import Callable
 from typing import Any, Protocol, TypeVar
 
+from dissectors.event import parse_address as address_of
+
 from ..analysis.filter import FilterError, Predicate, compile_filter
 from ..analysis.pairing import Timeouts
 from ..capture import Capture, Options
@@ -20,6 +22,7 @@ from ..listeners.wiring_check import WiringCheck
 from ..outfile import OutputRefused, one_line
 from ..runner import Listener, TapRunner
 from ..sources import registry
+from ..talk.safety import Allowed
 
 STANDARD_BAUDS = (1200, 2400, 4800, 9600, 19200, 38400, 57600, 115200)  # §1.5.1
 
@@ -94,10 +97,7 @@ def parse_address(text: str, top: int = 254) -> tuple[int, int, int]:
     """``G.P.D``, each 0..``top`` (an argparse type: a bad one is refused while parsing).
     Gimbals have addresses up to 254; 255 is the wildcard a controller may send to."""
     try:
-        g, p, d = (int(x) for x in text.split("."))
-        if not all(0 <= v <= top for v in (g, p, d)):
-            raise ValueError
-        return g, p, d
+        return address_of(text, top)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r}: expected GROUP.PORT.DEVICE, each 0..{top}") from None
 
@@ -105,6 +105,19 @@ def parse_address(text: str, top: int = 254) -> tuple[int, int, int]:
 def destination(text: str) -> tuple[int, int, int]:
     """``--to G.P.D``: a gimbal's address, or 255 (the wildcard) at any level."""
     return parse_address(text, top=255)
+
+
+def add_permission_args(g: ArgumentHolder, when: str = "") -> None:
+    """``--allow-motion`` and ``--allow-config``: what may be sent beyond asking and
+    stopping (docs/talk.md, "What may be sent"); ``when``: the help's condition."""
+    g.add_argument("--allow-motion", action="store_true", help=f"{when}allow commands that move the gimbal or its lens")
+    g.add_argument("--allow-config", action="store_true",
+                   help=f"{when}allow commands that change the gimbal's address, rate, settings or outputs")
+
+
+def permissions(args: argparse.Namespace) -> Allowed:
+    """What ``add_permission_args``' options allow."""
+    return Allowed(motion=args.allow_motion, config=args.allow_config)
 
 
 def add_input_args(p: argparse.ArgumentParser) -> None:

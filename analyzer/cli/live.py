@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 from ..capture import Capture, open_live
 from ..info import CaptureInfo
 from ..listeners import DoctorListener, EventPrinter, NotePrinter
+from ..netaddress import LOCAL_HOST
 from ..outfile import check_output
 from ..runner import Listener, TapRunner
 from ..screen import has_screen
@@ -40,11 +41,13 @@ from .common import (
     add_channels_arg,
     add_fields_arg,
     add_filter_arg,
+    add_permission_args,
     add_sample_stream_args,
     add_serial_args,
     build_filter,
     fields_option,
     options_from,
+    permissions,
     positive_float,
 )
 
@@ -75,9 +78,7 @@ def add_talk_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--talk", action="store_true",
                    help="one port, both directions: the TUI's : prompt sends commands on it (in send's words); "
                         "what is sent is line A, what comes back line B")
-    g.add_argument("--allow-motion", action="store_true", help="with --talk: allow commands that move the gimbal")
-    g.add_argument("--allow-config", action="store_true",
-                   help="with --talk: allow commands that change the gimbal's address, rate, settings or outputs")
+    add_permission_args(g, when="with --talk: ")
 
 
 def add_samples_args(p: argparse.ArgumentParser) -> None:
@@ -112,7 +113,7 @@ def add_record_args(p: argparse.ArgumentParser, force: bool = True) -> None:
 
 # the SDK's defaults (analyzer/listeners/foxglove.py), here so that parsing the
 # command line does not import the SDK
-FOXGLOVE_HOST, FOXGLOVE_PORT = "127.0.0.1", 8765
+FOXGLOVE_HOST, FOXGLOVE_PORT = LOCAL_HOST, 8765
 _ADDRESS = re.compile(r"(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]*)(?::([0-9]{1,5}))?")
 
 
@@ -286,7 +287,6 @@ def run(args: argparse.Namespace) -> int:
 def run_talking(args: argparse.Namespace) -> int:
     """``--talk``: the one port as both lines, the TUI's prompt sending on it."""
     from ..talk.link import TalkLink
-    from ..talk.safety import Allowed
     from ..talk.session import TalkSession
 
     if len(args.ports) != 1:
@@ -298,7 +298,7 @@ def run_talking(args: argparse.Namespace) -> int:
                     stop_bits=options.stop_bits)
     capture = Capture(link, options)
     capture.inputs = (args.ports[0],)
-    session = TalkSession(link, Allowed(motion=args.allow_motion, config=args.allow_config))
+    session = TalkSession(link, permissions(args))
     return tap(capture, args, args.record, talk=session)
 
 

@@ -111,6 +111,8 @@ def run(args: argparse.Namespace) -> int:
 
 def probe(args: argparse.Namespace, rates: tuple[int, ...]) -> tuple[list, bool, list[int]]:
     """Ask every address at every rate: (what was found, interrupted?, rates tried)."""
+    from dissectors.event import format_address
+
     from ..capture import Capture
     from ..info import CaptureInfo
     from ..listeners import NotePrinter
@@ -140,7 +142,7 @@ def probe(args: argparse.Namespace, rates: tuple[int, ...]) -> tuple[list, bool,
         hit = found_in(outcome)
         if hit is not None:
             found.append(hit)
-        bar.advance(f"{target.baud} bps, {'.'.join(map(str, target.address))}", len(found))
+        bar.advance(f"{target.baud} bps, {format_address(target.address)}", len(found))
 
     talk = Conversation(link, steps, on_outcome=heard)
     listeners = [x for x in (recorder, talk, NotePrinter()) if x is not None]

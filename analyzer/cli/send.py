@@ -21,12 +21,14 @@ from ..errors import UsageError
 from .common import (
     Subcommands,
     add_fields_arg,
+    add_permission_args,
     add_quiet_arg,
     add_serial_args,
     destination,
     fields_option,
     non_negative_int,
     options_from,
+    permissions,
 )
 from .live import add_record_args
 
@@ -81,21 +83,13 @@ class FieldsAnywhere(argparse.ArgumentParser):
         return parsed, [a for a in extras if a not in words]
 
 
-def add_permission_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--allow-motion", action="store_true", help="allow commands that move the gimbal or its lens")
-    p.add_argument("--allow-config", action="store_true",
-                   help="allow commands that change the gimbal's address, rate, settings or outputs")
-
-
 def frame_to_send(args: argparse.Namespace) -> bytes:
     """The frame the command line asks for, refused as a UsageError (one line, exit 2)
     when it may not or cannot be sent (analyzer/talk/request.py)."""
     from ..talk.request import Asked, TalkError, field_values, frame_for
-    from ..talk.safety import Allowed
 
     try:
-        return frame_for(Asked(args.command, field_values(args.values), args.to, args.raw,
-                               Allowed(motion=args.allow_motion, config=args.allow_config)))
+        return frame_for(Asked(args.command, field_values(args.values), args.to, args.raw, permissions(args)))
     except TalkError as e:
         raise UsageError(str(e)) from None
 

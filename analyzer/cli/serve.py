@@ -19,16 +19,17 @@ import socket
 import sys
 
 from ..errors import ServeError, UsageError
-from ..netaddress import WILDCARDS, show_address, who_reaches
+from ..netaddress import LOCAL_HOST, WILDCARDS, show_address, who_reaches
 from .common import Subcommands, open_inputs
 
 # the commands whose TUI can be served, as --help lists them
 SERVED = ("view", "live", "replay", "demo")
 
 
-def register(sub: Subcommands) -> None:
-    from ..tui.web_server import DEFAULT_HOST, DEFAULT_PORT
+DEFAULT_PORT = 8000
 
+
+def register(sub: Subcommands) -> None:
     p = sub.add_parser("serve", help="serve the TUI of view, live, replay or demo to a web browser",
                        description="Serve the TUI of COMMAND (view, live, replay or demo, with its own "
                                    "arguments) over HTTP: open the address it prints in a browser; each tab runs "
@@ -36,8 +37,8 @@ def register(sub: Subcommands) -> None:
                                    "machine, tunnel over SSH (docs/tui.md, 'In a browser').",
                        usage="gimbalscope serve [-h] [--host HOST] [--port PORT] [--public-url URL] "
                              "{view,live,replay,demo} [ARGS ...]")
-    p.add_argument("--host", default=DEFAULT_HOST,
-                   help=f"the address to listen on (default {DEFAULT_HOST}: this machine only; 0.0.0.0: every "
+    p.add_argument("--host", default=LOCAL_HOST,
+                   help=f"the address to listen on (default {LOCAL_HOST}: this machine only; 0.0.0.0: every "
                         "network, with no password)")
     p.add_argument("--port", type=tcp_port, default=DEFAULT_PORT,
                    help=f"the TCP port (default {DEFAULT_PORT}; 0: any free one)")
@@ -60,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     line = shlex.join(["gimbalscope", args.command, *args.args])
     session = shlex.join([sys.executable, "-m", "analyzer", args.command, *args.args])
     server = TuiWebServer(session, sock, title=line, public_url=args.public_url, one_at_a_time=holds(served))
-    port = server.port_bound
+    port = server.port   # the one bound (0 asks for any free one)
     if args.host in WILDCARDS:   # no browser goes to 0.0.0.0: name this machine instead
         where = f"http://{show_address('127.0.0.1', port)}, or from elsewhere http://{show_address(socket.gethostname(), port)}"
     else:

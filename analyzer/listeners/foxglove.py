@@ -55,14 +55,13 @@ from ..errors import ServeError
 from ..formats import mcap_schemas as S
 from ..formats.mcap_messages import Messages, fixed_topics
 from ..info import CaptureInfo
-from ..netaddress import show_address
+from ..netaddress import LOCAL_HOST, show_address
 from ..output import dumps
 from ..runner import INFO, RECORDING, WARNING, Listener, Note, TapRunner
 from ..sources import Chunk
 from ..writers.mcap import FLUSH_INTERVAL, log_level, message_clock
 from . import foxglove_front
 
-DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 NAME = "gimbalscope"
 
@@ -84,7 +83,7 @@ class FoxgloveServer(Listener):
     with ``speed``, events go out at their recorded pace, ``speed`` times faster;
     with ``lean``, the lean profile's topics (module doc)."""
 
-    def __init__(self, info: CaptureInfo, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, *,
+    def __init__(self, info: CaptureInfo, host: str = LOCAL_HOST, port: int = DEFAULT_PORT, *,
                  speed: float | None = None, lean: bool = False) -> None:
         self.info = info
         self._closing = threading.Lock()

@@ -81,7 +81,6 @@ class Conversation(Listener):
         self.outcomes: list[Outcome] = []
         self._runner: TapRunner | None = None
         self._current: Outcome | None = None
-        self._settled = False       # the current try's command is back with its final status
         self.finished = False       # every step had its outcome
 
     def on_start(self, runner: TapRunner) -> None:
@@ -92,16 +91,17 @@ class Conversation(Listener):
         now = self._current
         if now is None:
             return
+        # pairing releases a command once its status is final, its answers with it
+        settled = False
         for ev in events:
             if ev.kind == COMMAND:
                 now.command = ev
-                self._settled = ev.status is not None
+                settled = ev.status is not None
             elif now.command is not None and ev.request == now.command.number:
                 now.answers.append(ev)
             elif ev.kind == NOISE or ev.checksum_ok is False:
                 now.garbled += 1
-        if self._settled:
-            self._settled = False
+        if settled:
             self._after_try(now)
 
     def _after_try(self, now: Outcome) -> None:

@@ -76,10 +76,10 @@ class TalkLink(Source):
             self._set_port_rate(settings.baud)
 
     def set_rate(self, baud: int) -> None:
-        """Both lines at ``baud`` from now on, the port too (no command sent)."""
+        """Both lines at ``baud`` from now on, the port too (it follows line B's
+        settings: ``read_with``); no command sent."""
         for line in self.lines:
             self.settings_of(line).set_rate(baud)
-        self._set_port_rate(baud)
 
     def _set_port_rate(self, baud: int) -> None:
         try:

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from dissectors.encode import encode
-from dissectors.event import NO_ACK, OK, ST_NAK, ST_NIC
+from dissectors.event import NO_ACK, OK, ST_NAK, ST_NIC, format_address
 from dissectors.wire import WILDCARD
 
 from .conversation import Outcome, Step
@@ -43,10 +43,6 @@ def plan(addresses: list[tuple[int, int, int]], rates: tuple[int, ...], retries:
                        label=Target(address, baud))
 
 
-def show(address: tuple[int, int, int]) -> str:
-    return ".".join(map(str, address))
-
-
 @dataclass
 class Found:
     """A device that answered (or something garbled that came back)."""
@@ -69,14 +65,14 @@ def found_in(outcome: Outcome) -> Found | None:
     """What one step found: an answer, something garbled, or None (silence)."""
     target = outcome.step.label
     assert isinstance(target, Target)
-    asked = show(target.address)
+    asked = format_address(target.address)
     shake = outcome.handshake
     latency = round(shake.latency * 1000, 1) if shake is not None and shake.latency is not None else None
     result = outcome.result
     if result is not None and outcome.status == OK:
         address = asked
         if result.dst is not None and result.src is not None:   # groups swapped, port and device kept
-            address = show((result.src, result.dst[1], result.dst[2]))
+            address = format_address((result.src, result.dst[1], result.dst[2]))
         return Found(address, target.baud, "result", latency, dict(result.fields), asked)
     answer = {ST_NAK: "nak", ST_NIC: "nic"}.get(outcome.status)
     if answer is None and outcome.status != NO_ACK and shake is not None:

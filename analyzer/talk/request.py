@@ -16,10 +16,13 @@ import difflib
 import shlex
 from dataclasses import dataclass, field
 
+from dissectors import Deframer
 from dissectors.commands import field_types
 from dissectors.encode import EncodeError, encode
+from dissectors.event import parse_address
 
 from ..analysis.filter_hints import Vocabulary, choices
+from ..lines import LINE_A
 from .safety import ASK_ONLY, Allowed, refusal
 
 USAGE = "COMMAND [FIELD=VALUE …] --to G.P.D [--allow-motion] [--allow-config], or --raw HEX"
@@ -45,8 +48,7 @@ def frame_for(asked: Asked) -> bytes:
         if asked.command is not None or asked.values or asked.to is not None:
             raise TalkError("--raw sends the bytes as given: no COMMAND, fields or --to with it")
         data = raw_bytes(asked.raw)
-        payload = data[6:-1] if len(data) >= 8 and data[0] == 0xF8 and data[5] == len(data) - 7 else None
-        why = refusal(payload, asked.allowed)
+        why = refusal(frame_payload(data), asked.allowed)
         if why:
             raise TalkError(f"--raw: {why}")
         return data
@@ -62,6 +64,17 @@ def frame_for(asked: Asked) -> bytes:
     if why:
         raise TalkError(why)
     return request.frame(asked.to)
+
+
+def frame_payload(data: bytes) -> bytes | None:
+    """The payload of the one frame ``data`` is, as the deframer reads it (a bad
+    checksum included, a length byte of 0 meaning 256), or None when ``data`` is
+    anything else (several frames, noise, a simple response)."""
+    deframer = Deframer(LINE_A)
+    events = deframer.feed(data) + deframer.finish()
+    if len(events) != 1:
+        return None
+    return events[0].payload
 
 
 def field_values(pairs: list[str]) -> dict[str, str]:
@@ -88,12 +101,9 @@ def raw_bytes(text: str) -> bytes:
 def address(text: str) -> tuple[int, int, int]:
     """``G.P.D``, each 0..255 (255: the wildcard)."""
     try:
-        parts = tuple(int(x) for x in text.split("."))
+        return parse_address(text)
     except ValueError:
-        parts = ()
-    if len(parts) != 3 or not all(0 <= v <= 255 for v in parts):
-        raise TalkError(f"--to {text!r}: expected GROUP.PORT.DEVICE, each 0..255")
-    return parts[0], parts[1], parts[2]
+        raise TalkError(f"--to {text!r}: expected GROUP.PORT.DEVICE, each 0..255") from None
 
 
 def parse_line(line: str, allowed: Allowed = ASK_ONLY) -> Asked:

@@ -9,9 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from dissectors.dissect import dissect_command
+from dissectors.event import format_address
 
 from .link import TalkLink
-from .request import frame_for, parse_line
+from .request import frame_for, frame_payload, parse_line
 from .safety import ASK_ONLY, Allowed
 
 
@@ -21,11 +22,11 @@ class Sent:
     frame: bytes
 
     def __str__(self) -> str:
-        payload = self.frame[6:-1] if len(self.frame) >= 8 and self.frame[0] == 0xF8 else b""
-        decoded = dissect_command(payload) if payload else None
-        what = decoded.command if decoded is not None and decoded.command else "raw bytes"
-        to = ".".join(map(str, self.frame[1:4])) if len(self.frame) >= 4 else "?"
-        return f"sent {what} to {to} ({len(self.frame)} bytes)"
+        payload = frame_payload(self.frame)
+        if payload is None:
+            return f"sent {len(self.frame)} raw bytes"
+        code = dissect_command(payload).command or "raw bytes"
+        return f"sent {code} to {format_address(self.frame[1:4])} ({len(self.frame)} bytes)"
 
 
 class TalkSession:

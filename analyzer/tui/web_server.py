@@ -30,8 +30,6 @@ from textual_serve.server import Server
 from ..errors import ServeError
 from ..netaddress import show_address
 
-DEFAULT_HOST = "127.0.0.1"
-DEFAULT_PORT = 8000
 SHUTDOWN_SECONDS = 1.0   # Ctrl-C: what an open tab's session is given to end before it is cancelled
 
 
@@ -72,10 +70,6 @@ class TuiWebServer(Server):
 
     async def on_startup(self, app: web.Application) -> None:
         """Nothing: the command said where it serves before serving."""
-
-    @property
-    def port_bound(self) -> int:
-        return int(self.sock.getsockname()[1])
 
     async def handle_index(self, request: web.Request) -> Any:
         # The page's WebSocket and static addresses as the browser reached us: an
