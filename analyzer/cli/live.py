@@ -267,19 +267,33 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     return 0
 
 
+def check_inputs(args: argparse.Namespace) -> None:
+    """What the command line must say of its inputs, refused (UsageError) before
+    anything is opened; ``serve live`` checks it before serving too."""
+    if args.samples is not None:
+        if args.ports:
+            raise UsageError("give ports or --samples, not both")
+        if args.samplerate is None:
+            raise UsageError("--samples needs --samplerate: the stream has no header (e.g. --samplerate 1MHz)")
+    else:
+        if args.samplerate is not None or args.channels is not None:
+            raise UsageError("--samplerate and --channels are for --samples (a logic analyser's stream)")
+        if not args.ports:
+            raise UsageError("give one or two ports, or --samples - for a logic analyser's stream")
+        if len(args.ports) > 2:
+            raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
+    if args.talk and (args.samples is not None or len(args.ports) != 1):
+        raise UsageError("--talk takes one port: what is sent on it is line A, what comes back line B")
+    if not args.talk and (args.allow_motion or args.allow_config):
+        raise UsageError("--allow-motion and --allow-config go with --talk (a tap never sends)")
+
+
 def run(args: argparse.Namespace) -> int:
+    check_inputs(args)
     if args.samples is not None:
         return run_samples(args)
-    if args.samplerate is not None or args.channels is not None:
-        raise UsageError("--samplerate and --channels are for --samples (a logic analyser's stream)")
-    if not args.ports:
-        raise UsageError("give one or two ports, or --samples - for a logic analyser's stream")
-    if len(args.ports) > 2:
-        raise UsageError(f"{len(args.ports)} ports given: a tap reads one port or two (line A, line B)")
     if args.talk:
         return run_talking(args)
-    if args.allow_motion or args.allow_config:
-        raise UsageError("--allow-motion and --allow-config go with --talk (a tap never sends)")
     capture = open_live(args.ports, options_from(args))
     return tap(capture, args, args.record)
 
@@ -289,8 +303,6 @@ def run_talking(args: argparse.Namespace) -> int:
     from ..talk.link import TalkLink
     from ..talk.session import TalkSession
 
-    if len(args.ports) != 1:
-        raise UsageError("--talk takes one port: what is sent on it is line A, what comes back line B")
     if not wants_tui(args):
         raise UsageError("--talk sends from the TUI's : prompt: it needs the TUI (a terminal, or gimbalscope serve)")
     options = options_from(args)
@@ -306,10 +318,6 @@ def run_samples(args: argparse.Namespace) -> int:
     """A logic analyser's sample stream, live."""
     from ..capture import open_samples
 
-    if args.ports:
-        raise UsageError("give ports or --samples, not both")
-    if args.samplerate is None:
-        raise UsageError("--samples needs --samplerate: the stream has no header (e.g. --samplerate 1MHz)")
     samples = args.samples
     if samples == "-" and not sys.stdin.isatty() and sys.stdout.isatty() and not args.no_tui \
             and args.format == "text":

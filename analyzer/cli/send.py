@@ -73,12 +73,13 @@ def register(sub: Subcommands) -> None:
 
 class FieldsAnywhere(argparse.ArgumentParser):
     """FIELD=VALUE words may follow options (``P --to 1.1.3 azimuth_deg=10``), which
-    argparse would refuse once the positionals are taken: they are gathered here."""
+    argparse would refuse once the positionals are taken: they are gathered here,
+    where they would have gone before the options."""
 
     def parse_known_args(self, args: Sequence[str] | None = None,  # type: ignore[override]
                          namespace: argparse.Namespace | None = None) -> tuple[argparse.Namespace, list[str]]:
         parsed, extras = super().parse_known_args(args, namespace)
-        words = [a for a in extras if "=" in a and not a.startswith("-")]
+        words = [a for a in extras if not a.startswith("-")]   # FIELD=VALUE, or a mistake field_values names
         parsed.values = [*(parsed.values or []), *words]
         return parsed, [a for a in extras if a not in words]
 

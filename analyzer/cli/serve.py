@@ -100,6 +100,10 @@ def checked(command: str, argv: list[str]) -> argparse.Namespace:
     build_filter(given.get("filter"))
     if command in ("view", "replay"):
         open_inputs(parsed).source.close()
+    elif command == "live":
+        from .live import check_inputs
+
+        check_inputs(parsed)
     return parsed
 
 

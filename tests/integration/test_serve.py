@@ -154,6 +154,8 @@ def test_every_network_is_said(tmp_path):
     (["view", "captures/demo-bus.bin", "--filter", "kind =="], "filter"),
     (["live", "/dev/null", "--no-tui"], "serve shows live's TUI: --no-tui and --format print events instead"),
     (["decode", "captures/demo-bus.bin"], "argument COMMAND: invalid choice: 'decode'"),
+    (["live"], "give one or two ports"),              # live's own checks, before every tab would fail them
+    (["live", "/dev/null", "--allow-motion"], "--allow-motion and --allow-config go with --talk"),
     (["--port", "70000", "view", "captures/demo-bus.bin"], "argument --port: '70000': a TCP port is 0 to 65535"),
     (["--host", "no-such-host.invalid", "view", "captures/demo-bus.bin"],
      "no-such-host.invalid:8000: cannot serve: unknown host"),

@@ -169,6 +169,7 @@ def test_send_exit_status_and_retries(answers, retries, code, sent, said):
     (["P", "--to", "1.1.3", "--allow-motion"], "needs azimuth_deg [deg], elevation_deg [deg]"),
     (["P", "--to", "1.1.3", "azimuth_deg=400", "elevation_deg=0", "--allow-motion"], "-327.68 to 327.67"),
     (["D?"], "--to G.P.D"),
+    (["P", "--to", "1.1.3", "azimuth_deg", "--allow-motion"], "'azimuth_deg': fields are given as FIELD=VALUE"),
     (["--raw", "F8 01 01 03 00 02 5A 5A 69"], "no command of the table"),
     (["--raw", "zz"], "hex bytes"),
 ])
@@ -285,6 +286,19 @@ def test_probe_stops_when_a_controller_is_talking():
 
 
 # ------------------------------------------------------------------ the tap stays read-only
+@pytest.mark.parametrize(("args", "message"), [
+    (["/dev/null", "/dev/zero", "--talk"], "--talk takes one port"),
+    (["--samples", "-", "--samplerate", "1MHz", "--talk"], "--talk takes one port"),
+    (["/dev/null", "--allow-config"], "--allow-motion and --allow-config go with --talk (a tap never sends)"),
+    (["/dev/null", "--talk", "--no-tui"], "--talk sends from the TUI's : prompt: it needs the TUI"),
+])
+def test_live_talk_mistakes_are_one_line(args, message):
+    out = run_cli("live", *args, input="")
+    lines = out.stderr.strip().splitlines()
+    assert out.returncode == 2 and len(lines) == 1 and lines[0].startswith("gimbalscope: error:")
+    assert message in lines[0]
+
+
 def test_a_live_tap_never_writes():
     master, slave = os.openpty()
     tty.setraw(slave)
