@@ -13,17 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
-import numpy as np
 import orjson
-
-from dissectors.commands import BAUD_CODES
-from dissectors.event import COMMAND, FRAME, RATE
 
 from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.signs import WiringSigns
-from ..formats.store import CHECKSUM_OK, FRAMED, KIND_CODE, EventStore, StoreChunk
-from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version, raw_offsets
+from ..formats.store import EventStore, StoreChunk
+from ..formats.store_ipc import VERSION, ColumnsError, Joiner, decoder_version
 from ..sources.mcapfile import McapSource
 from .capture import Capture
 
@@ -73,6 +70,19 @@ class StoredEvents:
         except (KeyError, TypeError, ValueError, AttributeError):
             return None
 
+    def figures(self) -> dict[str, Any] | None:
+        """What ``gimbalscope stats`` prints of every event (``Stats.to_dict``), as
+        the recorder counted them; None when the record keeps none (a rate was set)
+        or they are not of exactly these events (parts read from other than the
+        first: each part's record counts every event since the first part's)."""
+        try:
+            figures = orjson.loads(self.record["stats"])
+        except (KeyError, ValueError):
+            return None
+        if not isinstance(figures, dict) or figures.get("events") != self.events:
+            return None
+        return figures
+
     def signs(self, lines: tuple[str, ...]) -> WiringSigns | None:
         """The wiring signs of every event, as the recorder kept them; None when
         the record has none that read."""
@@ -80,32 +90,6 @@ class StoredEvents:
             return WiringSigns.of_state(lines, orjson.loads(self.record["wiring_signs"]))
         except (KeyError, TypeError, ValueError, IndexError, AttributeError):
             return None
-
-
-_RATE_SETTING = (KIND_CODE[COMMAND], KIND_CODE[FRAME])
-_RATE_CODES = np.array([ord(f"{code:X}") for code in BAUD_CODES], "u1")   # the hex digit after "C"
-
-
-def sets_a_rate(chunk: StoreChunk) -> bool:
-    """Does the chunk hold a rate change, or a frame that asks for one (``C0``-``C7``,
-    Table 4: ``rate.rate_set``'s rule, on the columns)? Following a rate warns as it
-    decodes, which the columns do not keep: such a recording is decoded."""
-    cols = chunk.columns
-    kind = np.frombuffer(cols["kind"], "u1")
-    if not len(kind):
-        return False
-    if (kind == KIND_CODE[RATE]).any():
-        return True
-    flags = np.frombuffer(cols["flags"], "u1")
-    offsets = raw_offsets(chunk)
-    starts, lengths = offsets[:-1], np.diff(offsets)
-    # a frame with a good checksum and a two-byte payload (7 bytes of frame around it, Table 1)
-    rows = np.flatnonzero(np.isin(kind, _RATE_SETTING) & ((flags & FRAMED) != 0) & ((flags & CHECKSUM_OK) != 0)
-                          & (lengths == 9))
-    if not len(rows):
-        return False
-    raw = np.frombuffer(chunk.raw, "u1")
-    return bool(((raw[starts[rows] + 6] == ord("C")) & np.isin(raw[starts[rows] + 7], _RATE_CODES)).any())
 
 
 def stored_events(capture: Capture) -> tuple[StoredEvents | None, str | None]:

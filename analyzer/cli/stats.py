@@ -24,12 +24,11 @@ def register(sub: Subcommands) -> None:
 def run(args: argparse.Namespace) -> int:
     keep = build_filter(args.filter)
     capture = open_inputs(args)
-    stats = stored_stats(capture, keep)   # a recording's stored columns, when they can be read
-    if stats is None:
+    data = stored_stats(capture, keep)   # what a recording stores, when it can be read
+    if data is None:
         counter = StatsListener(keep)
         run_tap(capture, "stats", counter, progress=True, check=True)
-        stats = counter.stats
-    data = stats.to_dict()
+        data = counter.stats.to_dict()
     if args.format == "json":
         sys.stdout.buffer.write(dumps(data) + b"\n")
     else:

@@ -20,10 +20,10 @@ import pyarrow as pa
 
 from ..analysis.doctor import Invocation
 from ..capture import Capture
-from ..capture.stored import sets_a_rate, stored_events
+from ..capture.stored import stored_events
 from ..formats.parquet_columns import StoredRows, Tables, stored_batches, tables_of
 from ..formats.store import StoreChunk
-from ..formats.store_ipc import ColumnsError, Joiner
+from ..formats.store_ipc import ColumnsError, Joiner, sets_a_rate
 from ..info import CaptureInfo
 from ..listeners.wiring_check import warning_text, wiring_findings
 from ..writers.parquet import ROWS_PER_GROUP, ParquetDatasetWriter

@@ -32,7 +32,7 @@ from dissectors.event import ACK, COMMAND, NAK, NIC, RESULT
 from dissectors.wire import payload_text
 
 from . import parquet_schema as S
-from .parquet_rows import timestamps, values_array
+from .parquet_rows import constant, timestamps, values_array
 from .store import (
     CHECKSUM_BAD,
     CHECKSUM_OK,
@@ -171,8 +171,8 @@ class StoredRows:
         numbers = np.arange(start + 1, start + n + 1, dtype="i8")
         fields = self._fields(chunk, tables, kind, framed, command, starts, stops, positions)
         arrays: dict[str, pa.Array] = {
-            "capture": pa.array([self.capture] * n, pa.string()),
-            "site": pa.array([self.site] * n, pa.string()),
+            "capture": constant(self.capture, n),
+            "site": constant(self.site, n),
             "number": pa.array(numbers),
             "ts": timestamps(t, self.start_time),
             "t": t,
@@ -256,21 +256,19 @@ class StoredRows:
                                                                    if i in _POSITION_COMMANDS])
         rows = np.flatnonzero(dissected & ~placed)
         raw, entries = chunk.raw, tables.entries
-        seen: dict[tuple[int, int, bytes], int] = {}
-        of_rest: list[int] = []
-        # a loop of dictionary look-ups: most payloads repeat, and a dissection is some microseconds
-        for k, code, a, b in zip(kind[rows].tolist(), command[rows].tolist(), (starts[rows] + 6).tolist(),
-                                 (stops[rows] - 1).tolist(), strict=True):
-            key = (k, code, raw[a:b])   # the payload, with what it is dissected as
-            u = seen.get(key)
-            if u is None:
-                values = memo.get(key)
-                if values is None:
-                    values = memo[key] = natural_fields(KINDS[k], key[2], entries[code])
-                u = seen[key] = len(unique)
-                unique.append(values)
-            of_rest.append(u)
-        of_row[rows] = of_rest
+        # the distinct payloads (with what each is dissected as) found with numpy, and
+        # dissected once each: most repeat, a row by row loop of look-ups was most of this
+        first, of_distinct = _distinct(kind[rows], command[rows], np.frombuffer(raw, "u1"), starts[rows] + 6,
+                                       stops[rows] - 1)
+        first = rows[first]
+        for k, code, a, b in zip(kind[first].tolist(), command[first].tolist(), (starts[first] + 6).tolist(),
+                                 (stops[first] - 1).tolist(), strict=True):
+            key = (k, code, raw[a:b])
+            values = memo.get(key)
+            if values is None:
+                values = memo[key] = natural_fields(KINDS[k], key[2], entries[code])
+            unique.append(values)
+        of_row[rows] = of_distinct
         for i, values in chunk.fields.items():   # kept: a rate change's, an event's with no payload to dissect
             of_row[i - chunk.start] = len(unique)
             unique.append(values)
@@ -284,6 +282,33 @@ class StoredRows:
                 fields.columns[name] = column
                 fields.present[name] = fields.present.get(name, np.zeros(n, bool)) | there
         return fields
+
+
+def _distinct(kind: np.ndarray, command: np.ndarray, raw: np.ndarray, starts: np.ndarray,
+              stops: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rows that differ in kind, command code or payload (``raw[starts:stops]``):
+    the first row of each distinct one, and each row's place among them."""
+    if not len(kind):
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    lengths = stops - starts
+    width = int(lengths.max())
+    # a row's key: kind (1 byte), command code (4: the store widens its codes as
+    # needed) and payload length (2), then the payload, zeros after it
+    head = 7
+    keys = np.zeros((len(kind), head + width), "u1")
+    keys[:, 0] = kind
+    keys[:, 1:5] = command.astype("<u4").view("u1").reshape(-1, 4)
+    keys[:, 5:7] = lengths.astype("<u2").view("u1").reshape(-1, 2)
+    if width:
+        at = starts[:, None] + np.arange(width)
+        inside = np.arange(width) < lengths[:, None]
+        keys[:, head:] = np.where(inside, raw[np.minimum(at, len(raw) - 1)], 0)
+    _keys, first, inverse = np.unique(keys.view(f"V{head + width}").ravel(), return_index=True,
+                                      return_inverse=True)
+    order = np.argsort(first, kind="stable")   # distinct payloads in the order they first come
+    place = np.empty_like(order)
+    place[order] = np.arange(len(order))
+    return first[order], place[inverse.ravel()]
 
 
 def _laid_out(unique: list[dict[str, Any]], of_row: np.ndarray) -> _Fields:
@@ -352,18 +377,22 @@ def transaction_rows(window: pa.Table, final: bool, capture: str, site: str | No
     nic = _last_per(k[akind == _NIC], answers[akind == _NIC], size)
     result = _last_per(k[akind == _RES], answers[akind == _RES], size)
 
-    def rows_of(names: list[str], rows: np.ndarray) -> pa.Table:   # -1: a null row
-        return window.select(names).take(pa.array(rows, pa.int64(), mask=rows < 0)).combine_chunks()
+    # the window's columns whole (the open transaction's rows and the batch's are
+    # two chunks): every take below is then of one array
+    window = window.combine_chunks()
 
-    field_names = [name for name, _c, _k in S.TRANSACTION_FIELDS if f"f:{name}" in window.column_names]
+    def rows_of(names: list[str], rows: np.ndarray) -> pa.Table:   # -1: a null row
+        return window.select(names).take(pa.array(rows, pa.int64(), mask=rows < 0))
+
+    present = set(window.column_names)
     cmd = rows_of(["txn", "number", "t", "device", "command", "status", "retransmission"], closed)
     res = rows_of(["number", "latency"], result)
     acks = rows_of(["number", "latency"], ack)
-    t = cmd.column("t").combine_chunks()
+    t = cmd.column("t")
     arrays: dict[str, Any] = {
-        "capture": pa.array([capture] * size, pa.string()),
-        "site": pa.array([site] * size, pa.string()),
-        "ts": timestamps(t, start_time),
+        "capture": constant(capture, size),
+        "site": constant(site, size),
+        "ts": timestamps(t.chunk(0) if t.num_chunks == 1 else t.combine_chunks(), start_time),
         "t": t,
         "ack_latency": acks.column("latency"),
         "result_latency": res.column("latency"),
@@ -373,15 +402,17 @@ def transaction_rows(window: pa.Table, final: bool, capture: str, site: str | No
         "problems": _transaction_problems(window, closed, answers, k),
     }
     columns = [arrays[name] if name in arrays else cmd.column(name) for name, _ in S.TRANSACTION_COLUMNS]
+    has_result = result >= 0
     for name, _column_name, kind_type in S.TRANSACTION_FIELDS:
-        if name not in field_names:
+        if f"f:{name}" not in present:
             columns.append(pa.nulls(size, kind_type))
             continue
         # the command's value, or its result's where the result has one (to_dict's update)
-        there = window.column(f"p:{name}").fill_null(False).to_numpy(zero_copy_only=False)
-        rows = np.where((result >= 0) & there[np.maximum(result, 0)], result, closed)
+        there = window.column(f"p:{name}").chunk(0).fill_null(False).to_numpy(zero_copy_only=False)
+        rows = np.where(has_result & there[np.maximum(result, 0)], result, closed)
         columns.append(window.column(f"f:{name}").take(pa.array(rows)))
-    columns = [c.combine_chunks() if isinstance(c, pa.ChunkedArray) else c for c in columns]
+    columns = [c.chunk(0) if isinstance(c, pa.ChunkedArray) and c.num_chunks == 1
+               else c.combine_chunks() if isinstance(c, pa.ChunkedArray) else c for c in columns]
     return pa.RecordBatch.from_arrays(columns, schema=S.TRANSACTIONS), carry
 
 

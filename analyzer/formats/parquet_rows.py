@@ -60,8 +60,10 @@ def to_the_ns(t: pa.Array) -> pa.Array:
     return pa.array(out, pa.float64(), mask=~valid)
 
 
-def _constant(value: str | None, n: int) -> pa.Array:
-    return pa.array([value] * n, pa.string())
+def constant(value: str | None, n: int) -> pa.Array:
+    """``n`` rows of one text (a capture's name, its site): repeated by Arrow,
+    not converted from a list of ``n`` Python strings."""
+    return pa.repeat(pa.scalar(value, pa.string()), n)
 
 
 def timestamps(t: pa.Array, start_time: float | None) -> pa.Array:
@@ -201,8 +203,8 @@ class EventBatches:
         n, c = self.n, self.cols
         arrays = {name: values_array(c[name], kind) for name, kind in S.EVENT_COLUMNS if name in c}
         arrays["t"], arrays["t_end"] = to_the_ns(arrays["t"]), to_the_ns(arrays["t_end"])
-        arrays["capture"] = _constant(self.capture, n)
-        arrays["site"] = _constant(self.site, n)
+        arrays["capture"] = constant(self.capture, n)
+        arrays["site"] = constant(self.site, n)
         arrays["ts"] = timestamps(arrays["t"], self.start_time)
         columns = [arrays[name] for name, _ in S.EVENT_COLUMNS] + self.fields.arrays(n)
         self._reset()
@@ -253,8 +255,8 @@ class TransactionBatches:
         n, c = self.n, self.cols
         arrays = {name: values_array(c[name], kind) for name, kind in S.TRANSACTION_COLUMNS if name in c}
         arrays["t"] = to_the_ns(arrays["t"])
-        arrays["capture"] = _constant(self.capture, n)
-        arrays["site"] = _constant(self.site, n)
+        arrays["capture"] = constant(self.capture, n)
+        arrays["site"] = constant(self.site, n)
         arrays["ts"] = timestamps(arrays["t"], self.start_time)
         columns = [arrays[name] for name, _ in S.TRANSACTION_COLUMNS] + self.fields.arrays(n)
         self._reset()
@@ -272,8 +274,8 @@ def findings_batch(findings: list, capture: str, site: str | None, start_time: f
 
     first_seen = pa.array([f.first_seen for f in findings], pa.float64())
     arrays = {
-        "capture": _constant(capture, n),
-        "site": _constant(site, n),
+        "capture": constant(capture, n),
+        "site": constant(site, n),
         "start": at(first_t),
         "end": at(last_t),
         "code": pa.array([f.code for f in findings], pa.string()),

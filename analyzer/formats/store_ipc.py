@@ -32,11 +32,12 @@ import nanoarrow.ipc as na_ipc
 import numpy as np
 import orjson
 
-from dissectors.commands import COMMANDS
+from dissectors.commands import BAUD_CODES, COMMANDS
+from dissectors.event import COMMAND, FRAME, RATE
 from dissectors.problems import Problem, by_name, parse
 
 from ..version import __version__
-from .store import ERROR, FRAMED, KINDS, STATUSES, UNTIMED, StoreChunk
+from .store import CHECKSUM_OK, ERROR, FRAMED, KIND_CODE, KINDS, STATUSES, UNTIMED, StoreChunk
 
 VERSION = "1"          # the layout below; a reader that does not know it decodes the raw bytes
 MEDIA_TYPE = "application/vnd.apache.arrow.stream"
@@ -106,6 +107,32 @@ def raw_offsets(chunk: StoreChunk) -> np.ndarray:
     ends = np.frombuffer(column, dtype=np.dtype(column.typecode)).astype("i8") if len(column) else np.zeros(0, "i8")
     first = int(ends[-1]) - len(chunk.raw) if len(ends) else 0   # the raw bytes before the chunk's
     return np.concatenate(([0], ends - first))
+
+
+_RATE_SETTING = (KIND_CODE[COMMAND], KIND_CODE[FRAME])
+_RATE_CODES = np.array([ord(f"{code:X}") for code in BAUD_CODES], "u1")   # the hex digit after "C"
+
+
+def sets_a_rate(chunk: StoreChunk) -> bool:
+    """Does the chunk hold a rate change, or a frame that asks for one (``C0``-``C7``,
+    Table 4: ``rate.rate_set``'s rule, on the columns)? Following a rate warns as it
+    decodes, which the columns do not keep: such a recording is decoded."""
+    cols = chunk.columns
+    kind = np.frombuffer(cols["kind"], "u1")
+    if not len(kind):
+        return False
+    if (kind == KIND_CODE[RATE]).any():
+        return True
+    flags = np.frombuffer(cols["flags"], "u1")
+    offsets = raw_offsets(chunk)
+    starts, lengths = offsets[:-1], np.diff(offsets)
+    # a frame with a good checksum and a two-byte payload (7 bytes of frame around it, Table 1)
+    rows = np.flatnonzero(np.isin(kind, _RATE_SETTING) & ((flags & FRAMED) != 0) & ((flags & CHECKSUM_OK) != 0)
+                          & (lengths == 9))
+    if not len(rows):
+        return False
+    raw = np.frombuffer(chunk.raw, "u1")
+    return bool(((raw[starts[rows] + 6] == ord("C")) & np.isin(raw[starts[rows] + 7], _RATE_CODES)).any())
 
 
 def encode(chunk: StoreChunk, tables: Tables, decoder: str,

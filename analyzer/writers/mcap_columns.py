@@ -19,8 +19,9 @@ import orjson
 from dissectors.event import Event
 
 from ..analysis.doctor import WiringDoctor
+from ..analysis.stats import Stats
 from ..formats.store import EventStore
-from ..formats.store_ipc import VERSION, Tables, decoder_version, encode
+from ..formats.store_ipc import VERSION, Tables, decoder_version, encode, sets_a_rate
 from ..lines import Chunk
 
 BATCH = 16_384      # events a message: about 300 kB of columns, one MCAP chunk of its own
@@ -29,12 +30,17 @@ _STORE_EVERY = 4_096   # events held as objects before the store takes them
 
 class RecordingTally:
     """What the columns of a recording's parts share: the wiring doctor fed every
-    event so far (its wiring signs among its tallies), and the bytes and events
-    recorded so far. ``ack_timeout``: the tap's, which the doctor's rules judge by."""
+    event so far (its wiring signs among its tallies), the statistics of every
+    event so far, whether a rate was set, and the bytes and events recorded so
+    far. ``ack_timeout``: the tap's, which the doctor's rules judge by."""
 
     def __init__(self, lines: tuple[str, ...], ack_timeout: float = 0.5) -> None:
         self.doctor = WiringDoctor(lines, ack_timeout)
         self.signs = self.doctor.signs
+        self.stats = Stats()
+        # a rate change, or a frame asking for one (store_ipc.sets_a_rate): following
+        # a rate warns as it decodes, so such a recording's statistics are not kept
+        self.sets_rate = False
         self.raw_bytes = 0
         self.events = 0
 
@@ -100,6 +106,7 @@ class ColumnBatches:
         add = self.doctor.add
         for ev in events:
             add(ev)
+        self.shared.stats.add_events(events)
         positions = self._positions
         for k, ev in enumerate(events, n + 1):   # the plots' points (store_ipc's position columns)
             command = ev.command
@@ -124,7 +131,10 @@ class ColumnBatches:
             azimuth[k] = fields["azimuth_deg"]
             elevation[k] = fields.get("elevation_deg", np.nan)
         self._positions = {}
-        self._write(encode(store.take(), tables, self.decoder, (azimuth, elevation)), ts)
+        chunk = store.take()
+        if not self.shared.sets_rate and sets_a_rate(chunk):
+            self.shared.sets_rate = True
+        self._write(encode(chunk, tables, self.decoder, (azimuth, elevation)), ts)
         self.events += n
         self.messages += 1
 
@@ -138,7 +148,12 @@ class ColumnBatches:
             # bytes and not one event: a recorder fed only the bytes (the API allows
             # it; a tap feeds both). A part may hold bytes whose events the next holds
             return None
-        return {"version": VERSION, "decoder": self.decoder, "events": str(self.events),
-                "messages": str(self.messages), "media_type": "application/vnd.apache.arrow.stream",
-                "wiring_signs": orjson.dumps(self.doctor.signs.state()).decode(),
-                "doctor": orjson.dumps(self.doctor.kept()).decode(), "ack_timeout": f"{self.doctor.ack_timeout!r}"}
+        record = {"version": VERSION, "decoder": self.decoder, "events": str(self.events),
+                  "messages": str(self.messages), "media_type": "application/vnd.apache.arrow.stream",
+                  "wiring_signs": orjson.dumps(self.doctor.signs.state()).decode(),
+                  "doctor": orjson.dumps(self.doctor.kept()).decode(), "ack_timeout": f"{self.doctor.ack_timeout!r}"}
+        if not self.shared.sets_rate:
+            # what `gimbalscope stats` prints of every event so far (Stats.to_dict): of
+            # the whole recording when every part is read, from the first on
+            record["stats"] = orjson.dumps(self.shared.stats.to_dict()).decode()
+        return record

@@ -74,6 +74,55 @@ def test_the_columns_are_read_not_decoded(recording, monkeypatch, capsys):
     assert capsys.readouterr().out == decoded
 
 
+def test_stats_of_every_event_are_the_figures_the_recorder_kept(recording, monkeypatch, capsys):
+    # neither the raw bytes nor the columns are read: the record holds the figures
+    from analyzer.capture.stored import StoredEvents
+    from analyzer.cli.main import main
+
+    assert main(["stats", "--format", "json", *recording, "--redecode"]) == 0
+    decoded = capsys.readouterr()
+
+    def unread(*_args, **_kwargs):
+        raise AssertionError("read the events")
+
+    monkeypatch.setattr(capture_module, "Deframer", unread)
+    monkeypatch.setattr(StoredEvents, "store", unread)
+    assert main(["stats", "--format", "json", *recording]) == 0
+    stored = capsys.readouterr()
+    assert (stored.out, stored.err) == (decoded.out, decoded.err)
+
+
+def test_parts_read_from_the_second_on_are_not_the_whole_recording(tmp_path):
+    # each part's record counts every event since the first part: without the
+    # first, those figures are not of the events read, and are left aside
+    import json
+
+    parts, _info = record(tmp_path / "parts.mcap", [BUS], rotate_bytes=4_000)
+    assert len(parts) >= 3
+    whole = json.loads(run_cli("stats", "--format", "json", *parts).stdout)
+    later, decoded = run_cli("stats", "--format", "json", *parts[1:]), \
+        run_cli("stats", "--format", "json", *parts[1:], "--redecode")
+    assert later.returncode == 0, later.stderr
+    assert later.stdout == decoded.stdout
+    assert 0 < json.loads(later.stdout)["events"] < whole["events"]
+
+
+def test_a_recording_that_sets_a_rate_keeps_no_figures(tmp_path):
+    # following a rate warns as it decodes: stats decodes such a recording
+    from analyzer.sources.mcapfile import McapSource
+    from dissectors.encode import encode
+
+    # the sample bus, then a command asking gimbal 1.1.1 for 9600 baud (C3, Table 4)
+    with open(BUS, "rb") as f:
+        bus = f.read() + encode("C", {"rate_code": 3}).frame((1, 1, 1))
+    (tmp_path / "bus.bin").write_bytes(bus)
+    rec = converted(tmp_path, str(tmp_path / "bus.bin"))
+    record_ = McapSource(rec).stored_columns().record
+    assert record_ is not None and "stats" not in record_
+    plain = converted(tmp_path, BUS, name="plain.mcap")
+    assert "stats" in McapSource(plain).stored_columns().record
+
+
 def test_a_decoding_option_says_the_raw_bytes_are_decoded(tmp_path):
     rec = converted(tmp_path, CTL, DEV)
     done = run_cli("stats", "--baud", "19200", rec)
