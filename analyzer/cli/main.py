@@ -33,7 +33,7 @@ WRITE_ONLY_ERRORS = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 
 # the subcommands, one module each (named as the command), in the order --help lists them
 COMMANDS = ("decode", "stats", "doctor", "demo", "live", "sim", "probe", "send", "replay", "view", "convert",
-            "export", "query", "serve", "report", "recover", "foxglove", "wireshark", "sigrok", "saleae")
+            "export", "query", "serve", "report", "recover", "foxglove", "wireshark", "sigrok", "saleae", "diff")
 # the process a command will start, started before the command's modules are
 # imported (worker_process.prepared): view's decoding process then imports while
 # the screen's modules do, and its first rows come with the first screen (docs/tui.md)
