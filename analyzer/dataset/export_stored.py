@@ -65,8 +65,9 @@ class _WrittenBehind:
         batches = self.held.pop(table, [])
         if not batches:
             return
-        batch = batches[0] if len(batches) == 1 else pa.concat_batches(batches)
-        self.waiting.append(self.pool.submit(self.writer.write_rows, table, batch))
+        # the batches as one table, not copied into one batch: a row group is written from them as they are
+        rows = pa.Table.from_batches(batches)
+        self.waiting.append(self.pool.submit(self.writer.write_rows, table, rows))
         while len(self.waiting) > 2:
             self.waiting.popleft().result()   # a write's error is raised here
 

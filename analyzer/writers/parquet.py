@@ -175,7 +175,7 @@ class ParquetDatasetWriter(Listener):
             writer = self._writers.get((table, day))
             if writer is None:
                 writer = self._writers[(table, day)] = self._open(table, day)
-            writer.write_batch(rows, row_group_size=ROWS_PER_GROUP)
+            writer.write(rows, row_group_size=ROWS_PER_GROUP)   # a batch, or a table of batches
             self.rows[table] += rows.num_rows
 
     def _open(self, table: str, day: str) -> pq.ParquetWriter:
