@@ -69,6 +69,18 @@ def non_negative_float(text: str) -> float:
     return _number(text, float, lambda v: v >= 0, "a finite number, 0 or more")
 
 
+_DURATION_UNITS = {"ms": 0.001, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def duration(text: str) -> float:
+    """A time span in seconds: ``30s``, ``500ms``, ``5m``, ``2h``, ``1d``, or a bare number of seconds."""
+    number = text.strip().lower()
+    unit = next((u for u in sorted(_DURATION_UNITS, key=len, reverse=True) if number.endswith(u)), "")
+    value = _number(number[:len(number) - len(unit)] if unit else number, float, lambda v: v >= 0,
+                    "a duration, 0 or more: 30s, 500ms, 5m, 2h, 1d, or seconds")
+    return value * _DURATION_UNITS.get(unit, 1.0)
+
+
 def probability(text: str) -> float:
     return _number(text, float, lambda v: 0 <= v <= 1, "a probability from 0 to 1")
 
@@ -299,14 +311,15 @@ def fields_option(fields: str | None, csv: bool, where: str) -> dict[str, str]:
     return {"fields": fields}
 
 
-def build_filter(expr: str | None) -> Predicate | None:
-    """Compile --filter; a bad expression is one line naming the column."""
+def build_filter(expr: str | None, option: str = "--filter") -> Predicate | None:
+    """Compile --filter (or another ``option`` taking a filter); a bad expression
+    is one line naming the option and the column."""
     if expr is None:
         return None
     try:
         return compile_filter(expr)
     except FilterError as e:
-        raise UsageError(f"--filter {e} in: {e.pointer()}") from None
+        raise UsageError(f"{option} {e} in: {e.pointer()}") from None
 
 
 def options_from(args: argparse.Namespace) -> Options:

@@ -11,7 +11,7 @@ import threading
 from ..capture import Options, open_live
 from ..simulation import scenario
 from .common import Subcommands, UsageError, add_fields_arg, add_filter_arg, non_negative_float, non_negative_int
-from .live import add_foxglove_arg, add_record_args, add_tui_args, tap, wants_tui
+from .live import add_foxglove_arg, add_keep_args, add_record_args, add_tui_args, check_keep, tap, wants_tui
 
 
 def fault_help() -> str:
@@ -27,6 +27,7 @@ def register(sub: Subcommands) -> None:
                    help="how long to run (0 = until stopped); default: until you quit the TUI, "
                         "12 s when printing")
     add_record_args(p)
+    add_keep_args(p, stop_after=False)   # --seconds says how long a demo runs
     add_foxglove_arg(p)
     p.add_argument("--format", choices=("text", "jsonl", "csv"), default="text")
     add_fields_arg(p)
@@ -56,6 +57,7 @@ def rate_change(text: str) -> tuple[int, float]:
 
 
 def run(args: argparse.Namespace) -> int:
+    check_keep(args)
     if args.seconds is None:
         args.seconds = 0.0 if wants_tui(args) else 12.0
     try:

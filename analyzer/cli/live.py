@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING
 from ..capture import Capture, open_live
 from ..info import CaptureInfo
 from ..listeners import DoctorListener, EventPrinter, NotePrinter
+from ..listeners.stop_after import StopAfter
 from ..netaddress import LOCAL_HOST
 from ..outfile import check_output
 from ..runner import Listener, TapRunner
@@ -45,10 +46,12 @@ from .common import (
     add_sample_stream_args,
     add_serial_args,
     build_filter,
+    duration,
     fields_option,
     options_from,
     permissions,
     positive_float,
+    positive_int,
 )
 
 if TYPE_CHECKING:
@@ -67,10 +70,39 @@ def register(sub: Subcommands) -> None:
     add_fields_arg(p)
     add_filter_arg(p, "show only matching events (everything is still recorded)")
     add_record_args(p)
+    add_keep_args(p)
     add_foxglove_arg(p)
     add_tui_args(p)
     add_talk_args(p)
     p.set_defaults(run=run)
+
+
+def add_keep_args(p: argparse.ArgumentParser, stop_after: bool = True) -> None:
+    g = p.add_argument_group("unattended: keep windows around events (docs/live.md, \"Keeping windows\")")
+    g.add_argument("--keep", metavar="FILTER",
+                   help="with --record DIR: keep only windows around events matching FILTER, one recording "
+                        "a window in DIR (e.g. 'status == \"nak\" or \"bad checksum\" in problems')")
+    g.add_argument("--before", type=duration, default=30.0, metavar="DURATION",
+                   help="with --keep: kept ahead of a match (default 30s; the memory held)")
+    g.add_argument("--after", type=duration, default=30.0, metavar="DURATION",
+                   help="with --keep: kept beyond a match (default 30s)")
+    g.add_argument("--max-windows", type=positive_int, metavar="N", help="with --keep: stop after N windows")
+    if stop_after:
+        g.add_argument("--stop-after", type=duration, metavar="DURATION", help="stop the tap after DURATION (e.g. 8h)")
+    else:
+        p.set_defaults(stop_after=None)
+
+
+def check_keep(args: argparse.Namespace) -> None:
+    """What --keep and its options need, refused before anything is opened."""
+    if args.keep is not None:
+        if not args.record:
+            raise UsageError("--keep needs --record DIR: the folder its windows are written in")
+        if args.rotate_mb or args.rotate_minutes:
+            raise UsageError("--keep writes a file a window: --rotate-mb and --rotate-minutes do not apply")
+        build_filter(args.keep, "--keep")   # a mistake in it is said before anything is opened
+    elif args.max_windows is not None:
+        raise UsageError("--max-windows goes with --keep")
 
 
 def add_talk_args(p: argparse.ArgumentParser) -> None:
@@ -175,14 +207,41 @@ def open_servers(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
 def open_outputs(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
                  record: str | None) -> tuple[McapWriter | None, list[Listener]]:
     """The --record writer and the --foxglove server, both checked before the tap
-    starts; the server first, so a refused address leaves no recording behind."""
+    starts; the server first, so a refused address leaves no recording behind.
+    With --keep, the recording is windows (a listener beside the servers), and
+    --stop-after a listener that ends the tap."""
     servers = open_servers(capture, info, args, lean=args.lean)
+    stop: list[Listener] = [StopAfter(args.stop_after)] if args.stop_after is not None else []
     try:
-        return open_recorder(capture, info, args, record), servers
+        if args.keep is not None:
+            return None, [*servers, open_windows(capture, info, args, record), *stop]
+        return open_recorder(capture, info, args, record), [*servers, *stop]
     except BaseException:
         for server in servers:
             server.close()
         raise
+
+
+def open_windows(capture: Capture, info: CaptureInfo, args: argparse.Namespace, folder: str | None) -> Listener:
+    """The --keep windows' keeper, writing into the folder --record names (made
+    if missing); a folder that cannot take them is a one-line error before the tap starts."""
+    from ..writers.windows import WindowKeeper, window_path
+
+    keep = build_filter(args.keep, "--keep")
+    assert keep is not None and folder   # check_inputs: --keep needs --record
+    try:
+        if os.path.lexists(folder) and not os.path.isdir(folder):
+            raise UsageError(f"--record {folder}: with --keep, --record names a folder for the windows")
+        os.makedirs(folder, exist_ok=True)
+        check_output(window_path(folder, 1), info.inputs if info.live else (), force=args.force, role="port")
+    except OSError as e:
+        capture.source.close()
+        raise UsageError(f"--record {folder}: cannot make the folder ({e.strerror})") from None
+    except BaseException:
+        capture.source.close()
+        raise
+    return WindowKeeper(folder, info, keep, args.keep, before=args.before, after=args.after,
+                        max_windows=args.max_windows, lean=args.lean)
 
 
 def open_recorder(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
@@ -286,6 +345,7 @@ def check_inputs(args: argparse.Namespace) -> None:
         raise UsageError("--talk takes one port: what is sent on it is line A, what comes back line B")
     if not args.talk and (args.allow_motion or args.allow_config):
         raise UsageError("--allow-motion and --allow-config go with --talk (a tap never sends)")
+    check_keep(args)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -86,9 +86,12 @@ class McapWriter(FileWriter):
 
     def __init__(self, path: str, info: CaptureInfo, *, file: IO[bytes] | None = None, live: bool = False,
                  rotate_bytes: int | None = None, rotate_seconds: float | None = None,
-                 metadata: dict[str, str] | None = None, lean: bool = False,
+                 metadata: dict[str, str] | None = None, lean: bool = False, columns: bool = True,
                  flush_interval: float = FLUSH_INTERVAL) -> None:
         self.live = live
+        # the decoded columns (docs/mcap.md, "Stored columns"): left out of a recording
+        # whose bytes decoded alone are not its events (a window cut from a tap)
+        self.columns = columns
         self.flush_interval = flush_interval   # seconds between a live recording's flushes
         self.lean = lean   # docs/mcap.md, "Lean recordings"; said in the metadata record
         self._runner: TapRunner | None = None
@@ -107,7 +110,7 @@ class McapWriter(FileWriter):
         in place, flushes them every ``flush_interval`` when live, and after a failed write
         closes them as well as it can (analyzer/writers/mcap_recorder.py)."""
         kw: dict[str, Any] = dict(message_clock(self.info), lines=self.info.lines, lean=self.lean,
-                                  records=self._records, ack_timeout=self.info.ack_timeout)
+                                  records=self._records, ack_timeout=self.info.ack_timeout, columns=self.columns)
         if self.live:
             kw.update(metadata=self.info.metadata(**self._extra), flush_interval=self.flush_interval,
                       on_error=self._failed)
@@ -124,7 +127,7 @@ class McapWriter(FileWriter):
         """A recording into the target's file (a conversion)."""
         if self.file is not None:
             self.recorder = McapRecorder(self.path, metadata={}, file=self.file, lines=self.info.lines,
-                                         lean=self.lean, records=self._records, ack_timeout=self.info.ack_timeout,
+                                         lean=self.lean, columns=self.columns, records=self._records, ack_timeout=self.info.ack_timeout,
                                          **message_clock(self.info))
 
     @property
