@@ -36,6 +36,7 @@ from ..screen import has_screen
 from ..writers import open_format
 from ..writers.mcap import McapWriter
 from ..writers.mcap_recorder import part_path
+from ..writers.windows import WindowKeeper, window_path
 from .common import (
     Subcommands,
     UsageError,
@@ -205,28 +206,28 @@ def open_servers(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
 
 
 def open_outputs(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
-                 record: str | None) -> tuple[McapWriter | None, list[Listener]]:
+                 record: str | None) -> tuple[McapWriter | None, list[Listener], WindowKeeper | None]:
     """The --record writer and the --foxglove server, both checked before the tap
     starts; the server first, so a refused address leaves no recording behind.
     With --keep, the recording is windows (a listener beside the servers), and
-    --stop-after a listener that ends the tap."""
+    --stop-after a listener that ends the tap. Returns the recorder, every
+    listener but the recorder, and the keeper of --keep (among those listeners)."""
     servers = open_servers(capture, info, args, lean=args.lean)
     stop: list[Listener] = [StopAfter(args.stop_after)] if args.stop_after is not None else []
     try:
         if args.keep is not None:
-            return None, [*servers, open_windows(capture, info, args, record), *stop]
-        return open_recorder(capture, info, args, record), [*servers, *stop]
+            keeper = open_windows(capture, info, args, record)
+            return None, [*servers, keeper, *stop], keeper
+        return open_recorder(capture, info, args, record), [*servers, *stop], None
     except BaseException:
         for server in servers:
             server.close()
         raise
 
 
-def open_windows(capture: Capture, info: CaptureInfo, args: argparse.Namespace, folder: str | None) -> Listener:
+def open_windows(capture: Capture, info: CaptureInfo, args: argparse.Namespace, folder: str | None) -> WindowKeeper:
     """The --keep windows' keeper, writing into the folder --record names (made
     if missing); a folder that cannot take them is a one-line error before the tap starts."""
-    from ..writers.windows import WindowKeeper, window_path
-
     keep = build_filter(args.keep, "--keep")
     assert keep is not None and folder   # check_inputs: --keep needs --record
     try:
@@ -286,10 +287,10 @@ def tap(capture: Capture, args: argparse.Namespace, record: str | None, command:
     except KeymapError as e:
         capture.source.close()
         raise UsageError(str(e)) from None
-    recorder, servers = open_outputs(capture, info, args, record)
-    return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder, record_path=record,
-                   record_lean=args.lean,
-                   info=info, keymap=keymap, listeners=servers, talk=talk)
+    recorder, servers, windows = open_outputs(capture, info, args, record)
+    return run_app(capture, mode="live", ports=list(info.inputs), recorder=recorder,
+                   record_path=None if windows is not None else record, record_lean=args.lean,
+                   info=info, keymap=keymap, listeners=servers, talk=talk, windows=windows)
 
 
 def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace, record: str | None) -> int:
@@ -298,7 +299,7 @@ def tap_and_print(capture: Capture, info: CaptureInfo, args: argparse.Namespace,
     keep = build_filter(args.filter)
     sink = open_format(args.format, info, flush_each=True,   # every event as it comes
                        **fields_option(args.fields, args.format == "csv", f"--format {args.format}"))
-    recorder, servers = open_outputs(capture, info, args, record)
+    recorder, servers, _windows = open_outputs(capture, info, args, record)
     # the servers beside the recorder: both hear the doctor's notes after the same events
     listeners = [l for l in (recorder, *servers, DoctorListener(), EventPrinter(sink, keep), NotePrinter())
                  if l is not None]

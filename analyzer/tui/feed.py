@@ -78,6 +78,7 @@ class FeedBatch:
     chunk: ModelChunk | None = None  # a file decoded in a process: its events as columns (``events`` is empty)
     doctor_error: str | None = None  # the wiring doctor's process failed: why
     sampled: SampledInput | None = None   # a logic capture: its input, and each line's channel and measure
+    windows: str | None = None       # live --keep: the windows kept so far (``KeptWindows.status``)
 
     def hear(self, word: DoctorWord | None) -> None:
         """Carry the word of the doctor's process (doctor_process.py), if it has
@@ -89,6 +90,12 @@ class FeedBatch:
             self.doctor_error = word.error
         else:
             self.findings = word.findings
+
+
+class KeptWindows(Protocol):
+    """``live --keep``'s keeper (analyzer/writers/windows.py), as the status line reads it."""
+
+    def status(self) -> str: ...
 
 
 class ScreenFeed(Protocol):
@@ -145,7 +152,7 @@ class Feed(ScreenFeed, Listener):
     def __init__(self, runner: TapRunner, deliver: Callable[[FeedBatch], None], doctor: DoctorListener | None, *,
                  interval: float | None = None, recorder: McapWriter | None = None,
                  meter: ReadMeter = READS, record_lean: bool = False,
-                 doctor_process: DoctorProcess | None = None) -> None:
+                 doctor_process: DoctorProcess | None = None, windows: KeptWindows | None = None) -> None:
         self.runner = runner
         self.deliver = deliver
         self.doctor = doctor
@@ -162,6 +169,7 @@ class Feed(ScreenFeed, Listener):
         self._findings: list | None = None
         self._named: tuple[str, str] | None = None   # a logic capture's input, named (``_sampled``)
         self.recorder = recorder             # --record: made (and checked) before the screen opens
+        self.windows = windows               # --keep: the keeper, among the runner's listeners
         self.record_lean = record_lean       # the record key writes lean recordings (live --lean)
         self.meter = meter                   # how far the input files have been read: asked once a batch
         self.notes: list[str] = []           # what to say when the screen has closed (recordings written)
@@ -282,8 +290,9 @@ class Feed(ScreenFeed, Listener):
         unsettled = [] if done else self.runner.unsettled()
         status, skew, settings, read = self._status(), self.runner.skew, self.runner.serial_settings, self._read()
         sampled = self._sampled()
+        windows = self.windows.status() if self.windows is not None else None
         state = ([id(e) for e in unsettled], [(s.state, s.rate) for s in status], skew, path, size, settings, read,
-                 sampled)
+                 sampled, windows)
         word = self.doctor_process.take() if self.doctor_process is not None else None
         if changed_only and word is None and not (self._pending or self._warnings or self._findings is not None) \
                 and state == self._state:
@@ -293,7 +302,7 @@ class Feed(ScreenFeed, Listener):
         warnings, self._warnings = self._warnings, []
         findings, self._findings = self._findings, None
         batch = FeedBatch(events, unsettled, status, skew, path, size, warnings, findings, done, error,
-                          settings, *read, sampled=sampled)
+                          settings, *read, sampled=sampled, windows=windows)
         batch.hear(word)
         self.deliver(batch)
         return True

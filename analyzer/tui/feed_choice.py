@@ -28,7 +28,7 @@ from ..runner import Listener, TapRunner
 from ..worker_process import Worker
 from .decode_process import ProcessFeed
 from .doctor_process import DoctorProcess, readable_by_another_process
-from .feed import FeedBatch, ScreenFeed, feed_class
+from .feed import FeedBatch, KeptWindows, ScreenFeed, feed_class
 
 if TYPE_CHECKING:
     from ..writers.mcap import McapWriter
@@ -47,6 +47,7 @@ class Loading:
     listeners: Sequence[Listener] = ()        # the --foxglove server
     record_lean: bool = False
     decoding: Worker | None = None            # the first case's process, started already (early_decoding)
+    windows: KeptWindows | None = None        # --keep: the keeper (also among ``listeners``)
 
     def viewed_file(self) -> bool:
         """A file viewed that another process can read again."""
@@ -100,7 +101,7 @@ def capture_thread(loading: Loading, deliver: Deliver, doctor_process: DoctorPro
     heard = [listener for listener in (loading.recorder, *loading.listeners, doctor) if listener is not None]
     runner = TapRunner(loading.capture, heard, info=loading.info)
     feed = feed_class(runner)(runner, deliver, doctor, recorder=loading.recorder, record_lean=loading.record_lean,
-                              doctor_process=doctor_process)
+                              doctor_process=doctor_process, windows=loading.windows)
     runner.add_listener(feed)   # last: it reads the doctor's findings of each step
     return feed
 

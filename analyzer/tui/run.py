@@ -23,7 +23,7 @@ from ..errors import KeymapError, UsageError
 from ..info import CaptureInfo
 from ..runner import Listener
 from ..worker_process import Worker
-from .feed import FeedBatch, ScreenFeed
+from .feed import FeedBatch, KeptWindows, ScreenFeed
 from .feed_choice import Loading, choose_feed, early_decoding
 from .model import CaptureModel
 
@@ -106,7 +106,8 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
              recorder: McapWriter | None = None, record_path: str | None = None, record_lean: bool = False,
              info: CaptureInfo | None = None, keymap: dict[str, str] | None = None,
              filter_text: str | None = None, listeners: Sequence[Listener] = (),
-             decoding: Worker | None = None, talk: TalkSession | None = None) -> GimbalscopeApp:
+             decoding: Worker | None = None, talk: TalkSession | None = None,
+             windows: KeptWindows | None = None) -> GimbalscopeApp:
     """mode: live (follow on, record key), replay (paced, follow on), view (a file,
     follow off). The capture starts when the app mounts, fed as feed_choice.py
     chooses, with ``recorder`` (``--record``), ``listeners`` (the ``--foxglove``
@@ -114,7 +115,8 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
     ``recorder`` and ``listeners`` were made with. ``record_lean``: the record
     key writes lean recordings (``live --lean``, docs/mcap.md). ``decoding``: the
     file's decoding process, started already (``early_decoding``): the feed
-    adopts it. ``talk``: the port the ``:`` prompt sends on (``live --talk``)."""
+    adopts it. ``talk``: the port the ``:`` prompt sends on (``live --talk``).
+    ``windows``: ``live --keep``'s keeper, among ``listeners``, whose count the status line shows."""
     from .app import GimbalscopeApp  # the screen's imports: after run_app has started the decoding
 
     model = CaptureModel(follow=mode != "view")
@@ -124,7 +126,7 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         model.replay.start(speed)
     info = info or CaptureInfo.of(capture, command=mode)
 
-    loading = Loading(capture, info, mode, recorder, listeners, record_lean, decoding)
+    loading = Loading(capture, info, mode, recorder, listeners, record_lean, decoding, windows)
 
     def make_feed(deliver: Callable[[FeedBatch], None]) -> ScreenFeed:
         return choose_feed(loading, deliver)

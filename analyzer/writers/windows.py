@@ -191,6 +191,11 @@ class WindowKeeper(Listener):
         if self._runner is not None and self.max_windows is not None and self.windows >= self.max_windows:
             self._runner.stop()
 
+    def status(self) -> str:
+        """What the status line shows: ``2 windows, 5 matched, 30.1 kB dropped``."""
+        return (f"{counted(self.windows, 'window')}, {self.matched:,} matched, "
+                f"{_size(self.dropped_bytes)} dropped")
+
     def summary(self) -> str:
         """``2 windows kept in DIR: 5 events matched 'status == "nak"', 1,200 bytes kept, 30,000 dropped``."""
         said = (f"{counted(self.windows, 'window')} kept in {self.folder}: {counted(self.matched, 'event')} "
@@ -198,3 +203,10 @@ class WindowKeeper(Listener):
         if self.missed:
             said += f" ({counted(self.missed, 'match', 'matches')} after the last window allowed)"
         return said
+
+
+def _size(n: int) -> str:
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n} B"

@@ -299,6 +299,8 @@ class StatusBar(Static):
         if b is not None and b.recording:
             parts.append(Part(MUST, "● REC ", style="bold red", free=b.recording, cut_start=True, cut_rank=1,
                               tail=f" {_size(b.recording_bytes)}"))
+        if b is not None and b.windows:   # live --keep: windows kept, matches, bytes dropped
+            parts.append(Part(MUST, "◆ KEEP ", style="bold magenta", free=b.windows, cut_rank=1))
         if live:   # how long the tap has run (a file's duration is in its stats)
             elapsed = (self.ended if m.done else time.monotonic()) - self.started
             parts.append(Part(3, f"{int(elapsed // 3600):02d}:{int(elapsed % 3600 // 60):02d}:"
