@@ -16,6 +16,7 @@ from ..capture import open as open_capture
 from ..dataset.inputs import split_input
 from ..listeners import StatsListener
 from ..listeners.exchanges import Exchanges
+from ..outfile import AtomicOutput, check_output, show
 from ..output import dumps
 from .common import Subcommands, add_quiet_arg, add_serial_args, non_negative_int, options_from, run_tap
 
@@ -35,6 +36,8 @@ def register(sub: Subcommands) -> None:
     p.add_argument("--lines", type=non_negative_int, default=60, metavar="N",
                    help="lines of the transaction listing shown at most (default 60; 0: all)")
     p.add_argument("--all", action="store_true", help="also list figures that did not clearly change")
+    p.add_argument("--html", metavar="FILE", help="also write the comparison as one self-contained HTML page")
+    p.add_argument("--force", action="store_true", help="overwrite the --html FILE if it exists")
     add_quiet_arg(p)
     add_serial_args(p)
     p.set_defaults(run=run)
@@ -48,6 +51,8 @@ def _read(spec: str, args: argparse.Namespace) -> tuple[dict[str, Any], Exchange
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.html:
+        check_output(args.html, force=args.force)   # before the work: a bad path costs nothing
     before, old = _read(args.before, args)
     after, new = _read(args.after, args)
     changes = compare(before, after, old.latencies, new.latencies)
@@ -62,6 +67,13 @@ def run(args: argparse.Namespace) -> int:
         sys.stdout.buffer.write(dumps(data) + b"\n")
     else:
         _print_text(args, changes, listing, before, after)
+    if args.html:
+        from ..dataset.diff_html import render
+
+        with AtomicOutput(args.html) as out:
+            out.write(render(_summary(args.before, before), _summary(args.after, after), changes,
+                             listing).encode("utf-8"))
+        print(f"gimbalscope: comparison written to {show(args.html)}", file=sys.stderr)
     return EXIT_WORSE if bad else 0
 
 

@@ -19,7 +19,8 @@ from .report import PERIOD_COLUMNS, DeviceReport, Report, period_cells
 if TYPE_CHECKING:   # matplotlib is imported only for a page
     from matplotlib.figure import Figure
 
-_CSS = """
+# the page's style, shared by the diff page (diff_html.py)
+CSS = """
 body { font-family: system-ui, sans-serif; margin: 2em; color: #222; }
 h1 { font-size: 1.5em; } h2 { font-size: 1.2em; margin-top: 2em; border-bottom: 1px solid #ccc; }
 table { border-collapse: collapse; margin: 0.5em 0; font-size: 0.9em; }
@@ -120,4 +121,4 @@ def render(report: Report, title: str) -> str:
             + "".join(_device(d, report.period) for d in report.devices)
             + "<h2>Wiring doctor, per capture</h2>" + ("".join(findings) or "<p>No findings.</p>"))
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{e(title)}</title>'
-            f"<style>{_CSS}</style></head><body>{body}</body></html>\n")
+            f"<style>{CSS}</style></head><body>{body}</body></html>\n")

@@ -76,3 +76,15 @@ def test_a_missing_capture_is_one_line(tmp_path, captures):
     done = run_cli("diff", str(tmp_path / "nope.log"), captures["base"])
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "nope.log" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_the_html_page_says_the_same(tmp_path, captures):
+    page = tmp_path / "diff.html"
+    done = run_cli("diff", captures["base"], captures["lossy"], "--html", page)
+    assert done.returncode == 1, done.stderr
+    text = page.read_text()
+    assert text.startswith("<!DOCTYPE html>") and "<script" not in text and "http" not in text
+    assert '<p class="worse">' in text and "timeouts" in text and 'class="worse">worse</td>' in text
+    assert text.count('<span class="del">') == captures["lost"] == text.count('<span class="add">')
+    again = run_cli("diff", captures["base"], captures["lossy"], "--html", page)
+    assert again.returncode == 2 and "exists" in again.stderr
