@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 from dissectors.event import Event
 
 from .capture import Capture
+from .formats.marks import Mark
 from .info import CaptureInfo
 from .lines import LineFault
 from .sources import Chunk
@@ -79,6 +80,9 @@ class Listener:
 
     def on_note(self, note: Note) -> None:
         pass
+
+    def on_mark(self, mark: Mark) -> None:
+        """An event marked (or unmarked) by whoever watches the run (the TUI's ``m``, ``M``)."""
 
     def on_stop(self) -> None:
         pass
@@ -189,6 +193,10 @@ class TapRunner:
         else:
             self._requests.put(("note", note))
 
+    def mark(self, mark: Mark) -> None:
+        """Tell every listener an event was marked (from any thread: at the next step)."""
+        self._requests.put(("mark", mark))
+
     def request_swap(self) -> None:
         """Read line A as B and B as A from the next step on (a two-line tap)."""
         self._requests.put(("swap", None))
@@ -280,6 +288,9 @@ class TapRunner:
                 self._tell(arg)
             elif what == "swap":
                 self._swap()
+            elif what == "mark":
+                for listener in self.listeners:
+                    listener.on_mark(arg)
             elif what == "add" and arg not in self.listeners:
                 self._set_listeners([*self.listeners, arg])
                 arg.on_start(self)

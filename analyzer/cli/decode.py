@@ -7,7 +7,9 @@ Tables 4-18 via the command table in dissectors/commands.py).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 
+from ..formats.marks import MarksError, read_marks
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..writers import FORMATS, open_format
@@ -20,6 +22,7 @@ from .common import (
     fields_option,
     open_inputs,
     run_tap,
+    warn,
 )
 
 COLOR = {"auto": None, "always": True, "never": False}   # --color: None = when standard output is a terminal
@@ -42,10 +45,20 @@ def run(args: argparse.Namespace) -> int:
     capture = open_inputs(args)
     info = CaptureInfo.of(capture, command="decode")
     # the writer of the format, to standard output, as convert picks one for a file
-    options: dict[str, object] = {"color": COLOR[args.color]} if args.format == "text" else {}
+    options: dict[str, object] = {"color": COLOR[args.color], "marks": _marks(capture.inputs)} \
+        if args.format == "text" else {}
     options.update(fields)
     writer = open_format(args.format, info, **options)
     # no bar when the lines go to the terminal: they show the progress themselves
     run_tap(capture, "decode", EventPrinter(writer, keep), info=info, progress=True, streams_stdout=True,
             check=True)
     return 0
+
+
+def _marks(inputs: Sequence[str]) -> dict[int, str]:
+    """The capture's marks and notes (analyzer/formats/marks.py); one that does not read is said."""
+    try:
+        return {m.number: m.note for m in read_marks(inputs)}
+    except MarksError as e:
+        warn(f"{e}: decoding without its marks")
+        return {}

@@ -104,9 +104,10 @@ def run(args: argparse.Namespace) -> int:
     events = sum(o.rows.get("events", 0) for o in exported)
     txns = sum(o.rows.get("transactions", 0) for o in exported)
     findings = sum(o.rows.get("findings", 0) for o in exported)
+    marks = sum(o.rows.get("marks", 0) for o in exported)
     print(f"gimbalscope: exported {len(exported)} of {counted(len(outcomes), 'capture')} to {show(root)}: "
-          f"{counted(events, 'event')}, {counted(txns, 'transaction')}, {counted(findings, 'finding')}",
-          file=sys.stderr)
+          f"{counted(events, 'event')}, {counted(txns, 'transaction')}, {counted(findings, 'finding')}"
+          + (f", {counted(marks, 'mark')}" if marks else ""), file=sys.stderr)
     return said_skipped(outcomes)
 
 

@@ -189,6 +189,8 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | 
             listeners.insert(0, _Reporter(job.index, progress))
         out.events = TapRunner(capture, listeners, info=info).run()
         out.warnings += list(capture.warnings) + [f"{name}: {text}" for text in check.warnings]
+        if not isinstance(writer, FileWriter):
+            out.warnings += writer.warnings
         cut = next((w for w in capture.warnings if "ends early" in w), None)
         if cut is not None:
             _discard(writer, job.file)
@@ -225,7 +227,7 @@ def _from_columns(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWri
         return False
     writer.commit()
     out.events, out.rows = done.events, dict(writer.rows)
-    out.warnings += done.warnings
+    out.warnings += done.warnings + writer.warnings
     return True
 
 

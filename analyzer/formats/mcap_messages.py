@@ -46,6 +46,7 @@ from ..analysis.transactions import TransactionRows, without_nulls
 from ..lines import Chunk
 from ..outfile import show
 from . import mcap_schemas as S
+from .marks import MARK_NAME, UNMARK_NAME
 
 Emit = Callable[[str, str, int, dict], None]
 
@@ -219,6 +220,12 @@ class Messages(WireClock):
         """A tap's own message (a port lost and back, the skew estimate) on /log."""
         ts = self.time_ns(t, 0)
         self.emit(S.LOG_TOPIC, "log", ts, log_message(ts, level, show(message), "gimbalscope tap"))
+
+    def mark(self, number: int, t: float | None, note: str, removed: bool = False) -> None:
+        """Event ``number`` marked (or unmarked) with ``note``, on /marks (analyzer/formats/marks.py)."""
+        ts = self.time_ns(t, number)
+        self.emit(S.MARKS_TOPIC, "log", ts, log_message(ts, S.INFO, note, UNMARK_NAME if removed else MARK_NAME,
+                                                       line=number))
 
     def event(self, ev: Event) -> None:
         ts = self.time_ns(ev.t, ev.number, ev.offset)

@@ -32,6 +32,7 @@ RAW_TOPIC = "/serial/{line}/raw"     # line A, B, or AB (single-line tap)
 EVENTS_TOPIC = "/events"
 TRANSACTIONS_TOPIC = "/transactions"
 LOG_TOPIC = "/log"                   # foxglove.Log: human-readable anomalies
+MARKS_TOPIC = "/marks"               # foxglove.Log: the events marked, with notes (analyzer/formats/marks.py)
 POSITION_TOPIC = "/gimbal/{device}/position"   # per device: analyzer/analysis/positions.py
 READS_TOPIC = "/serial/reads"        # lean recordings: the reads of every line, batched in wire order
 METADATA_NAME = "gimbalscope"

@@ -13,7 +13,7 @@ bytes from the wire never raise.
 from __future__ import annotations
 
 import datetime as dt
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -24,6 +24,7 @@ from dissectors.event import Event, Origin
 from dissectors.wire import payload_text
 
 from . import parquet_schema as S
+from .marks import Mark
 from .store_ipc import nanoseconds
 
 if TYPE_CHECKING:
@@ -290,6 +291,21 @@ def findings_batch(findings: list, capture: str, site: str | None, start_time: f
         "first_seen_event": pa.array([f.first_seen_event for f in findings], pa.int64()),
     }
     return pa.RecordBatch.from_arrays([arrays[name] for name, _ in S.FINDING_COLUMNS], schema=S.FINDINGS)
+
+
+def marks_batch(marks: Sequence[Mark], capture: str, site: str | None, start_time: float | None) -> pa.RecordBatch:
+    """The ``marks`` rows of one capture (analyzer/formats/marks.py)."""
+    n = len(marks)
+    t = pa.array([m.t for m in marks], pa.float64())
+    arrays = {
+        "capture": constant(capture, n),
+        "site": constant(site, n),
+        "number": pa.array([m.number for m in marks], pa.int64()),
+        "t": t,
+        "ts": timestamps(t, start_time),
+        "note": pa.array([m.note for m in marks], pa.string()),
+    }
+    return pa.RecordBatch.from_arrays([arrays[name] for name, _ in S.MARK_COLUMNS], schema=S.MARKS)
 
 
 class EventSource(Protocol):

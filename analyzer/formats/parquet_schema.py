@@ -86,6 +86,17 @@ FINDING_COLUMNS: list[tuple[str, pa.DataType]] = [
 ]
 
 
+# the events marked while the capture was watched (analyzer/formats/marks.py)
+MARK_COLUMNS: list[tuple[str, pa.DataType]] = [
+    ("capture", pa.string()),
+    ("site", pa.string()),
+    ("number", pa.int64()),         # the event's
+    ("t", pa.float64()),            # the event's time (null: untimed, or not known)
+    ("ts", TIME),
+    ("note", pa.string()),          # "" for a mark without one
+]
+
+
 def _field_columns(taken: set[str]) -> list[tuple[str, str, pa.DataType]]:
     """(field name, column name, Arrow type) for every field of the command table."""
     return [(name, column, pa.list_(_ARROW[ft.items]) if ft.items is not None else _ARROW[ft.type])
@@ -103,8 +114,10 @@ def _schema(columns: Iterable[tuple[str, pa.DataType]], fields: Iterable[tuple[s
 EVENTS = _schema(EVENT_COLUMNS, EVENT_FIELDS)
 TRANSACTIONS = _schema(TRANSACTION_COLUMNS, TRANSACTION_FIELDS)
 FINDINGS = _schema(FINDING_COLUMNS, [])
+MARKS = _schema(MARK_COLUMNS, [])
 
 # the dataset's tables: folder name -> schema
-TABLES: dict[str, pa.Schema] = {"events": EVENTS, "transactions": TRANSACTIONS, "findings": FINDINGS}
+TABLES: dict[str, pa.Schema] = {"events": EVENTS, "transactions": TRANSACTIONS, "findings": FINDINGS,
+                                "marks": MARKS}
 PARTITION = "date"   # Hive style: <table>/date=YYYY-MM-DD/<capture key>.parquet
 UNDATED = "__HIVE_DEFAULT_PARTITION__"   # a capture without time: Hive's, Spark's and Arrow's null partition

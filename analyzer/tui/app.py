@@ -23,11 +23,13 @@ from textual.binding import Binding, BindingType
 from textual.message import Message
 from textual.timer import Timer
 
+from ..formats.marks import Mark
 from .feed import FeedBatch, ScreenFeed
 from .model import CaptureModel
+from .model.marks_kept import MarksKept
 from .screens.capture import CaptureScreen
 from .screens.redraw import Redrawn
-from .widgets import EventList, RecordControl, TalkBar
+from .widgets import EventList, NoteBar, RecordControl, TalkBar
 
 if TYPE_CHECKING:
     from textual.app import SystemCommand
@@ -58,6 +60,7 @@ class GimbalscopeApp(App):
         Binding("d", "jump('device', 1)", "Same device", show=False, id="app.next_device"),
         Binding("D", "jump('device', -1)", "Same device back", show=False, id="app.prev_device"),
         Binding("m", "mark", "Mark", show=False, id="app.mark"),
+        Binding("M", "note", "Note", show=False, id="app.note"),
         Binding("apostrophe", "jump('mark', 1)", "Next mark", show=False, id="app.next_mark"),
         Binding("ctrl+f", "open('search')", "Search", show=False, id="app.search"),
         Binding("ctrl+g", "open('goto')", "Go to #", show=False, id="app.goto"),
@@ -92,15 +95,19 @@ class GimbalscopeApp(App):
 
     def __init__(self, model: CaptureModel, feed_factory: Callable[[Callable[[FeedBatch], None]], ScreenFeed], *,
                  mode: str, source: str, settings: str = "", record_path: str | None = None,
-                 keymap: dict[str, str] | None = None, talk: TalkSession | None = None) -> None:
+                 keymap: dict[str, str] | None = None, talk: TalkSession | None = None,
+                 marks_kept: MarksKept | None = None) -> None:
         """``feed_factory(deliver)``: the capture's feed, made once the screen has
-        mounted, which hands its batches to ``deliver``."""
+        mounted, which hands its batches to ``deliver``. ``marks_kept``: where a
+        file's marks are kept (its sidecar); a live tap keeps them in its recording."""
         super().__init__()
         self.model = model
         self._feed_factory = feed_factory
         self.feed: ScreenFeed | None = None
         self.mode = mode                 # live, replay, view
         self.talk = talk                 # live --talk: the port the : prompt sends on
+        self.marks_kept = marks_kept     # a file's marks: its sidecar (analyzer/formats/marks.py)
+        self._said_unkept = False        # a live tap not recording was told its marks are not kept
         self.keymap = keymap or {}       # binding id -> keys (--keymap), as the help screen shows them
         self.last: FeedBatch | None = None
         self._pace: Timer | None = None  # a replay's steps (``_tick``), running only while it plays
@@ -144,6 +151,11 @@ class GimbalscopeApp(App):
         # the main screen composes in its own turn: the capture starts once it has
         # (a callback waits in the screen's queue until it has mounted)
         self.main.call_later(self._start_feed)
+        if self.marks_kept is not None:   # the marks the file kept, on screen with its first rows
+            notes, why = self.marks_kept.read()
+            self.model.marks.load(notes)
+            if why:
+                self.notify(f"{why}: opened without its marks", severity="warning", timeout=8)
 
     def _start_feed(self) -> None:
         self.feed = self._feed_factory(self._deliver)
@@ -253,7 +265,39 @@ class GimbalscopeApp(App):
     def action_mark(self) -> None:
         if self.main.event_list.selected is not None:
             self.model.marks.toggle(self.main.current)
-            self.main.event_list.refresh()
+            self._marks_changed()
+
+    def action_note(self) -> None:
+        if self.main.event_list.selected is not None:
+            number = self.main.current
+            self.main.note_bar.open_for(number, self.model.marks.note(number) or "")
+
+    @on(NoteBar.Written)
+    def _note_written(self, message: NoteBar.Written) -> None:
+        self.model.marks.write(message.number, message.note)
+        self._marks_changed()
+
+    def _marks_changed(self) -> None:
+        """Keep what changed: a file's marks in its sidecar, a live tap's in its
+        recording (none: said once, the marks stay on screen)."""
+        self.main.event_list.refresh()
+        self.main.show_selected(self.main.current)
+        changes = self.model.marks.changed()
+        if self.marks_kept is not None:
+            try:
+                self.marks_kept.keep(self.model.marks.notes, self.model.event)
+            except OSError as e:
+                self.notify(f"marks not kept: {e}", severity="error", timeout=6)
+            return
+        recording = self.feed is not None and (self.feed.recording or (self.last is not None and self.last.recording))
+        if self.feed is None or not recording:
+            if not self._said_unkept:
+                self._said_unkept = True
+                self.notify("marks stay on this screen only: a recording keeps them (r records)", timeout=5)
+            return
+        for number, note in changes:
+            ev = self.model.event(number)
+            self.feed.mark(Mark(number, note or "", ev.t if ev is not None else None, removed=note is None))
 
     def action_time_mode(self) -> None:
         mode = self.model.text.cycle_time_mode()

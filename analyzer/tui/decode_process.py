@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 from .. import worker_process
 from ..capture import Options
+from ..formats.marks import Mark
 from .doctor_process import DoctorProcess
 from .feed import FILE_INTERVAL, FeedBatch, ScreenFeed
 from .model.chunks import ChunkMaker
@@ -260,6 +261,9 @@ class ProcessFeed(ScreenFeed):
 
     def swap_lines(self) -> None:
         pass
+
+    def mark(self, mark: Mark) -> None:
+        pass   # a file's marks are kept in its sidecar (tui/model/marks_kept.py), not by its feed
 
     # --------------------------------------------------------------- thread
     def _receive(self) -> None:

@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Protocol
 
 from dissectors.event import Event
 
+from ..formats.marks import Mark
 from ..lines import Chunk
 from ..listeners import DoctorListener
 from ..outfile import show
@@ -141,6 +142,10 @@ class ScreenFeed(Protocol):
         """Read line A as B and B as A from now on (a live tap)."""
         ...
 
+    def mark(self, mark: Mark) -> None:
+        """An event marked: a live tap's recording keeps it (its listeners hear it)."""
+        ...
+
 
 class Feed(ScreenFeed, Listener):
     """Collects what the runner hears and hands it to ``deliver`` in batches.
@@ -235,6 +240,9 @@ class Feed(ScreenFeed, Listener):
 
     def swap_lines(self) -> None:
         self.runner.request_swap()
+
+    def mark(self, mark: Mark) -> None:
+        self.runner.mark(mark)
 
     # ------------------------------------------------------------ listener
     def on_note(self, note: Note) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import difflib
 import importlib
+import os
 import pkgutil
 import signal
 import sys
@@ -26,6 +27,7 @@ from ..worker_process import Worker
 from .feed import FeedBatch, KeptWindows, ScreenFeed
 from .feed_choice import Loading, choose_feed, early_decoding
 from .model import CaptureModel
+from .model.marks_kept import MarksKept
 
 if TYPE_CHECKING:
     from ..talk.session import TalkSession
@@ -132,8 +134,11 @@ def make_app(capture: Capture, *, mode: str, ports: list[str] | None = None, spe
         return choose_feed(loading, deliver)
 
     source = " + ".join(ports) if ports else info.source
+    # a file's marks are kept beside it; a live tap's in its recording
+    marks_kept = MarksKept(capture.inputs) if mode != "live" and capture.inputs and all(
+        os.path.isfile(name) for name in capture.inputs) else None
     return GimbalscopeApp(model, make_feed, mode=mode, source=source, settings=info.serial_settings,
-                          record_path=record_path, keymap=keymap, talk=talk)
+                          record_path=record_path, keymap=keymap, talk=talk, marks_kept=marks_kept)
 
 
 def stop_feed(app: GimbalscopeApp, listeners: Sequence[Listener] = ()) -> list[str]:

@@ -43,6 +43,7 @@ from dissectors.wire import byte_time
 
 from ..capture.merge import SWAP
 from ..formats import mcap_schemas as S
+from ..formats.marks import Mark
 from ..formats.mcap_lines import LINES_RECORD, line_error, lines_record
 from ..info import CaptureInfo
 from ..lines import LineFault
@@ -210,6 +211,9 @@ class McapWriter(FileWriter):
         rec = self.recorder
         if isinstance(rec, RotatingRecorder) and self.live:
             rec.update_metadata(baud=str(baud))
+
+    def on_mark(self, mark: Mark) -> None:
+        self.recorder.mark(mark)
 
     def on_note(self, note: Note) -> None:
         level = log_level(note)

@@ -45,6 +45,7 @@ from dissectors.event import Event
 
 from ..errors import RecordingError
 from ..formats import mcap_schemas as S
+from ..formats.marks import Mark
 from ..formats.mcap_messages import Messages, fixed_topics
 from ..formats.store_ipc import MEDIA_TYPE, VERSION
 from ..lines import Chunk
@@ -245,6 +246,11 @@ class McapRecorder:
         """A tap's own message (a port lost and back, the skew estimate) on /log."""
         if not self._closed:
             self._messages.note(message, t, level)
+
+    def mark(self, mark: Mark) -> None:
+        """An event marked (or unmarked) by whoever watches the tap, on /marks."""
+        if not self._closed:
+            self._messages.mark(mark.number, mark.t, mark.note, mark.removed)
 
     def event(self, ev: Event) -> None:
         if not self._closed:
@@ -559,6 +565,10 @@ class RotatingRecorder:
     def event(self, ev: Event) -> None:
         if self.current is not None:
             self.current.event(ev)
+
+    def mark(self, mark: Mark) -> None:
+        if self.current is not None:
+            self.current.mark(mark)
 
     def end_marker(self, t: float | None) -> None:
         if self.current is not None:

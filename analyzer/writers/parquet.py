@@ -28,7 +28,8 @@ from .. import uris
 from ..analysis.doctor import Invocation, WiringDoctor
 from ..analysis.transactions import TransactionRows
 from ..formats import parquet_schema as S
-from ..formats.parquet_rows import EventBatches, TransactionBatches, day_of, findings_batch, partitions
+from ..formats.marks import MarksError, read_marks
+from ..formats.parquet_rows import EventBatches, TransactionBatches, day_of, findings_batch, marks_batch, partitions
 from ..info import CaptureInfo
 from ..outfile import show
 from ..runner import Listener, TapRunner
@@ -76,6 +77,7 @@ class ParquetDatasetWriter(Listener):
         self.rows = {table: 0 for table in S.TABLES}
         self._start_time = info.start_time   # what dates an undated row: the capture's start
         self.committed = False
+        self.warnings: list[str] = []   # what to say beside the rows (a marks sidecar that does not read)
 
     # ------------------------------------------------------------ the runner's calls
     def on_start(self, runner: TapRunner) -> None:
@@ -141,6 +143,7 @@ class ParquetDatasetWriter(Listener):
             first = self.first_t if self.first_t is not None else 0.0
             self._write("findings", findings_batch(findings, self.capture, self.site,
                                                    rows.start_time, first, self.last_t))
+        self._write_marks(rows.start_time)
 
     # ------------------------------------------------------------ rows made elsewhere
     def write_rows(self, table: str, batch: Any) -> None:
@@ -157,11 +160,23 @@ class ParquetDatasetWriter(Listener):
             if findings:
                 self._write("findings", findings_batch(findings, self.capture, self.site, start_time,
                                                        first_t if first_t is not None else 0.0, last_t))
+            self._write_marks(start_time)
             for writer in self._writers.values():
                 writer.close()
         except BaseException:
             self.abort()
             raise
+
+    def _write_marks(self, start_time: float | None) -> None:
+        """The events marked while the capture was watched (its sidecar, its
+        recording's /marks); a sidecar that does not read is said (``warnings``)."""
+        try:
+            marks = read_marks(self.info.inputs)
+        except MarksError as e:
+            self.warnings.append(f"{e}: exported without its marks")
+            return
+        if marks:
+            self._write("marks", marks_batch(marks, self.capture, self.site, start_time))
 
     # ------------------------------------------------------------ files
     def _file(self, table: str, day: str) -> str:

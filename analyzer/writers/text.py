@@ -16,11 +16,13 @@ replay into a pipe).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import IO, TYPE_CHECKING
 
 from dissectors.event import Event
 
 from ..info import CaptureInfo
+from ..outfile import one_line
 from ..output import SgrCodes, text_line
 from .base import EventLines
 
@@ -36,10 +38,12 @@ class TextWriter(EventLines):
     file: IO[str]   # the target's: standard output or the given file (never None)
 
     def __init__(self, path: str | None = None, info: CaptureInfo | None = None, *, file: IO[str] | None = None,
-                 color: bool | None = None, flush_each: bool = False) -> None:
+                 color: bool | None = None, flush_each: bool = False, marks: Mapping[int, str] | None = None) -> None:
         if path is not None and file is None:
             raise ValueError("the text output goes to standard output or an open text file")
         self.color = color
+        # the capture's marks (number -> note, analyzer/formats/marks.py): a line under each marked event
+        self.marks = marks or {}
         self.flush_each = flush_each
         self._console: Console | None = None
         self._codes: SgrCodes | None = None
@@ -69,6 +73,9 @@ class TextWriter(EventLines):
                 from rich.text import Text
                 assert self._console is not None   # made with the codes (begin)
                 self._console.print(Text(text, style=style))
+            note = self.marks.get(ev.number) if ev.number is not None else None
+            if note is not None:
+                self.file.write(f"        ★ marked{': ' + one_line(note) if note else ''}\n")
             if self.flush_each:
                 self.file.flush()
         self.count += 1

@@ -259,8 +259,13 @@ class CaptureModel:
 
     # -------------------------------------------------------------- detail
     def detail(self, ev: Event) -> list[DetailNode]:
-        """The detail tree of one event: frame, fields, problems, pairing."""
-        return detail_tree(ev, self.answers_of, self.event)
+        """The detail tree of one event: its mark and note first, then frame,
+        fields, problems, pairing."""
+        nodes = detail_tree(ev, self.answers_of, self.event)
+        note = self.marks.note(ev.number) if ev.number is not None else None
+        if note is not None:
+            nodes.insert(0, DetailNode(f"★ marked{': ' + note if note else ''}"))
+        return nodes
 
     def answers_of(self, number: int) -> list[int]:
         found = self.store.answers_of(number, self.shown) if number <= self.shown else []

@@ -24,6 +24,7 @@ from ..widgets import (
     FilterBar,
     GotoBar,
     HexView,
+    NoteBar,
     RecordControl,
     SearchBar,
     StatusBar,
@@ -62,6 +63,7 @@ class CaptureScreen(Screen):
         self.search_bar = SearchBar(id="search")
         self.goto_bar = GotoBar(id="goto")
         self.talk_bar = TalkBar(id="talk")
+        self.note_bar = NoteBar(id="note")
         self.record = RecordControl(record_path)
         self.sweep = BackgroundSweep()
         self._detail_due = False   # following: the lower panes catch up on a timer (_detail_later)
@@ -77,6 +79,7 @@ class CaptureScreen(Screen):
         yield self.search_bar
         yield self.goto_bar
         yield self.talk_bar
+        yield self.note_bar
         yield self.record
         yield self.sweep
         yield Footer()

@@ -1,0 +1,32 @@
+"""Where a file's marks are kept while it is viewed: its sidecar, beside its first
+input (analyzer/formats/marks.py), written whole after every change and read
+when the file opens. (A live tap's marks go into its recording instead.)"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from dissectors.event import Event
+
+from ...formats.marks import Mark, MarksError, read_marks, write_sidecar
+
+
+class MarksKept:
+    def __init__(self, inputs: Sequence[str]) -> None:
+        self.inputs = tuple(inputs)
+
+    def read(self) -> tuple[dict[int, str], str | None]:
+        """The marks the file kept (number -> note), and why none could be read."""
+        try:
+            return {m.number: m.note for m in read_marks(self.inputs)}, None
+        except MarksError as e:
+            return {}, str(e)
+
+    def keep(self, notes: dict[int, str], event: Callable[[int], Event | None]) -> str:
+        """Every mark into the sidecar (``event``: an event by number, for its time);
+        its path. Raises OSError."""
+        marks = []
+        for number, note in notes.items():
+            ev = event(number)
+            marks.append(Mark(number, note, ev.t if ev is not None else None))
+        return write_sidecar(self.inputs, marks)
