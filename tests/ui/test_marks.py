@@ -91,5 +91,14 @@ def test_a_live_taps_marks_go_into_its_recording(tmp_path):
     run(drive())
     marks = recorded_marks(str(rec))
     assert [(m.number, m.note, m.removed) for m in marks] == [(1, "first HO", False)]
+    # each message is a foxglove.Log, as Foxglove's Log panel reads it
+    import jsonschema
+    from mcap.reader import make_reader
+
+    from analyzer.formats import mcap_schemas as S
+    with open(rec, "rb") as f:
+        for schema, _channel, message in make_reader(f).iter_messages(topics=[S.MARKS_TOPIC]):
+            assert schema is not None and schema.name == "foxglove.Log"
+            jsonschema.validate(json.loads(message.data), S.LOG)
     lines = run_cli("decode", rec).stdout.splitlines()
     assert lines[1] == "        ★ marked: first HO" and lines[0].lstrip().startswith("1 ")
