@@ -28,7 +28,7 @@ from ..analysis.filter import Predicate
 from ..info import CaptureInfo
 from ..lines import Chunk
 from ..runner import INFO, RECORDING, Listener, TapRunner
-from ..words import counted
+from ..words import byte_size, counted
 from .mcap import McapWriter
 
 _IDLE, _OPEN, _CLOSING = "idle", "open", "closing"
@@ -194,7 +194,7 @@ class WindowKeeper(Listener):
     def status(self) -> str:
         """What the status line shows: ``2 windows, 5 matched, 30.1 kB dropped``."""
         return (f"{counted(self.windows, 'window')}, {self.matched:,} matched, "
-                f"{_size(self.dropped_bytes)} dropped")
+                f"{byte_size(self.dropped_bytes)} dropped")
 
     def summary(self) -> str:
         """``2 windows kept in DIR: 5 events matched 'status == "nak"', 1,200 bytes kept, 30,000 dropped``."""
@@ -204,9 +204,3 @@ class WindowKeeper(Listener):
             said += f" ({counted(self.missed, 'match', 'matches')} after the last window allowed)"
         return said
 
-
-def _size(n: int) -> str:
-    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
-        if n >= scale:
-            return f"{n / scale:.1f} {unit}"
-    return f"{n} B"

@@ -36,7 +36,7 @@ from textual.timer import Timer
 from textual.widgets import Static
 
 from ...styles import ERROR, INFO, PORT_STATE_STYLE, SEVERITY_BADGE, WARNING
-from ...words import counted
+from ...words import byte_size, counted
 from ..feed import FeedBatch
 from ..model import CaptureModel
 from ..model.sampled import SampledInput
@@ -185,14 +185,6 @@ def _make_room(parts: list[Part], width: int) -> None:
         p.shorten(over())
 
 
-def _size(n: float) -> str:
-    for unit in ("B", "kB", "MB", "GB"):
-        if n < 1000 or unit == "GB":
-            return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"
-        n /= 1000
-    return ""
-
-
 class StatusBar(Static):
     def __init__(self, model: CaptureModel, *, mode: str, source: str, settings: str = "", **kw: Any) -> None:
         super().__init__(**kw)
@@ -290,7 +282,7 @@ class StatusBar(Static):
                 parts.append(Part(4, free=st.port, cut_start=True, sep=" ", sep_style=PREVIOUS, cut_rank=1))
                 parts.append(Part(MUST, st.state, style=PORT_STATE_STYLE.get(st.state, "white"), sep=" "))
                 if not m.done:   # nothing is read once it ended
-                    parts.append(Part(5, f"{_size(st.rate)}/s", sep=" "))
+                    parts.append(Part(5, f"{byte_size(st.rate)}/s", sep=" "))
         if self.sampled is None:   # (a logic capture's lines say theirs)
             parts.append(Part(2, b.settings if b is not None and b.settings else self.settings, style="dim",
                               sep_style=PREVIOUS if parts and not live else ""))
@@ -298,7 +290,7 @@ class StatusBar(Static):
             parts.append(Part(3, f"skew +{b.skew * 1000:.1f} ms", style="yellow"))
         if b is not None and b.recording:
             parts.append(Part(MUST, "● REC ", style="bold red", free=b.recording, cut_start=True, cut_rank=1,
-                              tail=f" {_size(b.recording_bytes)}"))
+                              tail=f" {byte_size(b.recording_bytes)}"))
         if b is not None and b.windows:   # live --keep: windows kept, matches, bytes dropped
             parts.append(Part(MUST, "◆ KEEP ", style="bold magenta", free=b.windows, cut_rank=1))
         if live:   # how long the tap has run (a file's duration is in its stats)
@@ -347,10 +339,10 @@ class StatusBar(Static):
         if b is None:
             return word
         if not b.total:
-            return f"{word} · {_size(b.read)} of traffic" if b.read else word
+            return f"{word} · {byte_size(b.read)} of traffic" if b.read else word
         if done and not b.error:
-            return f"{word} {_size(b.total)}"
-        return f"{word} {100 * b.read // b.total}% · {_size(b.read)} of {_size(b.total)}"
+            return f"{word} {byte_size(b.total)}"
+        return f"{word} {100 * b.read // b.total}% · {byte_size(b.read)} of {byte_size(b.total)}"
 
     def _events(self) -> list[Part]:
         """Line 2: what the events are, and what the screen is doing."""
