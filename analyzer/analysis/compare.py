@@ -38,6 +38,7 @@ RATES: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("checksum errors", ("checksum_errors",)),
 )
 LATENCIES = (("ACK latency", "ack_latency"), ("result latency", "result_latency"))
+_LATENCY_NAMES = frozenset(name for name, _ in LATENCIES)
 
 BETTER, WORSE, SAME = "better", "worse", "no clear change"
 
@@ -55,10 +56,15 @@ class Change:
     p95: tuple[float | None, float | None] = (None, None)   # latencies: the 95th percentiles
     verdict: str = SAME
 
+    @property
+    def latency(self) -> bool:
+        """A latency's median (seconds), not a rate."""
+        return self.figure in _LATENCY_NAMES
+
     def to_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"scope": self.scope, "key": self.key, "figure": self.figure,
                                "before": self.before, "after": self.after, "p": self.p, "verdict": self.verdict}
-        if self.figure in dict(LATENCIES):
+        if self.latency:
             out["p95"] = list(self.p95)
         else:
             out["counts"] = {"before": self.counts[0], "before_commands": self.counts[1],
@@ -160,18 +166,11 @@ def holm(ps: Sequence[float], alpha: float = ALPHA) -> list[bool]:
 
 
 # ------------------------------------------------------------------ the comparison
-def _median(xs: Sequence[float]) -> float | None:
-    if not xs:
+def _nearest_rank(ordered: Sequence[float], q: float) -> float | None:
+    """The ceil(q·n)-th smallest of the sorted samples (a sample seen, as ``Latency.quantile`` takes one)."""
+    if not ordered:
         return None
-    s = sorted(xs)
-    return s[(len(s) - 1) // 2]   # the lower middle: a sample seen, as a nearest-rank median
-
-
-def _p95(xs: Sequence[float]) -> float | None:
-    if not xs:
-        return None
-    s = sorted(xs)
-    return s[max(0, math.ceil(0.95 * len(s)) - 1)]
+    return ordered[max(0, math.ceil(q * len(ordered)) - 1)]
 
 
 def _table(stats: dict[str, Any], scope: str) -> dict[str, dict[str, Any]]:
@@ -204,8 +203,10 @@ def compare(before: dict[str, Any], after: dict[str, Any], lat_before: Latencies
                 if not xs and not ys:
                     continue
                 tested = len(xs) >= MIN_SAMPLES and len(ys) >= MIN_SAMPLES
-                changes.append(Change(scope, key, name, _median(xs), _median(ys), p=mann_whitney(xs, ys)
-                                      if tested else None, p95=(_p95(xs), _p95(ys))))
+                old_sorted, new_sorted = sorted(xs), sorted(ys)
+                changes.append(Change(scope, key, name, _nearest_rank(old_sorted, 0.5), _nearest_rank(new_sorted, 0.5),
+                                      p=mann_whitney(xs, ys) if tested else None,
+                                      p95=(_nearest_rank(old_sorted, 0.95), _nearest_rank(new_sorted, 0.95))))
     _judge(changes)
     return changes
 
@@ -216,10 +217,20 @@ def _judge(changes: list[Change]) -> None:
     for c, passed in zip(tested, holm([c.p for c in tested if c.p is not None]), strict=True):
         if not passed or c.before is None or c.after is None or c.after == c.before:
             continue
-        if c.figure in dict(LATENCIES) and abs(c.after - c.before) < LATENCY_STEP * max(c.before, 1e-9):
+        if c.latency and abs(c.after - c.before) < LATENCY_STEP * max(c.before, 1e-9):
             continue   # a latency's move too small to be news, however certain
         c.verdict = WORSE if c.after > c.before else BETTER
 
 
 def worse(changes: Iterable[Change]) -> list[Change]:
     return [c for c in changes if c.verdict == WORSE]
+
+
+_VERDICT_ORDER = {WORSE: 0, BETTER: 1, SAME: 2}
+
+
+def reading_order(changes: Iterable[Change]) -> list[Change]:
+    """As the text and the page list them: worse, better, the rest; the capture's
+    own figures first, then by device or command."""
+    return sorted(changes, key=lambda c: (_VERDICT_ORDER[c.verdict], c.scope != "capture", c.scope, c.key,
+                                          c.figure))

@@ -11,7 +11,7 @@ import difflib
 import sys
 from typing import Any
 
-from ..analysis.compare import BETTER, LATENCIES, SAME, WORSE, Change, compare, worse
+from ..analysis.compare import BETTER, SAME, Change, compare, reading_order, worse
 from ..capture import open as open_capture
 from ..dataset.inputs import split_input
 from ..listeners import StatsListener
@@ -91,8 +91,7 @@ def _print_text(args: argparse.Namespace, changes: list[Change], listing: list[s
     out.write("\n")
     called = [c for c in changes if c.verdict != SAME]
     shown = changes if args.all else called
-    order = {WORSE: 0, BETTER: 1, SAME: 2}
-    for c in sorted(shown, key=lambda c: (order[c.verdict], c.scope != "capture", c.scope, c.key, c.figure)):
+    for c in reading_order(shown):
         out.write(_line(c) + "\n")
     if not called:
         out.write("no figure changed by more than chance\n")
@@ -118,7 +117,7 @@ def _print_text(args: argparse.Namespace, changes: list[Change], listing: list[s
 def _line(c: Change) -> str:
     """``1.1.12: NAKs 4.1 % -> 0.2 %, better (p < 0.001)``, within 80 columns."""
     where = "all" if c.scope == "capture" else c.key
-    if c.figure in dict(LATENCIES):
+    if c.latency:
         text = f"{where}: {c.figure} median {_ms(c.before)} -> {_ms(c.after)}, p95 {_ms(c.p95[0])} -> {_ms(c.p95[1])}"
     else:
         text = f"{where}: {c.figure} {_pct(c.before)} -> {_pct(c.after)}"

@@ -10,7 +10,7 @@ import html
 from collections.abc import Sequence
 from typing import Any
 
-from ..analysis.compare import BETTER, LATENCIES, SAME, WORSE, Change
+from ..analysis.compare import BETTER, SAME, WORSE, Change, reading_order
 from .report_html import CSS
 
 _EXTRA_CSS = """
@@ -26,12 +26,12 @@ _CLASS = {WORSE: "worse", BETTER: "better", SAME: "same"}
 def _value(c: Change, x: float | None) -> str:
     if x is None:
         return "none"
-    return f"{x * 1000:.1f} ms" if c.figure in dict(LATENCIES) else f"{x * 100:.1f} %"
+    return f"{x * 1000:.1f} ms" if c.latency else f"{x * 100:.1f} %"
 
 
 def _row(c: Change) -> str:
     where = "all" if c.scope == "capture" else f"{c.scope} {c.key}"
-    if c.figure in dict(LATENCIES):
+    if c.latency:
         counts = f"p95 {_value(c, c.p95[0])} → {_value(c, c.p95[1])}"
     else:
         k1, n1, k2, n2 = c.counts
@@ -61,8 +61,7 @@ def render(before: dict[str, Any], after: dict[str, Any], changes: Sequence[Chan
     """The page: ``before`` and ``after`` name each capture and its size
     (``capture``, ``events``, ``commands``), ``changes`` every figure compared,
     ``listing`` the unified listing of the transactions (none: the same)."""
-    order = {WORSE: 0, BETTER: 1, SAME: 2}
-    rows = sorted(changes, key=lambda c: (order[c.verdict], c.scope != "capture", c.scope, c.key, c.figure))
+    rows = reading_order(changes)
     worse = sum(c.verdict == WORSE for c in changes)
     better = sum(c.verdict == BETTER for c in changes)
     verdict = (f'<p class="worse">{worse} got worse</p>' if worse else '<p class="ok">nothing got worse</p>')

@@ -23,7 +23,6 @@ from textual.binding import Binding, BindingType
 from textual.message import Message
 from textual.timer import Timer
 
-from ..formats.marks import Mark
 from .feed import FeedBatch, ScreenFeed
 from .model import CaptureModel
 from .model.marks_kept import MarksKept
@@ -282,22 +281,21 @@ class GimbalscopeApp(App):
         recording (none: said once, the marks stay on screen)."""
         self.main.event_list.refresh()
         self.main.show_selected(self.main.current)
-        changes = self.model.marks.changed()
+        model = self.model
+        changes = model.marks.changed()
         if self.marks_kept is not None:
             try:
-                self.marks_kept.keep(self.model.marks.notes, self.model.event)
+                self.marks_kept.keep([model.as_mark(number, note) for number, note in model.marks.notes.items()])
             except OSError as e:
                 self.notify(f"marks not kept: {e}", severity="error", timeout=6)
             return
-        recording = self.feed is not None and (self.feed.recording or (self.last is not None and self.last.recording))
-        if self.feed is None or not recording:
+        if self.feed is None or not self._recording():
             if not self._said_unkept:
                 self._said_unkept = True
                 self.notify("marks stay on this screen only: a recording keeps them (r records)", timeout=5)
             return
         for number, note in changes:
-            ev = self.model.event(number)
-            self.feed.mark(Mark(number, note or "", ev.t if ev is not None else None, removed=note is None))
+            self.feed.mark(model.as_mark(number, note))
 
     def action_time_mode(self) -> None:
         mode = self.model.text.cycle_time_mode()
@@ -341,7 +339,11 @@ class GimbalscopeApp(App):
         if self.mode != "live" or self.feed is None:
             self.notify("recording is for live taps (replays are recordings already)", timeout=2)
             return
-        self.main.record.toggle(bool(self.feed.recording or (self.last is not None and self.last.recording)))
+        self.main.record.toggle(self._recording())
+
+    def _recording(self) -> bool:
+        """Does the live tap record now (its feed's recorder, or the last batch says so)?"""
+        return self.feed is not None and bool(self.feed.recording or (self.last is not None and self.last.recording))
 
     def action_replay(self, what: str, amount: float = 0) -> None:
         """Play or pause; change the speed by a factor; seek by seconds."""

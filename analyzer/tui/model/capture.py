@@ -22,6 +22,7 @@ from bisect import bisect_left, bisect_right
 from dissectors.event import Event
 
 from ...analysis.findings import Finding
+from ...formats.marks import Mark
 from ...formats.store import EventStore, EventsView
 from ...formats.sweep import IsCancelled, ReportProgress
 from ..detail import DetailNode
@@ -258,6 +259,11 @@ class CaptureModel:
         return out
 
     # -------------------------------------------------------------- detail
+    def as_mark(self, number: int, note: str | None) -> Mark:
+        """Event ``number``'s mark with ``note`` (None: the mark taken off), at the event's time."""
+        ev = self.event(number)
+        return Mark(number, note or "", ev.t if ev is not None else None, removed=note is None)
+
     def detail(self, ev: Event) -> list[DetailNode]:
         """The detail tree of one event: its mark and note first, then frame,
         fields, problems, pairing."""

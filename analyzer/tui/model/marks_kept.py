@@ -4,9 +4,7 @@ when the file opens. (A live tap's marks go into its recording instead.)"""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-
-from dissectors.event import Event
+from collections.abc import Iterable, Sequence
 
 from ...formats.marks import Mark, MarksError, read_marks, write_sidecar
 
@@ -22,11 +20,6 @@ class MarksKept:
         except MarksError as e:
             return {}, str(e)
 
-    def keep(self, notes: dict[int, str], event: Callable[[int], Event | None]) -> str:
-        """Every mark into the sidecar (``event``: an event by number, for its time);
-        its path. Raises OSError."""
-        marks = []
-        for number, note in notes.items():
-            ev = event(number)
-            marks.append(Mark(number, note, ev.t if ev is not None else None))
+    def keep(self, marks: Iterable[Mark]) -> str:
+        """Every mark into the sidecar; its path. Raises OSError."""
         return write_sidecar(self.inputs, marks)
