@@ -74,10 +74,13 @@ _DURATION_UNITS = {"ms": 0.001, "s": 1.0, "m": 60.0, "min": 60.0, "h": 3600.0, "
 
 def duration(text: str) -> float:
     """A time span in seconds: ``30s``, ``500ms``, ``5m``, ``2h``, ``1d``, or a bare number of seconds."""
+    wanted = "a duration, 0 or more: 30s, 500ms, 5m, 2h, 1d, or seconds"
     number = text.strip().lower()
     unit = next((u for u in sorted(_DURATION_UNITS, key=len, reverse=True) if number.endswith(u)), "")
-    value = _number(number[:len(number) - len(unit)] if unit else number, float, lambda v: v >= 0,
-                    "a duration, 0 or more: 30s, 500ms, 5m, 2h, 1d, or seconds")
+    try:
+        value = _number(number[:len(number) - len(unit)] if unit else number, float, lambda v: v >= 0, wanted)
+    except argparse.ArgumentTypeError:   # "3x" is no float: say what a duration is, for the text given
+        raise argparse.ArgumentTypeError(f"{text!r}: must be {wanted}") from None
     return value * _DURATION_UNITS.get(unit, 1.0)
 
 

@@ -46,7 +46,8 @@ def register(sub: Subcommands) -> None:
 def _read(spec: str, args: argparse.Namespace) -> tuple[dict[str, Any], Exchanges]:
     capture = open_capture(*split_input(spec), options=options_from(args))
     counter, exchanges = StatsListener(), Exchanges()
-    run_tap(capture, "diff", counter, exchanges, progress=True)
+    # check: a capture that is not this protocol, or swapped lines, is said as stats says it
+    run_tap(capture, "diff", counter, exchanges, progress=True, check=True)
     return counter.stats.to_dict(), exchanges
 
 

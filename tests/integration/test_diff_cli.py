@@ -88,3 +88,13 @@ def test_the_html_page_says_the_same(tmp_path, captures):
     assert text.count('<span class="del">') == captures["lost"] == text.count('<span class="add">')
     again = run_cli("diff", captures["base"], captures["lossy"], "--html", page)
     assert again.returncode == 2 and "exists" in again.stderr
+
+
+def test_a_capture_that_is_not_this_protocol_is_said_as_stats_says_it(tmp_path, captures):
+    import random
+
+    noise = tmp_path / "noise.bin"
+    noise.write_bytes(random.Random(3).randbytes(20_000))
+    done = run_cli("diff", noise, captures["base"])
+    assert done.returncode == 0, done.stderr
+    assert "almost nothing decodes" in done.stderr and "Traceback" not in done.stderr

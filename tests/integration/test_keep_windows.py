@@ -108,7 +108,9 @@ def test_windows_open_as_recordings(kept):
 def test_keep_without_a_folder_or_with_a_bad_filter_is_one_line(tmp_path):
     for args, said in ((["--keep", TRIGGER], "--keep needs --record DIR"),
                        (["--keep", "status ==", "--record", tmp_path / "w"], "--keep column 10"),
-                       (["--max-windows", "2"], "--max-windows goes with --keep")):
+                       (["--max-windows", "2"], "--max-windows goes with --keep"),
+                       (["--keep", TRIGGER, "--record", tmp_path / "w", "--before", "3x"],
+                        "argument --before: '3x': must be a duration")):
         done = run_cli("demo", "--no-tui", "--seconds", "1", *args)
         assert done.returncode == 2, (args, done.stderr)
         assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
