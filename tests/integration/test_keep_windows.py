@@ -47,33 +47,60 @@ def kept(tmp_path_factory):
     return folder, events, done.stderr
 
 
-def _expected_windows(events: list[dict]) -> list[tuple[float, float]]:
+def _expected_windows(events: list[dict], matches=_matches, before: float = BEFORE,
+                      after: float = AFTER) -> list[tuple[float, float]]:
     """From the matches: [t - before, t + after], a match within `before` of a
     window's end continuing it."""
     spans: list[list[float]] = []
     for ev in events:
-        if _matches(ev):
+        if matches(ev):
             t = ev["t"]
-            if spans and t - BEFORE <= spans[-1][1]:
-                spans[-1][1] = t + AFTER
+            if spans and t - before <= spans[-1][1]:
+                spans[-1][1] = t + after
             else:
-                spans.append([t - BEFORE, t + AFTER])
+                spans.append([t - before, t + after])
     return [(a, b) for a, b in spans]
+
+
+def _windows_hold_their_spans(folder, events: list[dict], spans: list[tuple[float, float]], trigger: str) -> None:
+    files = sorted(folder.glob("window-*.mcap"))
+    assert len(files) == len(spans)
+    for path, (start, end) in zip(files, spans, strict=True):
+        recorded, meta = _recorded(path)
+        expected = [ev["number"] for ev in events if start <= ev["t"] <= end]
+        assert [ev["number"] for ev in recorded] == expected, path.name
+        assert meta.get("trigger") == trigger and meta.get("window") == path.name[7:11].lstrip("0")
 
 
 def test_each_window_holds_exactly_the_events_around_its_matches(kept):
     folder, events, _stderr = kept
     spans = _expected_windows(events)
     assert len(spans) >= 2, "the demo's faults should give several matches"
-    files = sorted(folder.glob("window-*.mcap"))
-    assert len(files) == len(spans)
-    # some window holds more than one match: windows that would overlap were made one
-    assert any(sum(1 for ev in events if _matches(ev) and a <= ev["t"] <= b) > 1 for a, b in spans)
-    for path, (start, end) in zip(files, spans, strict=True):
-        recorded, meta = _recorded(path)
-        expected = [ev["number"] for ev in events if start <= ev["t"] <= end]
-        assert [ev["number"] for ev in recorded] == expected, path.name
-        assert meta.get("trigger") == TRIGGER and meta.get("window") == path.name[7:11].lstrip("0")
+    _windows_hold_their_spans(folder, events, spans, TRIGGER)
+
+
+@pytest.mark.parametrize(("before", "windows"), [(0.4, 2), (1.0, 1)])
+def test_windows_merge_exactly_when_their_spans_would_overlap(tmp_path, before, windows):
+    # the sample's two NAKs, 4.961 s and 5.820 s into it: 0.3 s after the first and
+    # 0.4 s before the second leave a gap (two windows); 1.0 s before, they overlap (one).
+    # The sample read as a file: its times are its own, whatever the machine's load
+    import analyzer
+    from analyzer.analysis.filter import compile_filter
+    from analyzer.info import CaptureInfo
+    from analyzer.runner import TapRunner
+    from analyzer.writers.windows import WindowKeeper
+    from tests.conftest import SOCAT_LOG
+
+    nak = 'status == "nak"'
+    capture = analyzer.open(SOCAT_LOG)
+    info = CaptureInfo.of(capture, command="live")
+    keeper = WindowKeeper(str(tmp_path), info, compile_filter(nak), nak, before=before, after=0.3)
+    TapRunner(capture, [keeper], info=info).run()
+    events = [ev.to_dict() for ev in analyzer.open(SOCAT_LOG)]
+    spans = _expected_windows(events, lambda ev: ev.get("status") == "nak", before, 0.3)
+    assert len(spans) == windows and keeper.windows == windows and keeper.matched == 2
+    _windows_hold_their_spans(tmp_path, events, spans, nak)
+    assert keeper.kept_bytes + keeper.dropped_bytes == sum(len(ev["raw"]) // 2 for ev in events)
 
 
 def test_the_summary_counts_windows_matches_and_dropped_bytes(kept):
