@@ -51,6 +51,7 @@ _Args = TypeVarTuple("_Args")
 _LENGTH = struct.Struct("<Q")   # a message's length, before its pickle
 # the child's first steps: the caller's sys.path, then the work (``_serve``)
 _BOOT = f"import sys, json; sys.path[:] = json.loads(sys.argv[1]); from {__name__} import _serve; _serve()"
+PIPE_BYTES = 1 << 20   # the channel's pipe (``_widen``): what Linux lets any user ask for (pipe-max-size)
 END_WAIT = 5.0   # seconds a child has to end on SIGTERM before it is killed
 
 
@@ -218,9 +219,24 @@ def _spawn(*preload: str) -> Worker | None:
     except OSError:
         return None
     assert process.stdin is not None and process.stdout is not None   # both are pipes
+    _widen(process.stdout.fileno())
     worker = Worker(process, Receiver(process.stdout))
     _running.add(worker)
     return worker
+
+
+def _widen(pipe: int) -> None:
+    """Let the pipe hold a whole message (a loading file's chunk of columns is
+    about a megabyte): with Linux's default 64 kB the child waits at every one
+    until the receiving thread, which shares its interpreter with a busy screen,
+    has read most of it. Where the system refuses, the pipe stays as it is."""
+    if sys.platform != "linux":
+        return
+    import fcntl
+    try:
+        fcntl.fcntl(pipe, fcntl.F_SETPIPE_SZ, PIPE_BYTES)
+    except OSError:   # above the system's or the user's limit for pipes
+        pass
 
 
 def _path() -> list[str]:

@@ -21,7 +21,7 @@ import pyarrow as pa
 from ..analysis.doctor import Invocation
 from ..capture import Capture
 from ..capture.stored import stored_events
-from ..formats.parquet_columns import StoredRows, Tables, stored_batches, tables_of
+from ..formats.parquet_columns import StoredRows, Tables, TablesSoFar, stored_batches
 from ..formats.store import StoreChunk
 from ..formats.store_ipc import ColumnsError, Joiner, sets_a_rate
 from ..info import CaptureInfo
@@ -111,10 +111,11 @@ def export_stored(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWri
 
     def chunks() -> Iterator[tuple[StoreChunk, Tables, tuple[np.ndarray, np.ndarray]]]:
         """The chunks with their tables and positions, as the joiner reads them."""
+        tables = TablesSoFar()
         for chunk in stored.chunks(joiner):
             if sets_a_rate(chunk):
                 raise Undecodable()
-            yield chunk, tables_of(joiner.known()), joiner.positions
+            yield chunk, tables.of(joiner.known()), joiner.positions
     behind = _WrittenBehind(writer)
     try:
         for table, batch in stored_batches(rows, chunks()):

@@ -66,9 +66,36 @@ class Tables:
 
 def tables_of(known: tuple[list[Any], list[Any], list[Any]]) -> Tables:
     lines, devices, commands = known
-    return Tables(pa.array([None, *lines], pa.string()), pa.array([None, *devices], pa.string()),
-                  pa.array([None, *(c[0] for c in commands)], pa.string()),
-                  [None, *(COMMANDS[c[1]] if isinstance(c[1], int) else None for c in commands)])
+    return Tables(_strings([None, *lines]), _strings([None, *devices]), _strings([None, *(c[0] for c in commands)]),
+                  [None, *(_entry(c) for c in commands)])
+
+
+class TablesSoFar:
+    """``tables_of`` a joiner's tables as they grow, chunk by chunk: only the
+    values a chunk adds are made (a joiner's codes are only ever added to, and a
+    noisy line names new garbled commands in most chunks)."""
+
+    def __init__(self) -> None:
+        self.tables = tables_of(([], [], []))
+
+    def of(self, known: tuple[list[Any], list[Any], list[Any]]) -> Tables:
+        t = self.tables
+        new = [values[len(array) - 1:] for values, array in zip(known, (t.lines, t.devices, t.commands), strict=True)]
+        if any(new):
+            self.tables = Tables(*(pa.concat_arrays([array, _strings(more)]) if more else array
+                                   for array, more in zip((t.lines, t.devices, t.commands),
+                                                          (new[0], new[1], [c[0] for c in new[2]]), strict=True)),
+                                 t.entries + [_entry(c) for c in new[2]])
+        return self.tables
+
+
+def _entry(command: Any) -> Command | None:
+    """A joined command's table entry (its place in ``COMMANDS``; None: an id the table lacks)."""
+    return COMMANDS[command[1]] if isinstance(command[1], int) else None
+
+
+def _strings(values: list[str | None]) -> pa.Array:
+    return pa.array(values, pa.string())
 
 
 @dataclass
@@ -402,15 +429,26 @@ def transaction_rows(window: pa.Table, final: bool, capture: str, site: str | No
         "problems": _transaction_problems(window, closed, answers, k),
     }
     columns = [arrays[name] if name in arrays else cmd.column(name) for name, _ in S.TRANSACTION_COLUMNS]
+    # a field's value: the command's, or its result's where the result has one
+    # (to_dict's update). Fields that take the same rows are taken together, one
+    # take of them all: a field's own take was most of the transactions' cost
     has_result = result >= 0
-    for name, _column_name, kind_type in S.TRANSACTION_FIELDS:
-        if f"f:{name}" not in present:
-            columns.append(pa.nulls(size, kind_type))
-            continue
-        # the command's value, or its result's where the result has one (to_dict's update)
-        there = window.column(f"p:{name}").chunk(0).fill_null(False).to_numpy(zero_copy_only=False)
-        rows = np.where(has_result & there[np.maximum(result, 0)], result, closed)
-        columns.append(window.column(f"f:{name}").take(pa.array(rows)))
+    of_result = np.maximum(result, 0)
+    groups: dict[bytes, list[str]] = {}
+    rows_of_group: dict[bytes, np.ndarray] = {}
+    for name, _column_name, _kind_type in S.TRANSACTION_FIELDS:
+        if f"f:{name}" in present:
+            there = window.column(f"p:{name}").chunk(0).fill_null(False).to_numpy(zero_copy_only=False)
+            use = has_result & there[of_result]
+            key = use.tobytes()
+            groups.setdefault(key, []).append(name)
+            rows_of_group.setdefault(key, np.where(use, result, closed) if use.any() else closed)
+    taken: dict[str, pa.Array] = {}
+    for key, names in groups.items():
+        struct = pa.StructArray.from_arrays([window.column(f"f:{n}").chunk(0) for n in names], names=names)
+        rows = struct.take(pa.array(rows_of_group[key]))
+        taken.update({n: rows.field(i) for i, n in enumerate(names)})
+    columns += [taken[name] if name in taken else pa.nulls(size, kind_type) for name, _c, kind_type in S.TRANSACTION_FIELDS]
     columns = [c.chunk(0) if isinstance(c, pa.ChunkedArray) and c.num_chunks == 1
                else c.combine_chunks() if isinstance(c, pa.ChunkedArray) else c for c in columns]
     return pa.RecordBatch.from_arrays(columns, schema=S.TRANSACTIONS), carry
