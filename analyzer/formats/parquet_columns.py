@@ -80,12 +80,12 @@ class TablesSoFar:
 
     def of(self, known: tuple[list[Any], list[Any], list[Any]]) -> Tables:
         t = self.tables
-        new = [values[len(array) - 1:] for values, array in zip(known, (t.lines, t.devices, t.commands), strict=True)]
-        if any(new):
-            self.tables = Tables(*(pa.concat_arrays([array, _strings(more)]) if more else array
-                                   for array, more in zip((t.lines, t.devices, t.commands),
-                                                          (new[0], new[1], [c[0] for c in new[2]]), strict=True)),
-                                 t.entries + [_entry(c) for c in new[2]])
+        lines, devices, commands = (values[len(array) - 1:] for values, array
+                                    in zip(known, (t.lines, t.devices, t.commands), strict=True))
+        if lines or devices or commands:
+            self.tables = Tables(_grown(t.lines, lines), _grown(t.devices, devices),
+                                 _grown(t.commands, [c[0] for c in commands]),
+                                 t.entries + [_entry(c) for c in commands])
         return self.tables
 
 
@@ -96,6 +96,10 @@ def _entry(command: Any) -> Command | None:
 
 def _strings(values: list[str | None]) -> pa.Array:
     return pa.array(values, pa.string())
+
+
+def _grown(array: pa.Array, more: list[str | None]) -> pa.Array:
+    return pa.concat_arrays([array, _strings(more)]) if more else array
 
 
 @dataclass
