@@ -25,7 +25,7 @@ from ..formats.store_ipc import VERSION, Tables, decoder_version, encode, sets_a
 from ..lines import Chunk
 
 BATCH = 16_384      # events a message: about 300 kB of columns, one MCAP chunk of its own
-_STORE_EVERY = 4_096   # events held as objects before the store takes them
+STORE_EVERY = 4_096   # events held as objects before the store takes them
 
 
 class RecordingTally:
@@ -81,7 +81,7 @@ class ColumnBatches:
         if self._ts is None:
             self._ts = ts_of(ev)
         self._pending.append(ev)
-        if len(self._pending) >= _STORE_EVERY:
+        if len(self._pending) >= STORE_EVERY:
             self._store()
 
     def _store(self) -> None:
