@@ -16,7 +16,8 @@ decoding and doctor processes). The fleet export's pool and Spark have their own
   starts: what the work prints goes where its standard error goes, which is
   nowhere, so nothing reaches a terminal a screen is drawn on. Each message is
   one pickle with its length before it, so a child that dies mid-message is
-  told from one that sent something unreadable. The channel carries the
+  told from one that sent something unreadable; on Linux its pipe holds a
+  megabyte, so the child seldom waits on the reader (``_widen``). The channel carries the
   objects this package's own code sends, from a process it started; nothing
   read from a file or the network is unpickled.
 - **Ending it**: SIGTERM is SystemExit in the child, so its ``finally`` clauses
