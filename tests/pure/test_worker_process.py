@@ -69,6 +69,31 @@ def test_a_killed_child_is_an_eof():
     worker.messages.close()
 
 
+def send_a_chunk_then_say_so(size: int, done: str, sender: worker_process.Sender) -> None:
+    sender.send(b"c" * size)
+    with open(done, "w"):   # reached only once the message is in the pipe
+        pass
+    time.sleep(600)
+
+
+@pytest.mark.skipif(sys.platform != "linux", reason="the pipe's size is Linux's to set")
+def test_a_chunk_of_columns_goes_in_without_waiting_for_the_reader(tmp_path):
+    # a loading file's chunk is about a megabyte; the screen's thread reads it when
+    # its busy interpreter lets it: the child goes on meanwhile (analyzer/worker_process.py)
+    done = tmp_path / "sent"
+    worker = worker_process.start(send_a_chunk_then_say_so, (900_000, str(done)))
+    assert worker is not None
+    try:
+        deadline = time.monotonic() + 60
+        while not done.exists() and time.monotonic() < deadline:   # nothing read meanwhile
+            time.sleep(0.05)
+        assert done.exists(), "the child waited for its message to be read"
+        assert worker.messages.recv() == b"c" * 900_000
+    finally:
+        worker.end()
+        worker.messages.close()
+
+
 def path_of_child(sender: worker_process.Sender) -> None:
     sender.send(list(sys.path))
 
