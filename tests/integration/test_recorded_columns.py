@@ -197,6 +197,53 @@ def test_a_recording_cut_short_is_decoded(tmp_path):
     assert len(list(analyzer.open(str(cut)))) > 0
 
 
+def many_messages(tmp_path, monkeypatch) -> str:
+    """A recording of the bus sample whose columns are many small messages."""
+    from analyzer.writers import mcap_columns
+    monkeypatch.setattr(mcap_columns, "BATCH", 50)
+    monkeypatch.setattr(mcap_columns, "STORE_EVERY", 25)
+    [path], _info = record(tmp_path / "many.mcap", [BUS])
+    assert len(columns_messages(path)) >= 5
+    return path
+
+
+def reading_threads() -> list:
+    import threading
+    return [t for t in threading.enumerate() if t.name.startswith("gimbalscope-columns")]
+
+
+def test_a_reader_that_stops_early_leaves_no_thread_reading(tmp_path, monkeypatch):
+    # the next message is read ahead by a thread (analyzer/sources/mcapfile.py)
+    stored, _why = stored_events(analyzer.open(many_messages(tmp_path, monkeypatch)))
+    assert stored is not None
+    chunks = stored.chunks(None)
+    next(chunks), next(chunks)
+    assert reading_threads()
+    chunks.close()
+    assert not reading_threads()
+
+
+def test_a_damaged_message_after_good_ones_is_refused_in_its_turn(tmp_path, monkeypatch):
+    from analyzer.formats.store_ipc import ColumnsError
+    from tests.hostile.test_mcap_hostile import chunks_in
+
+    path = many_messages(tmp_path, monkeypatch)
+    data = bytearray(Path(path).read_bytes())
+    columns = [(o, n) for o, n, counts in chunks_in(bytes(data)) if COLUMNS_TOPIC in counts]
+    offset, length = columns[3]
+    data[offset + length - 20] ^= 0xFF   # in the fourth message's chunk: it does not read
+    damaged = tmp_path / "damaged.mcap"
+    damaged.write_bytes(bytes(data))
+    stored, _why = stored_events(analyzer.open(str(damaged)))
+    assert stored is not None
+    read = 0
+    with pytest.raises(ColumnsError, match=f"the chunk at byte {offset}"):
+        for chunk in stored.chunks(None):
+            read += len(chunk.columns["kind"]) == 50   # each whole
+    assert read == 3   # the three before it
+    assert not reading_threads()
+
+
 def rewritten(src: str, dst: Path, **record: str) -> None:
     """``src`` copied to ``dst`` with its columns record's values changed."""
     with open(src, "rb") as f, open(dst, "wb") as out:
