@@ -57,13 +57,11 @@ from binascii import a2b_base64
 from collections.abc import Callable, Generator, Iterator
 from concurrent.futures import ThreadPoolExecutor
 from functools import partial
-from io import BytesIO
 from itertools import chain
 from typing import Any, BinaryIO
 
-from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
-from mcap.records import Channel, ChunkIndex, Message, Metadata, Schema
+from mcap.records import Channel, Message, Metadata, Schema
 from orjson import loads as json_loads
 
 from .. import worker_process
@@ -95,6 +93,7 @@ from .mcapwalk import (
     RECORD_HEAD,
     Damaged,
     Walk,
+    chunk_channels,
     chunk_parts,
     intact_prefix,
     op_name,
@@ -702,10 +701,10 @@ def _columns_chunks(summary: list[tuple[int, bytes]]) -> set[int]:
                     ids.add(channel.id)
         if not ids:
             return set()
-        indexes = [ChunkIndex.read(ReadDataStream(BytesIO(body))) for op, body in summary if op == OP_CHUNK_INDEX]
+        indexes = [chunk_channels(body) for op, body in summary if op == OP_CHUNK_INDEX]
     except Exception:   # noqa: BLE001 - a summary that does not read only costs the skip
         return set()
-    return {i.chunk_start_offset for i in indexes if i.message_index_offsets and set(i.message_index_offsets) <= ids}
+    return {offset for offset, channels in indexes if channels and channels <= ids}
 
 
 def _read_record(offset: int, op: int, body: bytes, p: _Pass, note: Note) -> list:

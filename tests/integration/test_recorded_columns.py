@@ -244,6 +244,25 @@ def test_a_damaged_message_after_good_ones_is_refused_in_its_turn(tmp_path, monk
     assert not reading_threads()
 
 
+def test_the_chunk_indexes_read_as_the_mcap_library_reads_them(tmp_path, monkeypatch):
+    # opening a recording reads every chunk index for which chunks hold only columns
+    from analyzer.sources.mcapwalk import OP_CHUNK_INDEX, Damaged, chunk_channels, summary_records
+
+    path = many_messages(tmp_path, monkeypatch)
+    with open(path, "rb") as f:
+        indexes = make_reader(f).get_summary().chunk_indexes
+        bodies = [body for _op, body in summary_records(f, os.fstat(f.fileno()).st_size, (OP_CHUNK_INDEX,))]
+    assert len(bodies) == len(indexes) > 10
+    channels = set()
+    for body, index in zip(bodies, indexes, strict=True):
+        assert chunk_channels(body) == (index.chunk_start_offset, set(index.message_index_offsets))
+        channels |= set(index.message_index_offsets)
+    assert len(channels) >= 3   # raw lines and the columns
+    for cut in (10, 35, 40):
+        with pytest.raises(Damaged):
+            chunk_channels(bodies[0][:cut])
+
+
 def rewritten(src: str, dst: Path, **record: str) -> None:
     """``src`` copied to ``dst`` with its columns record's values changed."""
     with open(src, "rb") as f, open(dst, "wb") as out:
