@@ -64,19 +64,13 @@ class Tables:
     entries: list[Command | None]       # their table entries
 
 
-def tables_of(known: tuple[list[Any], list[Any], list[Any]]) -> Tables:
-    lines, devices, commands = known
-    return Tables(_strings([None, *lines]), _strings([None, *devices]), _strings([None, *(c[0] for c in commands)]),
-                  [None, *(_entry(c) for c in commands)])
-
-
 class TablesSoFar:
-    """``tables_of`` a joiner's tables as they grow, chunk by chunk: only the
+    """A joiner's tables (``Joiner.known``) as ``Tables``, chunk by chunk: only the
     values a chunk adds are made (a joiner's codes are only ever added to, and a
     noisy line names new garbled commands in most chunks)."""
 
     def __init__(self) -> None:
-        self.tables = tables_of(([], [], []))
+        self.tables = Tables(_strings([None]), _strings([None]), _strings([None]), [None])
 
     def of(self, known: tuple[list[Any], list[Any], list[Any]]) -> Tables:
         t = self.tables
@@ -351,8 +345,6 @@ def _laid_out(unique: list[dict[str, Any]], of_row: np.ndarray) -> _Fields:
     for u, fields in enumerate(unique):
         groups.setdefault(tuple(fields), []).append(u)
     names = list(dict.fromkeys(name for keys in groups for name in keys if name in _FIELD_TYPES))
-    if not names:
-        return _Fields({}, {})
     # the sets in group order, and the set of none last: a row's place among them
     order = [u for us in groups.values() for u in us]
     place = np.empty(count + 1, np.intp)
@@ -379,11 +371,16 @@ def _laid_out(unique: list[dict[str, Any]], of_row: np.ndarray) -> _Fields:
         present[name] = np.concatenate(there)[rows]
     kept = [i for i, name in enumerate(names) if present[name].any()]   # a name only ever None is not there
     names = [names[i] for i in kept]
+    return _Fields(_taken_together([children[i] for i in kept], names, rows), {name: present[name] for name in names})
+
+
+def _taken_together(arrays: list[pa.Array], names: list[str], rows: np.ndarray) -> dict[str, pa.Array]:
+    """Each of ``arrays`` (by its name) taken at ``rows``, in one take of them all
+    as one struct: a take an array was most of the cost of making the fields."""
     if not names:
-        return _Fields({}, {})
-    # one take for every field at once: a take a field was most of this
-    laid = pa.StructArray.from_arrays([children[i] for i in kept], names=names).take(pa.array(rows))
-    return _Fields({name: laid.field(i) for i, name in enumerate(names)}, {name: present[name] for name in names})
+        return {}
+    taken = pa.StructArray.from_arrays(arrays, names=names).take(pa.array(rows))
+    return {name: taken.field(i) for i, name in enumerate(names)}
 
 
 def _last_per(group: np.ndarray, rows: np.ndarray, size: int) -> np.ndarray:
@@ -450,24 +447,18 @@ def transaction_rows(window: pa.Table, final: bool, capture: str, site: str | No
     }
     columns = [arrays[name] if name in arrays else cmd.column(name) for name, _ in S.TRANSACTION_COLUMNS]
     # a field's value: the command's, or its result's where the result has one
-    # (to_dict's update). Fields that take the same rows are taken together, one
-    # take of them all: a field's own take was most of the transactions' cost
+    # (to_dict's update); the fields that take the same rows are taken together
     has_result = result >= 0
     of_result = np.maximum(result, 0)
-    groups: dict[bytes, list[str]] = {}
-    rows_of_group: dict[bytes, np.ndarray] = {}
+    groups: dict[bytes, tuple[np.ndarray, list[str]]] = {}   # the rows' bytes -> (rows, field names)
     for name, _column_name, _kind_type in S.TRANSACTION_FIELDS:
         if f"f:{name}" in present:
             there = window.column(f"p:{name}").chunk(0).fill_null(False).to_numpy(zero_copy_only=False)
-            use = has_result & there[of_result]
-            key = use.tobytes()
-            groups.setdefault(key, []).append(name)
-            rows_of_group.setdefault(key, np.where(use, result, closed) if use.any() else closed)
+            rows = np.where(has_result & there[of_result], result, closed)
+            groups.setdefault(rows.tobytes(), (rows, []))[1].append(name)
     taken: dict[str, pa.Array] = {}
-    for key, names in groups.items():
-        struct = pa.StructArray.from_arrays([window.column(f"f:{n}").chunk(0) for n in names], names=names)
-        rows = struct.take(pa.array(rows_of_group[key]))
-        taken.update({n: rows.field(i) for i, n in enumerate(names)})
+    for rows, names in groups.values():
+        taken.update(_taken_together([window.column(f"f:{n}").chunk(0) for n in names], names, rows))
     columns += [taken[name] if name in taken else pa.nulls(size, kind_type) for name, _c, kind_type in S.TRANSACTION_FIELDS]
     columns = [c.chunk(0) if isinstance(c, pa.ChunkedArray) and c.num_chunks == 1
                else c.combine_chunks() if isinstance(c, pa.ChunkedArray) else c for c in columns]
