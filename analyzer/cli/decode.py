@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from collections.abc import Sequence
 
-from ..formats.marks import MarksError, read_marks
+from ..formats.marks import MarksError, notes_of
 from ..info import CaptureInfo
 from ..listeners import EventPrinter
 from ..writers import FORMATS, open_format
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
 def _marks(inputs: Sequence[str]) -> dict[int, str]:
     """The capture's marks and notes (analyzer/formats/marks.py); one that does not read is said."""
     try:
-        return {m.number: m.note for m in read_marks(inputs)}
+        return notes_of(inputs)
     except MarksError as e:
         warn(f"{e}: decoding without its marks")
         return {}

@@ -72,6 +72,16 @@ def read_marks(inputs: Sequence[str]) -> list[Mark]:
     return sorted(found.values(), key=lambda m: m.number)
 
 
+def notes_of(inputs: Sequence[str]) -> dict[int, str]:
+    """The capture's marks as ``read_marks`` finds them: event number -> note ("": none)."""
+    return {m.number: m.note for m in read_marks(inputs)}
+
+
+def marked_text(note: str) -> str:
+    """How a marked event says so under it, in ``decode``'s text and the TUI's detail: ``★ marked: note``."""
+    return f"★ marked: {note}" if note else "★ marked"
+
+
 def read_sidecar(path: str) -> list[Mark]:
     try:
         with open(path, encoding="utf-8") as f:

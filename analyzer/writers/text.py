@@ -21,6 +21,7 @@ from typing import IO, TYPE_CHECKING
 
 from dissectors.event import Event
 
+from ..formats.marks import marked_text
 from ..info import CaptureInfo
 from ..outfile import one_line
 from ..output import SgrCodes, text_line
@@ -75,7 +76,7 @@ class TextWriter(EventLines):
                 self._console.print(Text(text, style=style))
             note = self.marks.get(ev.number) if ev.number is not None else None
             if note is not None:
-                self.file.write(f"        ★ marked{': ' + one_line(note) if note else ''}\n")
+                self.file.write(f"        {marked_text(one_line(note))}\n")
             if self.flush_each:
                 self.file.flush()
         self.count += 1

@@ -22,7 +22,7 @@ from bisect import bisect_left, bisect_right
 from dissectors.event import Event
 
 from ...analysis.findings import Finding
-from ...formats.marks import Mark
+from ...formats.marks import Mark, marked_text
 from ...formats.store import EventStore, EventsView
 from ...formats.sweep import IsCancelled, ReportProgress
 from ..detail import DetailNode
@@ -270,7 +270,7 @@ class CaptureModel:
         nodes = detail_tree(ev, self.answers_of, self.event)
         note = self.marks.note(ev.number) if ev.number is not None else None
         if note is not None:
-            nodes.insert(0, DetailNode(f"★ marked{': ' + note if note else ''}"))
+            nodes.insert(0, DetailNode(marked_text(note)))
         return nodes
 
     def answers_of(self, number: int) -> list[int]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 
-from ...formats.marks import Mark, MarksError, read_marks, write_sidecar
+from ...formats.marks import Mark, MarksError, notes_of, write_sidecar
 
 
 class MarksKept:
@@ -16,7 +16,7 @@ class MarksKept:
     def read(self) -> tuple[dict[int, str], str | None]:
         """The marks the file kept (number -> note), and why none could be read."""
         try:
-            return {m.number: m.note for m in read_marks(self.inputs)}, None
+            return notes_of(self.inputs), None
         except MarksError as e:
             return {}, str(e)
 
