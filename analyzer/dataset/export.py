@@ -118,30 +118,100 @@ def _init_worker(progress: Reports) -> None:
     _PROGRESS = progress
 
 
-def _writer(job: Job, info: CaptureInfo, site: str | None) -> FileWriter | ParquetDatasetWriter:
-    """The job's writer: of a file output's part (``job.file``: a file of its own,
-    which ``export`` joins with the others in the inputs' order; a pcapng file
-    may hold several sections one after the other), or of the dataset folder."""
-    if job.file is not None:
-        from ..writers import open_writer
-        return open_writer(job.file, info, capture=job.index)   # the part has the output's suffix
-    # pyarrow (the fleet extra) only for a dataset: a pcapng file needs the base install alone
-    from ..writers.parquet import ParquetDatasetWriter, capture_key
-    return ParquetDatasetWriter(job.root, info, capture=capture_name(job.paths), site=site,
-                                key=capture_key(job.paths))
+class _Destination(Protocol):
+    """Where a job's rows go: the dataset folder, or the job's part of a file output."""
+
+    reads_columns: bool   # a recording's stored columns can stand for decoding it (``from_columns``)
+
+    @property
+    def writer(self) -> Listener:
+        """What listens to the capture's events as it is decoded."""
+        ...
+
+    def from_columns(self, capture: Capture, info: CaptureInfo, out: Outcome) -> bool:
+        """Rows made from the recording's stored columns, kept: True; False: it is
+        to be decoded, to a writer made afresh."""
+        ...
+
+    def keep(self, out: Outcome) -> None:
+        """The rows written are kept, counted in ``out.rows``; what the writer says goes to ``out.warnings``."""
+        ...
+
+    def discard(self) -> None:
+        """Drop what the job wrote."""
+        ...
 
 
-def _discard(writer: FileWriter | ParquetDatasetWriter, part: str | None) -> None:
-    """Drop what a job wrote: a dataset's new files, or a file output's ``part``."""
-    if not isinstance(writer, FileWriter):
-        writer.abort()
-        return
-    writer.on_stop()
-    if part is not None:
+class _DatasetFiles:
+    """The capture's files in the dataset folder, made new beside its old ones
+    (``ParquetDatasetWriter``); kept, they take their place."""
+
+    reads_columns = True
+
+    def __init__(self, job: Job, info: CaptureInfo, site: str | None) -> None:
+        self.job, self.info, self.site = job, info, site
+        self.writer = self._new()
+
+    def _new(self) -> ParquetDatasetWriter:
+        # pyarrow (the fleet extra) only for a dataset: a pcapng file needs the base install alone
+        from ..writers.parquet import ParquetDatasetWriter, capture_key
+        job = self.job
+        return ParquetDatasetWriter(job.root, self.info, capture=capture_name(job.paths), site=self.site,
+                                    key=capture_key(job.paths))
+
+    def from_columns(self, capture: Capture, info: CaptureInfo, out: Outcome) -> bool:
+        from .export_stored import Undecodable, export_stored
+
         try:
-            os.unlink(part)
+            done = export_stored(capture, info, self.writer, out.capture)
+        except Undecodable as e:   # the writer aborted
+            if e.why:
+                out.warnings.append(e.why)
+            self.writer = self._new()
+            return False
+        out.events = done.events
+        out.warnings += done.warnings
+        self.keep(out)
+        return True
+
+    def keep(self, out: Outcome) -> None:
+        out.warnings += self.writer.warnings
+        self.writer.commit()
+        out.rows = dict(self.writer.rows)
+
+    def discard(self) -> None:
+        self.writer.abort()
+
+
+class _FilePart:
+    """The job's part of a file output (``job.file``: a file of its own, which
+    ``export`` joins with the others in the inputs' order; a pcapng file may
+    hold several sections one after the other)."""
+
+    reads_columns = False
+
+    def __init__(self, job: Job, info: CaptureInfo) -> None:
+        from ..writers import open_writer
+        assert job.file is not None
+        self.part = job.file
+        self.writer: FileWriter = open_writer(job.file, info, capture=job.index)   # the part has the output's suffix
+
+    def from_columns(self, capture: Capture, info: CaptureInfo, out: Outcome) -> bool:
+        return False
+
+    def keep(self, out: Outcome) -> None:
+        out.rows = {self.writer.noun: self.writer.count}
+
+    def discard(self) -> None:
+        self.writer.on_stop()
+        try:
+            os.unlink(self.part)
         except OSError:
             pass
+
+
+def _destination(job: Job, info: CaptureInfo, site: str | None) -> _Destination:
+    return _FilePart(job, info) if job.file is not None else _DatasetFiles(job, info, site)
 
 
 def run_job(job: Job, progress: Reports | None = None) -> Outcome:
@@ -170,65 +240,42 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | 
             if why:
                 out.error = why
                 return
-    writer: FileWriter | ParquetDatasetWriter | None = None
+    destination: _Destination | None = None
     try:
         capture = open_capture(*local, options=job.options)
         site = job.site
         if site is None:
             site = (capture.source.metadata or {}).get("site") or None
         info = CaptureInfo.of(capture, command="export", site=site)
-        writer = _writer(job, info, site)
-        if not isinstance(writer, FileWriter):
-            if _from_columns(capture, info, writer, out):
+        destination = _destination(job, info, site)
+        if destination.reads_columns:
+            if destination.from_columns(capture, info, out):
                 return
-            writer = _writer(job, info, site)
             capture = open_capture(*local, options=job.options)   # afresh: the columns were read from it
         check = WiringCheck()   # swapped lines, a wrong rate, not this protocol: said, as decode says them
-        listeners: list[Listener] = [check, writer]
+        listeners: list[Listener] = [check, destination.writer]
         if progress is not None:
             listeners.insert(0, _Reporter(job.index, progress))
         out.events = TapRunner(capture, listeners, info=info).run()
         out.warnings += list(capture.warnings) + [f"{name}: {text}" for text in check.warnings]
-        if not isinstance(writer, FileWriter):
-            out.warnings += writer.warnings
         cut = next((w for w in capture.warnings if "ends early" in w), None)
         if cut is not None:
-            _discard(writer, job.file)
+            destination.discard()
             out.error = cut
-        elif isinstance(writer, FileWriter):
-            out.rows = {writer.noun: writer.count}
         else:
-            writer.commit()
-            out.rows = dict(writer.rows)
+            destination.keep(out)
     except CaptureError as e:
-        if writer is not None:
-            _discard(writer, job.file)
+        if destination is not None:
+            destination.discard()
         out.error = str(e)
     except OSError as e:   # the dataset folder: full, read-only
-        if writer is not None:
-            _discard(writer, job.file)
+        if destination is not None:
+            destination.discard()
         out.error = f"{show(e.filename or job.root)}: {e.strerror or e}"
     except BaseException:
-        if writer is not None:
-            _discard(writer, job.file)
+        if destination is not None:
+            destination.discard()
         raise
-
-
-def _from_columns(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWriter, out: Outcome) -> bool:
-    """Export a recording from the decoded columns it carries (dataset/export_stored.py):
-    True when done; False when it is to be decoded (``writer`` then aborted)."""
-    from .export_stored import Undecodable, export_stored
-
-    try:
-        done = export_stored(capture, info, writer, out.capture)
-    except Undecodable as e:
-        if e.why:
-            out.warnings.append(e.why)
-        return False
-    writer.commit()
-    out.events, out.rows = done.events, dict(writer.rows)
-    out.warnings += done.warnings + writer.warnings
-    return True
 
 
 @contextlib.contextmanager
