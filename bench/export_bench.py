@@ -17,6 +17,7 @@
 
     python3 bench/export_bench.py [--captures 4] [--events-per-capture 250000] [--query-events 10000000]
                                   [--spark] [--skip-queries]
+    python3 bench/export_bench.py --recording R.mcap [R2.mcap ...]    (1c only, of these recordings)
 """
 
 from __future__ import annotations
@@ -100,13 +101,18 @@ def recordings(logs: list[str], work: str) -> None:
             subprocess.run([sys.executable, "-m", "analyzer", "convert", log, "--baud", "115200", "-o", path, "-q",
                             "--force"], cwd=ROOT, check=True, stderr=subprocess.DEVNULL)
         paths.append(path)
+    stored_against_redecode(paths, work)
+
+
+def stored_against_redecode(paths: list[str], work: str) -> None:
+    """``paths`` (recordings) exported from their stored columns, then with --redecode: the ratio."""
     times = {}
     for extra in ([], ["--redecode"]):
         out = os.path.join(work, "ds-mcap")
         shutil.rmtree(out, ignore_errors=True)
         times[bool(extra)] = measured(["export", *paths, "-o", out, "-j", "1", "-q", *extra])[0]
     n = dataset_events(out)
-    print(f"1c. export -j 1 of the same {len(paths)} captures recorded ({n:,} events): {times[False]:.1f} s reading "
+    print(f"1c. export -j 1 of {len(paths)} recording{'s' * (len(paths) != 1)} ({n:,} events): {times[False]:.1f} s reading "
           f"the recordings' stored columns, {times[True]:.1f} s with --redecode: {times[True] / times[False]:.2f}x "
           "(target >= 10x; docs/dataset.md, \"Exporting a recording\")", flush=True)
 
@@ -200,8 +206,13 @@ def main() -> None:
     ap.add_argument("--spark", action="store_true", help="also export on Spark local[1] and local[2]")
     ap.add_argument("--skip-queries", action="store_true", help="only the exports")
     ap.add_argument("--work", default=os.path.join(tempfile.gettempdir(), "gimbalscope-export-bench"))
+    ap.add_argument("--recording", nargs="+", metavar="FILE.mcap",
+                    help="only 1c, of these recordings (say, tui_bench.py's of 1M or 10M events)")
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
+    if args.recording:
+        stored_against_redecode([os.path.abspath(p) for p in args.recording], args.work)
+        return
     print(f"making {args.captures} socat logs of {args.events_per_capture:,} events in {args.work} (once) ...",
           flush=True)
     logs = make_logs(args.work, args.captures, args.events_per_capture)
