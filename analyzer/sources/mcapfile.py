@@ -60,7 +60,6 @@ from functools import partial
 from itertools import chain
 from typing import Any, BinaryIO
 
-from mcap.reader import make_reader
 from mcap.records import Channel, Message, Metadata, Schema
 from orjson import loads as json_loads
 
@@ -395,16 +394,20 @@ def _column_messages(path: str) -> Generator[bytes, None, None]:
     raw bytes instead."""
     try:
         with open(path, "rb") as f:
-            summary = make_reader(f).get_summary()
-            if summary is None:
+            # the summary's records as they are (the chunk indexes' leading fields only): a
+            # summary cut short gives fewer messages, which the events' count then refuses
+            summary = summary_records(f, os.fstat(f.fileno()).st_size, (OP_CHANNEL, OP_CHUNK_INDEX))
+            if not summary:
                 raise ColumnsError("the recording has no summary to find its stored columns by")
-            ids = {c.id for c in summary.channels.values() if c.topic == COLUMNS_TOPIC}
-            if any(summary.channels[i].message_encoding != COLUMNS_ENCODING for i in ids):
+            channels = [c for c in (parse(op, body) for op, body in summary if op == OP_CHANNEL)
+                        if isinstance(c, Channel) and c.topic == COLUMNS_TOPIC]
+            if any(c.message_encoding != COLUMNS_ENCODING for c in channels):
                 raise ColumnsError(f"stored columns not encoded as {COLUMNS_ENCODING}")
-            indexes = sorted((i for i in summary.chunk_indexes if ids & set(i.message_index_offsets)),
-                             key=lambda i: i.chunk_start_offset)
-            for index in indexes:   # ours are each a chunk of their own; another writer's may share them
-                yield from _chunk_columns(f, index.chunk_start_offset, index.chunk_length, ids)
+            ids = {c.id for c in channels}
+            places = sorted((place for place in (chunk_channels(body) for op, body in summary if op == OP_CHUNK_INDEX)
+                             if ids & place.channels), key=lambda place: place.offset)
+            for place in places:   # ours are each a chunk of their own; another writer's may share them
+                yield from _chunk_columns(f, place.offset, place.length, ids)
     except ColumnsError:
         raise
     except Exception as e:   # noqa: BLE001 - whatever the MCAP library says of a file it cannot read: one reason
@@ -704,7 +707,7 @@ def _columns_chunks(summary: list[tuple[int, bytes]]) -> set[int]:
         indexes = [chunk_channels(body) for op, body in summary if op == OP_CHUNK_INDEX]
     except Exception:   # noqa: BLE001 - a summary that does not read only costs the skip
         return set()
-    return {offset for offset, channels in indexes if channels and channels <= ids}
+    return {place.offset for place in indexes if place.channels and place.channels <= ids}
 
 
 def _read_record(offset: int, op: int, body: bytes, p: _Pass, note: Note) -> list:

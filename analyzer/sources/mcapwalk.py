@@ -17,7 +17,7 @@ import struct
 import zlib
 from collections.abc import Container, Iterator
 from io import BytesIO
-from typing import BinaryIO
+from typing import BinaryIO, NamedTuple
 
 # lz4 and zstandard: dependencies of mcap's reader and writer
 import lz4.frame as lz4frame
@@ -181,19 +181,27 @@ def summary_records(f: BinaryIO, size: int, wanted: Container[int]) -> list[tupl
     return found
 
 
-def chunk_channels(body: bytes) -> tuple[int, set[int]]:
-    """A ChunkIndex record's chunk start offset and the channels it has messages
-    of: what a reader needs to pass over a chunk. Read from the record's leading
-    fields alone: the mcap library's reader makes the whole record, a tenth of a
-    second for the 6,000 chunks of ten million events, and opening a recording
+class ChunkPlace(NamedTuple):
+    """Where a chunk is (its record's start offset and length) and the channels it
+    has messages of, as its ChunkIndex record says."""
+    offset: int
+    length: int
+    channels: set[int]
+
+
+def chunk_channels(body: bytes) -> ChunkPlace:
+    """A ChunkIndex record's chunk place and the channels it has messages of: what
+    a reader needs to pass over a chunk, or to go to it. Read from the record's
+    leading fields alone: the mcap library's reader makes the whole record, a tenth
+    of a second for the 6,000 chunks of ten million events, and opening a recording
     reads them all. Raises ``Damaged`` when they do not add up."""
     if len(body) < _CHUNK_INDEX_HEAD.size:
         raise Damaged(f"a chunk index of {len(body)} bytes")
-    *_times, offset, _length, size = _CHUNK_INDEX_HEAD.unpack_from(body)
+    *_times, offset, length, size = _CHUNK_INDEX_HEAD.unpack_from(body)
     start = _CHUNK_INDEX_HEAD.size
     if size % _INDEX_OFFSET.size or size > len(body) - start:
         raise Damaged(f"a chunk index's message index offsets of {size} bytes")
-    return offset, {channel for channel, _at in _INDEX_OFFSET.iter_unpack(body[start:start + size])}
+    return ChunkPlace(offset, length, {channel for channel, _at in _INDEX_OFFSET.iter_unpack(body[start:start + size])})
 
 
 def _footer(f: BinaryIO, size: int) -> int | None:

@@ -255,12 +255,53 @@ def test_the_chunk_indexes_read_as_the_mcap_library_reads_them(tmp_path, monkeyp
     assert len(bodies) == len(indexes) > 10
     channels = set()
     for body, index in zip(bodies, indexes, strict=True):
-        assert chunk_channels(body) == (index.chunk_start_offset, set(index.message_index_offsets))
+        assert chunk_channels(body) == (index.chunk_start_offset, index.chunk_length, set(index.message_index_offsets))
         channels |= set(index.message_index_offsets)
     assert len(channels) >= 3   # raw lines and the columns
     for cut in (10, 35, 40):
         with pytest.raises(Damaged):
             chunk_channels(bodies[0][:cut])
+
+
+def test_a_summary_that_lost_a_chunk_index_of_columns_is_refused_and_the_recording_decoded(tmp_path, monkeypatch):
+    # the columns' chunks are found by the summary's chunk indexes; with one of them
+    # gone (its record's opcode made one no reader knows), the messages read skip a
+    # chunk, which the joiner refuses (a message says which event it starts at): export decodes instead
+    import struct
+
+    import pyarrow.parquet as pq
+
+    from analyzer.formats.store_ipc import ColumnsError
+    from analyzer.sources.mcapwalk import OP_CHUNK_INDEX, chunk_channels
+
+    path = many_messages(tmp_path, monkeypatch)
+    with open(path, "rb") as f:
+        summary = make_reader(f).get_summary()
+    columns = next(cid for cid, c in summary.channels.items() if c.topic == COLUMNS_TOPIC)
+    data = bytearray(Path(path).read_bytes())
+    footer = len(data) - 8 - (1 + 8 + 20)   # the Footer record: summary start, summary offset start, CRC
+    pos = struct.unpack_from("<Q", data, footer + 9)[0]
+    while pos < footer:
+        op, length = struct.unpack_from("<BQ", data, pos)
+        if op == OP_CHUNK_INDEX and chunk_channels(bytes(data[pos + 9:pos + 9 + length])).channels == {columns}:
+            data[pos] = 0x80
+            break
+        pos += 9 + length
+    else:
+        raise AssertionError("no chunk index of columns alone")
+    struct.pack_into("<I", data, footer + 25, 0)   # no summary CRC to check: the summary is what it says
+    damaged = tmp_path / "lost-index.mcap"
+    damaged.write_bytes(data)
+
+    stored, _why = stored_events(analyzer.open(str(damaged)))
+    assert stored is not None
+    with pytest.raises(ColumnsError, match="do not follow"):
+        for _chunk in stored.chunks(None):
+            pass
+    out = run_cli("export", damaged, "-o", tmp_path / "ds")
+    assert out.returncode == 0, out.stderr
+    assert "stored columns not read" in out.stderr and "decoding the raw bytes" in out.stderr
+    assert pq.read_table(tmp_path / "ds" / "events").num_rows == stored.events == len(list(analyzer.open(path)))
 
 
 def rewritten(src: str, dst: Path, **record: str) -> None:
