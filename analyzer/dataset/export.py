@@ -128,13 +128,18 @@ class _Destination(Protocol):
         """What listens to the capture's events as it is decoded."""
         ...
 
+    @property
+    def warnings(self) -> list[str]:
+        """What the writer says beside its rows (a marks sidecar that does not read)."""
+        ...
+
     def from_columns(self, capture: Capture, info: CaptureInfo, out: Outcome) -> bool:
         """Rows made from the recording's stored columns, kept: True; False: it is
         to be decoded, to a writer made afresh."""
         ...
 
     def keep(self, out: Outcome) -> None:
-        """The rows written are kept, counted in ``out.rows``; what the writer says goes to ``out.warnings``."""
+        """The rows written are kept, counted in ``out.rows``."""
         ...
 
     def discard(self) -> None:
@@ -170,12 +175,15 @@ class _DatasetFiles:
             self.writer = self._new()
             return False
         out.events = done.events
-        out.warnings += done.warnings
+        out.warnings += done.warnings + self.warnings
         self.keep(out)
         return True
 
+    @property
+    def warnings(self) -> list[str]:
+        return self.writer.warnings
+
     def keep(self, out: Outcome) -> None:
-        out.warnings += self.writer.warnings
         self.writer.commit()
         out.rows = dict(self.writer.rows)
 
@@ -198,6 +206,10 @@ class _FilePart:
 
     def from_columns(self, capture: Capture, info: CaptureInfo, out: Outcome) -> bool:
         return False
+
+    @property
+    def warnings(self) -> list[str]:
+        return []
 
     def keep(self, out: Outcome) -> None:
         out.rows = {self.writer.noun: self.writer.count}
@@ -249,8 +261,11 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | 
         info = CaptureInfo.of(capture, command="export", site=site)
         destination = _destination(job, info, site)
         if destination.reads_columns:
-            if destination.from_columns(capture, info, out):
-                return
+            try:
+                if destination.from_columns(capture, info, out):
+                    return
+            finally:
+                capture.source.close()   # its temporary copy (a compressed recording's) goes now, not when collected
             capture = open_capture(*local, options=job.options)   # afresh: the columns were read from it
         check = WiringCheck()   # swapped lines, a wrong rate, not this protocol: said, as decode says them
         listeners: list[Listener] = [check, destination.writer]
@@ -258,6 +273,7 @@ def _export(job: Job, local: tuple[str, ...], out: Outcome, progress: Reports | 
             listeners.insert(0, _Reporter(job.index, progress))
         out.events = TapRunner(capture, listeners, info=info).run()
         out.warnings += list(capture.warnings) + [f"{name}: {text}" for text in check.warnings]
+        out.warnings += destination.warnings
         cut = next((w for w in capture.warnings if "ends early" in w), None)
         if cut is not None:
             destination.discard()

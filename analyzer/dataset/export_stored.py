@@ -137,8 +137,10 @@ def export_stored(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWri
         behind.cancel()
         writer.abort()
         raise
-    writer.write_findings(doctor.findings(), start_time, first_t, last_t)
+    if joiner.events:
+        writer.write_findings(doctor.findings(), start_time, first_t, last_t)
+    else:
+        writer.on_stop()   # no event: no findings and no marks, as the event by event writer has none
     warnings = list(capture.warnings)
     warnings += [f"{name}: {warning_text(f)}" for f in wiring_findings(signs, info)]
-    capture.source.close()
     return Exported(joiner.events, warnings)

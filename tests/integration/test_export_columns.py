@@ -67,6 +67,54 @@ def test_a_noisy_recording_of_many_messages_gives_what_decoding_gives(tmp_path, 
         assert stored[table] == decoded[table], table
 
 
+def test_an_empty_recording_gives_what_decoding_gives(tmp_path):
+    # a silent bus recorded: no events, so no findings (not even "no frames") and no marks
+    (tmp_path / "silent.bin").write_bytes(b"")
+    rec = tmp_path / "silent.mcap"
+    done = run_cli("convert", tmp_path / "silent.bin", "-o", rec)
+    assert done.returncode == 0, done.stderr
+    stored, out, err = exported(tmp_path, "stored", [str(rec)])
+    decoded, out_decoded, err_decoded = exported(tmp_path, "decoded", [str(rec)], "--redecode")
+    assert (out, err) == (out_decoded, err_decoded)
+    assert stored == decoded
+    assert not stored["events"] and not stored["findings"]
+
+
+def test_a_recording_whose_columns_are_set_aside_leaves_no_temporary_copy(tmp_path, monkeypatch):
+    # a compressed recording is read from a decompressed copy; when its columns
+    # cannot stand for decoding (a rate change), that first copy goes at once, not
+    # whenever the interpreter collects it (an export of many keeps none of them)
+    import tempfile
+
+    import zstandard
+
+    from analyzer.capture import Options
+    from analyzer.dataset.export import Job, run_job
+    from analyzer.simulation.traffic import Write, generate
+    from dissectors.wire import ACK, build_frame
+    from tests.integration.test_mcap_parts import record
+
+    tr = generate(200, baud=9600, seed=5)
+    t = max(w.t for w in tr.writes) + 0.1
+    tr.writes += [Write("A", build_frame((1, 1, 1), 0, "C3"), t), Write("B", bytes([ACK]), t + 0.02)]
+    (tmp_path / "bus.log").write_text(tr.socat_log())
+    [rec], _info = record(tmp_path / "rec.mcap", [str(tmp_path / "bus.log")])
+    packed = tmp_path / "rec.mcap.zst"
+    with open(rec, "rb") as f:
+        packed.write_bytes(zstandard.ZstdCompressor().compress(f.read()))
+    copies = tmp_path / "tmp"
+    copies.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(copies))
+    import gc
+    gc.disable()   # what is left is what the export left, not what a collection happened to take
+    try:
+        out = run_job(Job(0, (str(packed),), str(tmp_path / "ds"), Options()))
+        assert out.error is None and out.events > 200
+        assert list(copies.glob("gimbalscope-*.mcap")) == []
+    finally:
+        gc.enable()
+
+
 def test_the_doctors_findings_come_from_the_recording(tmp_path):
     # the dumps given the other way round: the wiring signs say so, and what the
     # lines swapped explain is not raised (the kept findings and the reading rules joined)

@@ -49,3 +49,22 @@ def test_a_sidecar_that_does_not_read_is_a_warning(tmp_path):
     assert "tap.log.marks.json: not a marks file" in done.stderr
     assert not list((tmp_path / "ds").glob("marks/*/*.parquet"))
     assert list((tmp_path / "ds").glob("events/*/*.parquet"))
+
+
+def test_a_cut_capture_says_its_sidecar_did_not_read_beside_the_cut(tmp_path):
+    # the capture is skipped (it ends early), and what the dataset's writer said of
+    # its marks is said too: the sidecar is as unreadable for the next export
+    import gzip
+
+    from analyzer.capture import Options
+    from analyzer.dataset.export import Job, run_job
+
+    with open(SOCAT_LOG, "rb") as f:
+        data = gzip.compress(f.read())
+    log = tmp_path / "tap.log.gz"
+    log.write_bytes(data[:len(data) // 2])
+    (tmp_path / "tap.log.gz.marks.json").write_text("not json")
+    out = run_job(Job(0, (str(log),), str(tmp_path / "ds"), Options()))
+    assert out.error is not None and "ends early" in out.error
+    assert any("tap.log.gz.marks.json" in w and "exported without its marks" in w for w in out.warnings), out.warnings
+    assert not list((tmp_path / "ds").glob("*/*/*.parquet"))
