@@ -35,7 +35,10 @@ def loaded(path: str, **kw):
 
     async def drive():
         async with app.run_test(size=(120, 30)) as pilot:
-            await settle(pilot, app, lambda a: a.model.done)
+            # every event and the doctor's say (a file's doctor may start once the load
+            # is done, and on a busy machine say its findings well after it): the status
+            # shows both
+            await settle(pilot, app, lambda a: a.model.done and (a.model.findings_known or a.model.doctor_error))
             await pilot.pause(0.1)
             return str(app.status_bar.render())
     try:
