@@ -137,10 +137,7 @@ def export_stored(capture: Capture, info: CaptureInfo, writer: ParquetDatasetWri
         behind.cancel()
         writer.abort()
         raise
-    if joiner.events:
-        writer.write_findings(doctor.findings(), start_time, first_t, last_t)
-    else:
-        writer.on_stop()   # no event: no findings and no marks, as the event by event writer has none
+    writer.write_findings(doctor.findings(), start_time, first_t, last_t)
     warnings = list(capture.warnings)
     warnings += [f"{name}: {warning_text(f)}" for f in wiring_findings(signs, info)]
     return Exported(joiner.events, warnings)

@@ -90,6 +90,7 @@ from .mcapwalk import (
     OP_SCHEMA,
     RECORD,
     RECORD_HEAD,
+    ChunkPlace,
     Damaged,
     Walk,
     chunk_channels,
@@ -399,13 +400,12 @@ def _column_messages(path: str) -> Generator[bytes, None, None]:
             summary = summary_records(f, os.fstat(f.fileno()).st_size, (OP_CHANNEL, OP_CHUNK_INDEX))
             if not summary:
                 raise ColumnsError("the recording has no summary to find its stored columns by")
-            channels = [c for c in (parse(op, body) for op, body in summary if op == OP_CHANNEL)
-                        if isinstance(c, Channel) and c.topic == COLUMNS_TOPIC]
+            channels = _columns_channels(summary)
             if any(c.message_encoding != COLUMNS_ENCODING for c in channels):
                 raise ColumnsError(f"stored columns not encoded as {COLUMNS_ENCODING}")
             ids = {c.id for c in channels}
-            places = sorted((place for place in (chunk_channels(body) for op, body in summary if op == OP_CHUNK_INDEX)
-                             if ids & place.channels), key=lambda place: place.offset)
+            places = sorted((place for place in _chunk_places(summary) if ids & place.channels),
+                            key=lambda place: place.offset)
             for place in places:   # ours are each a chunk of their own; another writer's may share them
                 yield from _chunk_columns(f, place.offset, place.length, ids)
     except ColumnsError:
@@ -696,18 +696,24 @@ def _columns_chunks(summary: list[tuple[int, bytes]]) -> set[int]:
     only stored columns (docs/mcap.md): decoding the raw bytes passes them over
     unopened. A summary that does not read gives none: every chunk is read."""
     try:
-        ids = set()
-        for op, body in summary:
-            if op == OP_CHANNEL:
-                channel = parse(op, body)
-                if isinstance(channel, Channel) and channel.topic == COLUMNS_TOPIC:
-                    ids.add(channel.id)
+        ids = {c.id for c in _columns_channels(summary)}
         if not ids:
             return set()
-        indexes = [chunk_channels(body) for op, body in summary if op == OP_CHUNK_INDEX]
+        places = _chunk_places(summary)
     except Exception:   # noqa: BLE001 - a summary that does not read only costs the skip
         return set()
-    return {place.offset for place in indexes if place.channels and place.channels <= ids}
+    return {place.offset for place in places if place.channels and place.channels <= ids}
+
+
+def _columns_channels(summary: list[tuple[int, bytes]]) -> list[Channel]:
+    """The summary's channels of the stored columns (``COLUMNS_TOPIC``)."""
+    channels = (parse(op, body) for op, body in summary if op == OP_CHANNEL)
+    return [c for c in channels if isinstance(c, Channel) and c.topic == COLUMNS_TOPIC]
+
+
+def _chunk_places(summary: list[tuple[int, bytes]]) -> list[ChunkPlace]:
+    """Every chunk's place and channels, as the summary's chunk indexes say."""
+    return [chunk_channels(body) for op, body in summary if op == OP_CHUNK_INDEX]
 
 
 def _read_record(offset: int, op: int, body: bytes, p: _Pass, note: Note) -> list:

@@ -155,12 +155,14 @@ class ParquetDatasetWriter(Listener):
                        last_t: float | None) -> None:
         """The doctor's ``findings`` of a capture whose rows ``write_rows`` wrote
         (``first_t``, ``last_t``: its first and last event's times), then the
-        files closed, as ``on_stop`` does for one read event by event."""
+        files closed, as ``on_stop`` does for one read event by event (and as it
+        does, none for a capture without events: no findings, no marks)."""
         try:
-            if findings:
-                self._write("findings", findings_batch(findings, self.capture, self.site, start_time,
-                                                       first_t if first_t is not None else 0.0, last_t))
-            self._write_marks(start_time)
+            if self.rows["events"]:
+                if findings:
+                    self._write("findings", findings_batch(findings, self.capture, self.site, start_time,
+                                                           first_t if first_t is not None else 0.0, last_t))
+                self._write_marks(start_time)
             for writer in self._writers.values():
                 writer.close()
         except BaseException:
