@@ -211,6 +211,9 @@ def main() -> None:
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
     if args.recording:
+        missing = [p for p in args.recording if not os.path.isfile(p)]
+        if missing:
+            raise SystemExit(f"export_bench.py: {missing[0]}: no such recording")
         stored_against_redecode([os.path.abspath(p) for p in args.recording], args.work)
         return
     print(f"making {args.captures} socat logs of {args.events_per_capture:,} events in {args.work} (once) ...",
